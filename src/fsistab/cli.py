@@ -1,0 +1,209 @@
+"""Command line: thin typer commands over the Python API.
+
+Conventions shared by every command: ``--body {plate,cylinder}``, ``--Re``, ``--alpha0`` (degrees),
+``--mesh {coarse,medium,fine}``, ``--out DIR`` for figures and data, ``--json`` to print exactly one
+JSON object on stdout (progress and tables then go to stderr). Errors print one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from fsistab.errors import FsistabError, InputError
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="Global linear stability of spring-mounted bodies in viscous flow (fsistab).",
+)
+
+BodyOpt = Annotated[str, typer.Option("--body", help="plate (chord-based units) or cylinder (diameter-based)")]
+ReOpt = Annotated[float, typer.Option("--Re", help="Reynolds number on the body length")]
+AlphaOpt = Annotated[float, typer.Option("--alpha0", help="steady angle of attack, degrees, nose-up +")]
+MeshOpt = Annotated[str, typer.Option("--mesh", help="mesh preset: coarse, medium or fine")]
+OutOpt = Annotated[Path, typer.Option("--out", help="directory for figures and data")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout and nothing else")]
+CacheOpt = Annotated[
+    Path | None, typer.Option("--cache", help="cache directory (default $FSISTAB_CACHE or ~/.cache/fsistab)")
+]
+AspectOpt = Annotated[float, typer.Option("--aspect-ratio", help="plate chord/thickness")]
+CornerOpt = Annotated[float, typer.Option("--corner-radius", help="plate corner radius / thickness")]
+DomainOpt = Annotated[
+    tuple[float, float, float] | None,
+    typer.Option("--domain", help="upstream, downstream and lateral extents in body lengths"),
+]
+
+
+def _console(as_json: bool) -> Console:
+    return Console(stderr=as_json)
+
+
+def _fail(message: str) -> None:
+    Console(stderr=True).print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code=2)
+
+
+def user_errors(command):
+    """Turn fsistab's own errors into a one-line message and exit status 2."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except FsistabError as exc:
+            _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+
+    return wrapper
+
+
+def _spec(body: str, reynolds: float, preset: str, aspect: float, corner: float, domain):
+    from fsistab.mesh import mesh_spec
+    from fsistab.params import Domain, Flow, make_body
+
+    Flow(reynolds)  # validate before any work
+    shape = {"aspect_ratio": aspect, "corner_radius": corner} if body == "plate" else {}
+    if body not in ("plate", "cylinder"):
+        raise InputError(f"unknown body {body!r}: choose 'plate' or 'cylinder'")
+    body_obj = make_body(body, **shape)
+    dom = Domain(*domain) if domain else None
+    return mesh_spec(body_obj, preset, reynolds, dom)
+
+
+def _cache(cache: Path | None) -> Path:
+    from fsistab.store import default_cache_dir
+
+    return cache if cache is not None else default_cache_dir()
+
+
+def _emit_json(payload: dict) -> None:
+    sys.stdout.write(json.dumps(payload, allow_nan=True) + "\n")
+
+
+def _tag(body: str, reynolds: float, alpha0: float) -> str:
+    return f"{body}_Re{reynolds:g}_a{alpha0:g}"
+
+
+@app.command()
+@user_errors
+def mesh(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+):
+    """Build (or reuse) a mesh; print its size and save a picture."""
+    from fsistab.mesh import build_mesh, mesh_statistics
+    from fsistab.plots import plot_mesh
+
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    the_mesh = build_mesh(spec, _cache(cache))
+    stats = mesh_statistics(the_mesh)
+    figure = plot_mesh(the_mesh, out / f"mesh_{body}_{preset}_Re{reynolds:g}.png", title=f"{body}, {preset}")
+    payload = {**stats, "preset": preset, "mesh_key": spec.key(), "figure": str(figure)}
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"mesh: {body}, preset {preset}, fitted to Re = {reynolds:g}")
+    for name in ("triangles", "vertices", "ndof", "h_min", "h_max"):
+        table.add_row(name, f"{stats[name]:.4g}" if isinstance(stats[name], float) else str(stats[name]))
+    console = _console(False)
+    console.print(table)
+    console.print(f"figure: {figure}")
+
+
+@app.command()
+@user_errors
+def steady(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+):
+    """Steady flow around the fixed body: coefficients, recirculation length, Newton history."""
+    from fsistab.forces import aerodynamic_coefficients, recirculation_length
+    from fsistab.params import Flow
+    from fsistab.plots import plot_streamwise_velocity
+    from fsistab.steady import solve_steady
+
+    flow = Flow(reynolds, alpha0)
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    with console.status("steady Navier–Stokes (Newton, continuation in Re)") as status:
+
+        def progress(step_flow, iterations):
+            status.update(
+                f"continuation: Re = {step_flow.reynolds:.4g}, alpha0 = {step_flow.alpha0_deg:.3g} deg "
+                f"converged in {iterations} Newton iterations"
+            )
+
+        result = solve_steady(spec, flow, cache_dir=_cache(cache), progress=progress)
+    coefficients = aerodynamic_coefficients(result)
+    length = recirculation_length(result)
+    figure = plot_streamwise_velocity(result, out / f"steady_{_tag(body, reynolds, alpha0)}.png")
+    payload = {
+        "body": body,
+        "reynolds": flow.reynolds,
+        "alpha0_deg": flow.alpha0_deg,
+        "lift_coefficient": coefficients.lift,
+        "moment_coefficient": coefficients.moment,
+        "drag_coefficient": coefficients.drag,
+        "recirculation_length": length,
+        "ndof": result.ndof,
+        "newton_iterations": result.newton_iterations,
+        "newton_residuals": list(result.history),
+        "continuation": [{"reynolds": r, "alpha0_deg": a, "iterations": n} for r, a, n in result.path],
+        "factorisations": result.factorisations,
+        "from_cache": result.from_cache,
+        "seconds": result.seconds,
+        "figure": str(figure),
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"steady flow: {body}, Re = {flow.reynolds:g}, alpha0 = {flow.alpha0_deg:g} deg")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    for label, key in [
+        ("lift coefficient C_L", "lift_coefficient"),
+        ("drag coefficient C_D", "drag_coefficient"),
+        ("moment coefficient C_M (about G, ccw +)", "moment_coefficient"),
+        ("recirculation length (from the rear)", "recirculation_length"),
+    ]:
+        table.add_row(label, f"{payload[key]:.6g}")
+    table.add_row("unknowns", str(result.ndof))
+    table.add_row("Newton iterations at target", str(result.newton_iterations))
+    console.print(table)
+    history = ", ".join(f"{r:.2e}" for r in result.history)
+    console.print(f"Newton residuals: {history}")
+    if result.path:
+        steps = ", ".join(f"{r:.4g}" for r, _, _ in result.path)
+        console.print(f"continuation in Re: {steps}")
+    source = "cache" if result.from_cache else f"{result.seconds:.1f} s, {result.factorisations} factorisations"
+    console.print(f"({source}) figure: {figure}")
+
+
+def main() -> None:  # pragma: no cover - console entry point
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,122 @@
+"""Bodies and fluid domains as netgen.occ shapes (MODEL.md §1, §10).
+
+The body is centred on its elastic centre ``G = (0, 0)``; the fluid comes from ``-x``. Boundary
+names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = ±lateral),
+``wall`` (the body); ``interface`` (edges of the refinement regions) and ``symmetry`` (the line
+``Y = 0`` where the two mirrored halves of the mesh meet) are internal, not physical boundaries.
+"""
+
+from __future__ import annotations
+
+from netgen.occ import X, Y, Circle, Glue, MoveTo, OCCGeometry, WorkPlane
+
+from fsistab.params import Body, Cylinder, Domain, Plate
+
+WALL = "wall"
+SYMMETRY = "symmetry"  # internal line Y = 0 where the mirrored halves meet
+FAR_FIELD = "inlet|lateral"  # U = 0 (fluid at rest in the laboratory)
+DIRICHLET = "inlet|lateral|wall"
+
+
+def plate_face(plate: Plate, wall_size: float, corner_size: float):
+    """Rounded rectangle of chord 1 and thickness 1/aspect_ratio (MODEL.md §1).
+
+    Corners are ``Arc`` segments of a ``WorkPlane`` path (``MakeFillet`` fails on 2D faces).
+    """
+    e = plate.thickness
+    r = plate.corner_radius * e
+    wp = WorkPlane().MoveTo(-0.5 + r, -e / 2)
+    if r > 0:
+        wp.Line(1 - 2 * r).Arc(r, 90).Line(e - 2 * r).Arc(r, 90).Line(1 - 2 * r).Arc(r, 90)
+        wp.Line(e - 2 * r).Arc(r, 90)
+    else:
+        wp.Line(1).Rotate(90).Line(e).Rotate(90).Line(1).Rotate(90).Line(e)
+    face = wp.Face()
+    for i, edge in enumerate(face.edges):
+        edge.name = WALL
+        # path order: long side, corner, short side, corner, ... (or long, short, ... if r = 0);
+        # the corners and the short sides (leading and trailing edges) get the corner size
+        is_long_side = i % (4 if r > 0 else 2) == 0
+        edge.maxh = wall_size if is_long_side else corner_size
+    return face
+
+
+def cylinder_face(wall_size: float):
+    face = Circle((0, 0), 0.5).Face()
+    for edge in face.edges:
+        edge.name = WALL
+        edge.maxh = wall_size
+    return face
+
+
+def body_face(body: Body, wall_size: float, corner_size: float):
+    if isinstance(body, Plate):
+        return plate_face(body, wall_size, corner_size)
+    if isinstance(body, Cylinder):
+        return cylinder_face(wall_size)
+    raise TypeError(f"unknown body {body!r}")
+
+
+def _box(x0: float, x1: float, height: float):
+    """Upper half of a refinement box ``[x0, x1] × [0, height]``."""
+    face = MoveTo(x0, 0).Rectangle(x1 - x0, height).Face()
+    face.edges.name = "interface"
+    return face
+
+
+def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
+    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box and a wake box.
+
+    The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
+    :func:`fsistab.mesh.build_mesh`), so that it is exactly symmetric: a symmetric flow then has
+    zero lift and moment to solver precision. ``sizes`` is a :class:`fsistab.mesh.MeshSizes`.
+    """
+    outer = MoveTo(-domain.upstream, 0).Rectangle(domain.upstream + domain.downstream, domain.lateral).Face()
+    outer.edges.Min(X).name = "inlet"
+    outer.edges.Max(X).name = "outlet"
+    outer.edges.Max(Y).name = "lateral"
+    outer.edges.Min(Y).name = SYMMETRY
+
+    margin = sizes.near_margin
+    half_height = body.thickness / 2 if isinstance(body, Plate) else 0.5
+    near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral))
+    wake_end = min(sizes.wake_length, domain.downstream - 1.0)
+    wake = _box(-0.5 - 2 * margin, max(wake_end, 0.5 + 3 * margin), min(sizes.wake_half_width, 0.9 * domain.lateral))
+
+    body_shape = body_face(body, sizes.wall, sizes.corner)
+    near_region = near - body_shape
+    near_region.maxh = sizes.near
+    wake_region = wake - near
+    wake_region.maxh = sizes.wake
+    far_region = outer - wake
+    far_region.maxh = sizes.far
+    shape = Glue([far_region, wake_region, near_region])
+    for edge in shape.edges:
+        if edge.name == "interface" and abs(edge.center.y) < 1e-12:
+            edge.name = SYMMETRY
+    return OCCGeometry(shape, dim=2)
+
+
+def wall_projection(body: Body):
+    """Closest point on the exact body boundary, as a CoefficientFunction of ``(x, y)``.
+
+    Used to curve the elements at the wall: the cylinder's circle, the plate's corner arcs (its
+    straight sides need no correction).
+    """
+    from ngsolve import CF, IfPos, sqrt, x, y
+
+    if isinstance(body, Cylinder):
+        r = sqrt(x * x + y * y)
+        return CF((0.5 * x / r, 0.5 * y / r))
+    e = body.thickness
+    rc = body.corner_radius * e
+    if rc == 0:
+        return CF((x, y))
+    # centre of the nearest corner arc, then the projection onto it when the point lies in a corner
+    cx = IfPos(x, 0.5 - rc, -(0.5 - rc))
+    cy = IfPos(y, e / 2 - rc, -(e / 2 - rc))
+    dx, dy = x - cx, y - cy
+    dist = sqrt(dx * dx + dy * dy) + 1e-300
+    abs_x, abs_y = IfPos(x, x, -x), IfPos(y, y, -y)
+    in_corner = IfPos(abs_x - (0.5 - rc), IfPos(abs_y - (e / 2 - rc), 1.0, 0.0), 0.0)
+    return CF((x + in_corner * (cx + rc * dx / dist - x), y + in_corner * (cy + rc * dy / dist - y)))

@@ -1,0 +1,198 @@
+"""Meshes: size presets, generation with netgen.occ, and the on-disk mesh cache.
+
+Sizes are in body lengths. The wall size scales with ``Re^-1/2`` (boundary-layer thickness) down
+to the preset's floor, so a preset gives a mesh fitted to the Reynolds number it is built for.
+Meshes are mirror-symmetric about ``Y = 0``; elements touching the body are curved
+(``curve_order``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from fsistab import store
+from fsistab.errors import CacheError, InputError
+from fsistab.geometry import WALL, fluid_half_geometry, wall_projection
+from fsistab.params import DEFAULT_DOMAINS, Body, Domain, Plate, _positive
+
+PRESETS = ("coarse", "medium", "fine")
+
+
+@dataclass(frozen=True)
+class MeshSizes:
+    """Local element sizes (body lengths) and refinement regions.
+
+    ``wall`` on the body, ``corner`` on the rounded corners and short sides of the plate, ``near``
+    in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
+    ``wake_length`` downstream with half-width ``wake_half_width``, ``far`` elsewhere.
+    """
+
+    wall: float
+    corner: float
+    near: float
+    wake: float
+    far: float
+    near_margin: float
+    wake_length: float
+    wake_half_width: float
+    grading: float = 0.25
+    curve_order: int = 3
+
+    def __post_init__(self):
+        for name in ("wall", "corner", "near", "wake", "far", "near_margin", "wake_length", "wake_half_width"):
+            _positive(f"mesh size {name}", getattr(self, name))
+        if not 0.05 <= self.grading <= 1:
+            raise InputError(f"mesh grading must be in [0.05, 1], got {self.grading}")
+        if self.curve_order not in (1, 2, 3, 4):
+            raise InputError(f"curve order must be 1-4, got {self.curve_order}")
+
+
+# (wall floor, wall coefficient k in min(floor, k/sqrt(Re)), corner, near, wake, far, margin, wake
+#  length, wake half-width); plate sizes in chords, cylinder sizes in diameters
+_PRESET_TABLE = {
+    ("plate", "coarse"): (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
+    ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 2.5, 0.25, 8.0, 1.0),
+    ("plate", "fine"): (0.008, 0.25, 0.0015, 0.012, 0.03, 1.5, 0.25, 8.0, 1.0),
+    ("cylinder", "coarse"): (0.1, 0.6, 0.1, 0.15, 0.35, 4.0, 0.75, 10.0, 2.0),
+    ("cylinder", "medium"): (0.04, 0.3, 0.04, 0.07, 0.15, 3.0, 1.0, 20.0, 3.0),
+    ("cylinder", "fine"): (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
+}
+
+
+def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
+    """Element sizes of a named preset, with the wall size fitted to ``reynolds``."""
+    if preset not in PRESETS:
+        raise InputError(f"unknown mesh preset {preset!r}: choose one of {', '.join(PRESETS)}")
+    reynolds = _positive("Reynolds number", reynolds)
+    floor, k, corner, near, wake, far, margin, wake_length, wake_half = _PRESET_TABLE[(body.kind, preset)]
+    wall = min(floor, k / math.sqrt(reynolds))
+    if isinstance(body, Plate):
+        corner = min(corner, wall, body.corner_radius * body.thickness if body.corner_radius else wall)
+        corner = max(corner, wall / 8)
+    return MeshSizes(
+        wall=wall,
+        corner=min(corner, wall),
+        near=max(near, wall),
+        wake=wake,
+        far=far,
+        near_margin=margin,
+        wake_length=wake_length,
+        wake_half_width=wake_half,
+    )
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """Everything a mesh depends on: body, domain, local sizes (and the preset it came from)."""
+
+    body: Body
+    domain: Domain
+    sizes: MeshSizes
+    preset: str = "custom"
+
+    def key(self) -> str:
+        inputs = {"body": asdict(self.body), "domain": asdict(self.domain), "sizes": asdict(self.sizes)}
+        return store.cache_key("mesh", inputs)
+
+    def describe(self) -> dict:
+        return {
+            "body": asdict(self.body),
+            "domain": asdict(self.domain),
+            "sizes": asdict(self.sizes),
+            "preset": self.preset,
+        }
+
+
+def mesh_spec(
+    body: Body, preset: str = "medium", reynolds: float = 100.0, domain: Domain | None = None, **sizes
+) -> MeshSpec:
+    """Mesh specification from a preset fitted to ``reynolds``; keyword arguments override sizes."""
+    base = preset_sizes(body, preset, reynolds)
+    try:
+        base = replace(base, **sizes)
+    except TypeError as exc:
+        raise InputError(f"unknown mesh size parameter: {exc}") from None
+    return MeshSpec(body=body, domain=domain or DEFAULT_DOMAINS[body.kind], sizes=base, preset=preset)
+
+
+def _generate(spec: MeshSpec):
+    """Mesh the upper half of the domain and mirror it about ``Y = 0`` (exactly symmetric)."""
+    import netgen.meshing
+
+    geometry = fluid_half_geometry(spec.body, spec.domain, spec.sizes)
+    half = geometry.GenerateMesh(maxh=spec.sizes.far, grading=spec.sizes.grading)
+    return half.Mirror(netgen.meshing.Pnt(0, 0, 0), netgen.meshing.Vec(0, 1, 0))
+
+
+def curve_wall(mesh, body: Body, order: int) -> None:
+    """Curve the elements at the wall: a P``order`` deformation moving wall points onto the exact
+    boundary (:func:`fsistab.geometry.wall_projection`), zero at every dof off the wall."""
+    from ngsolve import CF, GridFunction, VectorH1, x, y
+
+    if order < 2:
+        return
+    space = VectorH1(mesh, order=order)
+    deformation = GridFunction(space)
+    deformation.Set(wall_projection(body) - CF((x, y)), definedon=mesh.Boundaries(WALL))
+    mesh.SetDeformation(deformation)
+
+
+def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
+    """The NGSolve mesh of ``spec``, read from the cache or generated and cached, wall curved.
+
+    The cache stores Netgen's ``.vol.gz`` under the spec's key. A file that cannot be read, or that
+    lacks the expected boundaries, raises CacheError.
+    """
+    import netgen.meshing
+    import ngsolve
+
+    path = None if cache_dir is None else Path(cache_dir) / "meshes" / f"{spec.key()}.vol.gz"
+    if path is not None and path.exists():
+        ngmesh = netgen.meshing.Mesh(dim=2)
+        try:
+            ngmesh.Load(str(path))
+        except Exception as exc:
+            raise CacheError(f"cannot read cached mesh {path}: {exc}; delete it to rebuild") from None
+        if len(ngmesh.Elements2D()) == 0:
+            raise CacheError(f"cached mesh {path} is empty (corrupt); delete it to rebuild")
+    else:
+        ngmesh = _generate(spec)
+        if path is not None:
+            with store.atomic_path(path, ".vol.gz") as tmp:
+                ngmesh.Save(str(tmp))
+    mesh = ngsolve.Mesh(ngmesh)
+    missing = {"inlet", "outlet", "lateral", WALL} - set(mesh.GetBoundaries())
+    if missing:
+        raise CacheError(f"mesh {path} lacks boundaries {sorted(missing)}; delete it to rebuild")
+    curve_wall(mesh, spec.body, spec.sizes.curve_order)
+    return mesh
+
+
+def element_sizes(mesh) -> np.ndarray:
+    """Longest edge of every triangle (straight-sided measure)."""
+    coords = mesh.ngmesh.Coordinates()
+    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
+    p = coords[nodes]
+    edges = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
+    return np.linalg.norm(edges, axis=2).max(axis=1)
+
+
+def mesh_statistics(mesh) -> dict:
+    """Triangles, Taylor–Hood P2–P1 unknowns, smallest and largest element size."""
+    from ngsolve import H1, VectorH1
+
+    space = VectorH1(mesh, order=2) * H1(mesh, order=1)
+    h = element_sizes(mesh)
+    return {
+        "triangles": int(mesh.ne),
+        "vertices": int(mesh.nv),
+        "ndof": int(space.ndof),
+        "h_min": float(h.min()),
+        "h_max": float(h.max()),
+    }
+
+
