@@ -25,7 +25,9 @@ app = typer.Typer(
     help="Global linear stability of spring-mounted bodies in viscous flow (fsistab).",
 )
 
-BodyOpt = Annotated[str, typer.Option("--body", help="plate (chord-based units) or cylinder (diameter-based)")]
+BodyOpt = Annotated[
+    str, typer.Option("--body", help="plate (chord-based units) or cylinder (diameter-based)")
+]
 ReOpt = Annotated[float, typer.Option("--Re", help="Reynolds number on the body length")]
 AlphaOpt = Annotated[float, typer.Option("--alpha0", help="steady angle of attack, degrees, nose-up +")]
 MeshOpt = Annotated[str, typer.Option("--mesh", help="mesh preset: coarse, medium or fine")]
@@ -197,7 +199,9 @@ def steady(
     if result.path:
         steps = ", ".join(f"{r:.4g}" for r, _, _ in result.path)
         console.print(f"continuation in Re: {steps}")
-    source = "cache" if result.from_cache else f"{result.seconds:.1f} s, {result.factorisations} factorisations"
+    source = (
+        "cache" if result.from_cache else f"{result.seconds:.1f} s, {result.factorisations} factorisations"
+    )
     console.print(f"({source}) figure: {figure}")
 
 

@@ -8,7 +8,7 @@ names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = 
 
 from __future__ import annotations
 
-from netgen.occ import X, Y, Circle, Glue, MoveTo, OCCGeometry, WorkPlane
+from netgen.occ import Circle, Glue, MoveTo, OCCGeometry, WorkPlane, X, Y
 
 from fsistab.params import Body, Cylinder, Domain, Plate
 
@@ -81,7 +81,9 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     half_height = body.thickness / 2 if isinstance(body, Plate) else 0.5
     near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral))
     wake_end = min(sizes.wake_length, domain.downstream - 1.0)
-    wake = _box(-0.5 - 2 * margin, max(wake_end, 0.5 + 3 * margin), min(sizes.wake_half_width, 0.9 * domain.lateral))
+    wake = _box(
+        -0.5 - 2 * margin, max(wake_end, 0.5 + 3 * margin), min(sizes.wake_half_width, 0.9 * domain.lateral)
+    )
 
     body_shape = body_face(body, sizes.wall, sizes.corner)
     near_region = near - body_shape

@@ -43,7 +43,16 @@ class MeshSizes:
     curve_order: int = 3
 
     def __post_init__(self):
-        for name in ("wall", "corner", "near", "wake", "far", "near_margin", "wake_length", "wake_half_width"):
+        for name in (
+            "wall",
+            "corner",
+            "near",
+            "wake",
+            "far",
+            "near_margin",
+            "wake_length",
+            "wake_half_width",
+        ):
             _positive(f"mesh size {name}", getattr(self, name))
         if not 0.05 <= self.grading <= 1:
             raise InputError(f"mesh grading must be in [0.05, 1], got {self.grading}")
@@ -147,23 +156,27 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
     The cache stores Netgen's ``.vol.gz`` under the spec's key. A file that cannot be read, or that
     lacks the expected boundaries, raises CacheError.
     """
+    import tempfile
+
     import netgen.meshing
     import ngsolve
 
-    path = None if cache_dir is None else Path(cache_dir) / "meshes" / f"{spec.key()}.vol.gz"
-    if path is not None and path.exists():
-        ngmesh = netgen.meshing.Mesh(dim=2)
-        try:
-            ngmesh.Load(str(path))
-        except Exception as exc:
-            raise CacheError(f"cannot read cached mesh {path}: {exc}; delete it to rebuild") from None
-        if len(ngmesh.Elements2D()) == 0:
-            raise CacheError(f"cached mesh {path} is empty (corrupt); delete it to rebuild")
-    else:
-        ngmesh = _generate(spec)
-        if path is not None:
-            with store.atomic_path(path, ".vol.gz") as tmp:
-                ngmesh.Save(str(tmp))
+    if cache_dir is None:
+        with tempfile.TemporaryDirectory() as scratch:
+            return build_mesh(spec, scratch)
+    path = Path(cache_dir) / "meshes" / f"{spec.key()}.vol.gz"
+    if not path.exists():
+        # the file rounds coordinates: what is computed always comes from the file, so a cached
+        # mesh and a fresh one are identical
+        with store.atomic_path(path, ".vol.gz") as tmp:
+            _generate(spec).Save(str(tmp))
+    ngmesh = netgen.meshing.Mesh(dim=2)
+    try:
+        ngmesh.Load(str(path))
+    except Exception as exc:
+        raise CacheError(f"cannot read cached mesh {path}: {exc}; delete it to rebuild") from None
+    if len(ngmesh.Elements2D()) == 0:
+        raise CacheError(f"cached mesh {path} is empty (corrupt); delete it to rebuild")
     mesh = ngsolve.Mesh(ngmesh)
     missing = {"inlet", "outlet", "lateral", WALL} - set(mesh.GetBoundaries())
     if missing:
@@ -194,5 +207,3 @@ def mesh_statistics(mesh) -> dict:
         "h_min": float(h.min()),
         "h_max": float(h.max()),
     }
-
-

@@ -32,9 +32,7 @@ def plot_mesh(mesh, path: Path, title: str = "") -> Path:
     """The whole mesh and a close-up of the body."""
     tri = _triangulation(mesh)
     fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
-    for ax, (xlim, ylim) in zip(
-        axes, [(None, None), ((-0.8, 1.6), (-0.6, 0.6))], strict=True
-    ):
+    for ax, (xlim, ylim) in zip(axes, [(None, None), ((-0.8, 1.6), (-0.6, 0.6))], strict=True):
         ax.triplot(tri, lw=0.2, color="k")
         ax.set_aspect("equal")
         if xlim:

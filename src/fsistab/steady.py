@@ -19,8 +19,8 @@ import numpy as np
 from fsistab import store
 from fsistab.errors import CacheError, ConvergenceError, InputError
 from fsistab.geometry import DIRICHLET, WALL
-from fsistab.params import Flow
 from fsistab.mesh import MeshSpec, build_mesh
+from fsistab.params import Flow
 
 NEWTON_TOL = 1e-9  # Euclidean norm of the residual on free dofs
 

@@ -1,0 +1,71 @@
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from fsistab.cli import app
+
+runner = CliRunner()
+
+
+def _run(args, tmp_path):
+    return runner.invoke(app, [*args, "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")])
+
+
+def test_steady_json(tmp_path):
+    result = _run(["steady", "--body", "cylinder", "--Re", "40", "--mesh", "coarse", "--json"], tmp_path)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)  # exactly one JSON object on stdout
+    for key in (
+        "reynolds",
+        "alpha0_deg",
+        "lift_coefficient",
+        "moment_coefficient",
+        "drag_coefficient",
+        "recirculation_length",
+        "ndof",
+        "newton_iterations",
+    ):
+        assert key in payload
+    assert payload["reynolds"] == 40
+    assert 1.3 < payload["drag_coefficient"] < 1.7
+    assert (tmp_path / "out" / "steady_cylinder_Re40_a0.png").stat().st_size > 10_000
+
+
+def test_steady_table_and_mesh_command(tmp_path):
+    result = _run(["mesh", "--body", "plate", "--Re", "100", "--mesh", "coarse"], tmp_path)
+    assert result.exit_code == 0, result.output
+    assert "triangles" in result.stdout and "ndof" in result.stdout
+    result = _run(["steady", "--body", "plate", "--Re", "100", "--alpha0", "3", "--mesh", "coarse"], tmp_path)
+    assert result.exit_code == 0, result.output
+    assert "lift coefficient" in result.stdout and "Newton residuals" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["steady", "--Re", "0"], "Reynolds number must be positive"),
+        (["steady", "--Re", "nan"], "Reynolds number must be finite"),
+        (["steady", "--aspect-ratio", "1"], "chord/thickness ratio must be > 1"),
+        (["steady", "--mesh", "huge"], "unknown mesh preset"),
+        (["mesh", "--body", "sphere"], "unknown body"),
+        (["steady", "--alpha0", "60"], "alpha0 must be within"),
+    ],
+)
+def test_bad_input_one_line_error_and_nothing_written(tmp_path, args, message):
+    result = _run([*args, "--json"], tmp_path)
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and message in lines[0]
+    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
+
+
+def test_corrupt_cache_is_refused(tmp_path):
+    args = ["steady", "--body", "cylinder", "--Re", "30", "--mesh", "coarse", "--json"]
+    assert _run(args, tmp_path).exit_code == 0
+    for entry in (tmp_path / "cache" / "steady").iterdir():
+        entry.write_bytes(b"garbage")
+    result = _run(args, tmp_path)
+    assert result.exit_code == 2
+    assert "corrupt" in result.stderr

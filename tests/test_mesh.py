@@ -1,0 +1,61 @@
+import math
+
+import numpy as np
+import pytest
+
+from fsistab.errors import CacheError, InputError
+from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics, preset_sizes
+from fsistab.params import Cylinder, Plate
+
+
+def test_unknown_preset_refused():
+    with pytest.raises(InputError, match="unknown mesh preset"):
+        preset_sizes(Plate(), "ultra", 100)
+
+
+def test_wall_size_scales_with_reynolds():
+    low, high = preset_sizes(Plate(), "medium", 100), preset_sizes(Plate(), "medium", 10000)
+    assert high.wall < low.wall
+    assert high.wall == pytest.approx(0.5 / math.sqrt(10000))
+
+
+def test_plate_mesh_symmetric_and_curved():
+    from ngsolve import CF, Integrate, ds
+
+    mesh = build_mesh(mesh_spec(Plate(), "coarse", 2900))
+    points = mesh.ngmesh.Coordinates()
+    mirrored = points * np.array([1.0, -1.0])
+    # every vertex has its mirror image among the vertices
+    key = lambda p: set(map(tuple, np.round(p, 10)))  # noqa: E731
+    assert key(points) == key(mirrored)
+    r = 0.1 * 0.05
+    exact = 2 * (1 - 2 * r) + 2 * (0.05 - 2 * r) + 2 * math.pi * r
+    assert Integrate(CF(1) * ds("wall"), mesh) == pytest.approx(exact, rel=1e-5)
+
+
+def test_cylinder_perimeter_with_curved_elements():
+    from ngsolve import CF, Integrate, ds
+
+    mesh = build_mesh(mesh_spec(Cylinder(), "coarse", 40))
+    assert Integrate(CF(1) * ds("wall"), mesh) == pytest.approx(math.pi, rel=1e-6)
+
+
+def test_mesh_cache_roundtrip_and_corruption(tmp_path):
+    spec = mesh_spec(Cylinder(), "coarse", 40)
+    first = build_mesh(spec, tmp_path)
+    files = list((tmp_path / "meshes").iterdir())
+    assert [f.name for f in files] == [f"{spec.key()}.vol.gz"]  # no temporary file left
+    second = build_mesh(spec, tmp_path)
+    assert np.array_equal(first.ngmesh.Coordinates(), second.ngmesh.Coordinates())
+    assert mesh_statistics(first) == mesh_statistics(second)
+    files[0].write_bytes(b"not a mesh")
+    with pytest.raises(CacheError):
+        build_mesh(spec, tmp_path)
+
+
+def test_mesh_key_depends_on_every_input():
+    base = mesh_spec(Plate(), "coarse", 2900)
+    assert base.key() == mesh_spec(Plate(), "coarse", 2900).key()
+    assert base.key() != mesh_spec(Plate(aspect_ratio=10), "coarse", 2900).key()
+    assert base.key() != mesh_spec(Plate(), "coarse", 100).key()
+    assert base.key() != mesh_spec(Plate(), "coarse", 2900, far=3.0).key()
