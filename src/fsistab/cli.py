@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -203,6 +204,144 @@ def steady(
         "cache" if result.from_cache else f"{result.seconds:.1f} s, {result.factorisations} factorisations"
     )
     console.print(f"({source}) figure: {figure}")
+
+
+def _solid(body: str, mass_ratio, reduced_velocity, freq_ratio, zeta_h, zeta_theta, r_theta, dofs: str):
+    """Solid parameters in the body's conventions (plate MODEL.md §2, cylinder §10)."""
+    from fsistab.params import Solid
+
+    names = () if dofs == "none" else tuple(d.strip() for d in dofs.split(",") if d.strip())
+    if body == "cylinder":
+        if "pitch" in names:
+            raise InputError("the cylinder has no pitch degree of freedom: use --dofs heave or none")
+        solid = Solid.cylinder(mass_ratio or 20.0, reduced_velocity or 8.0, zeta=zeta_h)
+        return Solid(**{**solid.__dict__, "dofs": names})
+    return Solid(
+        mass_ratio=mass_ratio or 1000.0,
+        reduced_velocity=reduced_velocity or 4.7,
+        freq_ratio=freq_ratio,
+        zeta_h=zeta_h,
+        zeta_theta=zeta_theta,
+        r_theta=r_theta,
+        dofs=names,
+    )
+
+
+def _shifts(values: list[str]) -> list[complex]:
+    shifts = []
+    for value in values:
+        try:
+            shift = complex(value.replace(" ", "").replace("i", "j"))
+        except ValueError:
+            raise InputError(f"cannot read the shift {value!r}: write it like 0.05+0.2j") from None
+        if not (math.isfinite(shift.real) and math.isfinite(shift.imag)):
+            raise InputError(f"the shift must be finite, got {value!r}")
+        shifts.append(shift)
+    return shifts
+
+
+MassOpt = Annotated[
+    float | None, typer.Option("--mass-ratio", help="m (plate default 1000; cylinder, MODEL.md §10: 20)")
+]
+VelocityOpt = Annotated[
+    float | None, typer.Option("--reduced-velocity", help="U* (plate default 4.7; cylinder: 8)")
+]
+FreqRatioOpt = Annotated[float, typer.Option("--freq-ratio", help="Ω = ω_h/ω_θ")]
+ZetaHOpt = Annotated[float, typer.Option("--zeta-h", help="heave damping ratio")]
+ZetaThetaOpt = Annotated[float, typer.Option("--zeta-theta", help="pitch damping ratio")]
+RThetaOpt = Annotated[float, typer.Option("--r-theta", help="radius of gyration about G")]
+DofsOpt = Annotated[str | None, typer.Option("--dofs", help="heave,pitch | heave | pitch | none")]
+
+
+@app.command()
+@user_errors
+def spectrum(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+    mass_ratio: MassOpt = None,
+    reduced_velocity: VelocityOpt = None,
+    freq_ratio: FreqRatioOpt = 0.8,
+    zeta_h: ZetaHOpt = 0.0,
+    zeta_theta: ZetaThetaOpt = 0.05,
+    r_theta: RThetaOpt = 0.289,
+    dofs: DofsOpt = None,
+    shift: Annotated[list[str] | None, typer.Option("--shift", help="complex shift, repeatable")] = None,
+    n_eigenvalues: Annotated[int, typer.Option("--n-eigenvalues", help="eigenvalues per shift")] = 6,
+    vtk: Annotated[bool, typer.Option("--vtk/--no-vtk", help="write the modes as VTK")] = True,
+):
+    """Eigenvalues of the coupled fluid–solid system nearest the given shifts (MODEL.md §7)."""
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near, spectrum_dataset
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.plots import plot_spectrum, write_modes_vtk
+    from fsistab.steady import solve_steady
+    from fsistab.store import write_dataset
+
+    flow = Flow(reynolds, alpha0)
+    default_dofs = "heave" if body == "cylinder" else "heave,pitch"
+    solid = _solid(
+        body, mass_ratio, reduced_velocity, freq_ratio, zeta_h, zeta_theta, r_theta, dofs or default_dofs
+    )
+    shifts = _shifts(shift or (["0.75j"] if body == "cylinder" else ["0.05+0.2j"]))
+    if not 1 <= n_eigenvalues <= 50:
+        raise InputError(f"--n-eigenvalues must be between 1 and 50, got {n_eigenvalues}")
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    with console.status("steady state") as status:
+        steady_state = solve_steady(spec, flow, cache_dir=_cache(cache))
+        status.update("fluid operators")
+        system = CoupledSystem(fluid_operators(steady_state), solid)
+        status.update(f"shift-invert Arnoldi near {len(shifts)} shift(s), {system.size} unknowns")
+        pairs = eigenpairs_near(system, shifts, n_eigenvalues)
+    tag = _tag(body, reynolds, alpha0)
+    ds = spectrum_dataset(pairs, system, {"shifts": json.dumps([[z.real, z.imag] for z in shifts])})
+    data_path = write_dataset(ds, out / f"spectrum_{tag}.nc")
+    figure = plot_spectrum(ds, out / f"spectrum_{tag}.png", title=f"{body}, Re = {reynolds:g}")
+    vtk_path = None
+    if vtk:
+        n_solid = system.n_solid
+        modes = {f"mode{i}": p.vector[n_solid:] for i, p in enumerate(pairs[:6])}
+        vtk_path = write_modes_vtk(steady_state, system.fluid.free_dofs, modes, out / f"modes_{tag}")
+    payload = {
+        "eigenvalues": [
+            {"growth_rate": p.growth_rate, "frequency": p.frequency, "label": p.label, "residual": p.residual}
+            for p in pairs
+        ],
+        "ndof": system.size,
+        "netcdf": str(data_path),
+        "figure": str(figure),
+        "vtk": str(vtk_path) if vtk_path else None,
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(
+        title=f"spectrum: {body}, Re = {reynolds:g}, alpha0 = {alpha0:g} deg, dofs {solid.dofs or 'none'}"
+    )
+    for column in ("growth rate λ", "frequency ω", "label", "solid energy", "residual"):
+        table.add_column(column, justify="right")
+    for p in pairs:
+        table.add_row(
+            f"{p.growth_rate:+.6f}",
+            f"{p.frequency:.6f}",
+            p.label,
+            f"{p.solid_energy_fraction:.2f}",
+            f"{p.residual:.1e}",
+        )
+    console.print(table)
+    console.print(
+        f"{system.size} unknowns; data {data_path}; figure {figure}"
+        + (f"; modes {vtk_path}" if vtk_path else "")
+    )
 
 
 def main() -> None:  # pragma: no cover - console entry point

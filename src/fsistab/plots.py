@@ -72,3 +72,48 @@ def plot_streamwise_velocity(steady, path: Path, window=None) -> Path:
         f"alpha0 = {steady.flow.alpha0_deg:g} deg (black: zero streamwise velocity)"
     )
     return _save(fig, path)
+
+
+_LABEL_COLOURS = {"fluid": "tab:blue", "heave": "tab:red", "pitch": "tab:green", "coupled": "tab:purple"}
+
+
+def plot_spectrum(ds, path: Path, title: str = "") -> Path:
+    """Eigenvalues in the (growth rate, frequency) plane, and a close-up near the neutral axis."""
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    growth, frequency, labels = ds["growth_rate"].values, ds["frequency"].values, ds["label"].values
+    for ax in axes:
+        for label, colour in _LABEL_COLOURS.items():
+            sel = labels == label
+            if sel.any():
+                ax.plot(growth[sel], frequency[sel], "o", color=colour, label=label, ms=6)
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_xlabel("growth rate λ")
+        ax.set_ylabel("frequency ω")
+        ax.grid(alpha=0.3)
+    axes[0].legend()
+    axes[0].set_title(title or "spectrum")
+    near = np.abs(growth) <= max(0.05, 2 * np.abs(growth).min()) if growth.size else growth
+    span = max(np.abs(growth[near]).max() if np.any(near) else 0.05, 1e-3) * 1.3
+    axes[1].set_xlim(-span, span)
+    axes[1].set_title("close-up near the neutral axis")
+    return _save(fig, path)
+
+
+def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Path) -> Path:
+    """Real and imaginary parts of the velocity and pressure of each mode, as one VTK file.
+
+    ``modes`` maps a name to a fluid vector (the fluid unknowns, indexed by ``fluid_index``).
+    """
+    from ngsolve import GridFunction, VTKOutput
+
+    coefs, names = [], []
+    for name, vector in modes.items():
+        for part, values in (("re", vector.real), ("im", vector.imag)):
+            field = GridFunction(steady.space)
+            field.vec.FV().NumPy()[fluid_index] = values
+            coefs += [field.components[0], field.components[1]]
+            names += [f"{name}_velocity_{part}", f"{name}_pressure_{part}"]
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    VTKOutput(steady.mesh, coefs=coefs, names=names, filename=str(path.with_suffix("")), subdivision=1).Do()
+    return path.with_suffix(".vtu")

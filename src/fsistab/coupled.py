@@ -1,0 +1,178 @@
+"""The coupled fluid–solid system ``σ M q + J q = 0`` (MODEL.md §5, §7) for given solid parameters.
+
+Unknowns ``q = (q_s, q_f)``: the active solid states first — a subset of ``(h, θ, ḣ, θ')`` chosen by
+:attr:`fsistab.params.Solid.dofs` (heave: ``h, ḣ``; pitch: ``θ, θ'``) — then the fluid unknowns
+of :class:`fsistab.operators.FluidOperators`. Inactive solid states stay at their steady value.
+Only the small solid blocks depend on the solid parameters: building a system for new
+``(m, U*, Ω, ζ, r_θ)`` re-uses the fluid blocks as they are.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from fsistab.operators import SOLID_STATE, FluidOperators, FluidResidual
+from fsistab.params import Solid
+
+_ACTIVE = {"heave": (0, 2), "pitch": (1, 3)}  # (displacement, velocity) in SOLID_STATE
+
+
+def active_states(solid: Solid) -> list[int]:
+    """Indices in ``(h, θ, ḣ, θ')`` of the active solid states, in that order."""
+    return sorted(i for dof in solid.dofs for i in _ACTIVE[dof])
+
+
+def lift_and_moment_rows(theta: float, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``∂(C_L, C_M)/∂(F_x, F_y, M)`` (2 × 3) and ``∂C_L/∂θ`` at fixed loads.
+
+    ``C_L = 2{R(θ)F}·e_y = 2(sin θ F_x + cos θ F_y)``, ``C_M = 2M`` (MODEL.md §4).
+    """
+    c, s = math.cos(theta), math.sin(theta)
+    rows = np.array([[2 * s, 2 * c, 0.0], [0.0, 0.0, 2.0]])
+    return rows, 2 * (c * loads[0] - s * loads[1])
+
+
+def solid_stiffness(solid: Solid) -> np.ndarray:
+    """In-vacuo solid rows of ``J_ss`` (4 × 4, MODEL.md §7) without the aerodynamic terms."""
+    w_h, w_t = solid.freq_ratio / solid.reduced_velocity, 1.0 / solid.reduced_velocity
+    return np.array(
+        [
+            [0.0, 0.0, -1.0, 0.0],
+            [0.0, 0.0, 0.0, -1.0],
+            [w_h**2, 0.0, 2 * solid.zeta_h * w_h, 0.0],
+            [0.0, w_t**2, 0.0, 2 * solid.zeta_theta * w_t],
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class CoupledSystem:
+    """``J`` and ``M`` of MODEL.md (E) for one set of solid parameters, as SciPy sparse matrices.
+
+    Time unit ``L/U∞``; the solid rows are those of MODEL.md §3 divided as there (``/m``,
+    ``/(m r_θ²)``). The blocks are kept separately (``jss``, ``jsf``, ``jfs``, ``mss``, ``msf``,
+    ``mfs``, and the fluid's ``jff``, ``mff``) for bordered solvers.
+    """
+
+    fluid: FluidOperators
+    solid: Solid
+
+    @cached_property
+    def active(self) -> list[int]:
+        return active_states(self.solid)
+
+    @property
+    def n_solid(self) -> int:
+        return len(self.active)
+
+    @property
+    def size(self) -> int:
+        return self.n_solid + self.fluid.n_fluid
+
+    @cached_property
+    def _solid_rows(self):
+        """Full 4-state solid rows: (jss, jsf, mss, msf) before selecting the active states."""
+        ops, solid = self.fluid, self.solid
+        rows, dcl_dtheta = lift_and_moment_rows(ops.theta0, ops.loads0)
+        scale = np.array([1.0 / solid.mass_ratio, 1.0 / (solid.mass_ratio * solid.r_theta**2)])
+        coefficient_rows = scale[:, None] * rows  # ∂(C_L/m, C_M/(m r²))/∂(F_x, F_y, M)
+        jss = solid_stiffness(solid)
+        jss[2:, :] -= coefficient_rows @ ops.load_s
+        jss[2, 1] -= dcl_dtheta / solid.mass_ratio
+        jsf = sp.vstack([sp.csr_matrix((2, ops.n_fluid)), -sp.csr_matrix(coefficient_rows) @ ops.load_f])
+        mss = np.eye(4)
+        mss[2:, :] -= coefficient_rows @ ops.load_mass_s
+        msf = sp.vstack([sp.csr_matrix((2, ops.n_fluid)), -sp.csr_matrix(coefficient_rows) @ ops.load_mass_f])
+        return jss, jsf.tocsr(), mss, msf.tocsr()
+
+    @property
+    def jss(self) -> np.ndarray:
+        return self._solid_rows[0][np.ix_(self.active, self.active)]
+
+    @property
+    def jsf(self) -> sp.csr_matrix:
+        return self._solid_rows[1][self.active]
+
+    @property
+    def mss(self) -> np.ndarray:
+        return self._solid_rows[2][np.ix_(self.active, self.active)]
+
+    @property
+    def msf(self) -> sp.csr_matrix:
+        return self._solid_rows[3][self.active]
+
+    @property
+    def jfs(self) -> np.ndarray:
+        return self.fluid.jfs[:, self.active]
+
+    @property
+    def mfs(self) -> np.ndarray:
+        return self.fluid.mfs[:, self.active]
+
+    @cached_property
+    def jacobian(self) -> sp.csr_matrix:
+        """``J`` (size × size)."""
+        return sp.bmat(
+            [[sp.csr_matrix(self.jss), self.jsf], [sp.csr_matrix(self.jfs), self.fluid.jff]]
+        ).tocsr()
+
+    @cached_property
+    def mass(self) -> sp.csr_matrix:
+        """``M`` (size × size), with the mass coupling of the wall lifting."""
+        return sp.bmat(
+            [[sp.csr_matrix(self.mss), self.msf], [sp.csr_matrix(self.mfs), self.fluid.mff]]
+        ).tocsr()
+
+    def state_labels(self) -> list[str]:
+        return [SOLID_STATE[i] for i in self.active]
+
+    def split(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(q_s as (h, θ, ḣ, θ') with zeros for inactive states, q_f)``."""
+        full = np.zeros(4, dtype=q.dtype)
+        full[self.active] = q[: self.n_solid]
+        return full, q[self.n_solid :]
+
+
+class CoupledResidual:
+    """The discrete nonlinear residual ``R(q) = (R_s, R_f)`` of MODEL.md §5, for FD checks of ``J``.
+
+    ``C_Fext`` and ``C_Mext`` are set so that the steady state is an equilibrium (MODEL.md §6).
+    Inactive solid states are held at their steady values.
+    """
+
+    def __init__(self, system: CoupledSystem, fluid_residual: FluidResidual | None = None):
+        self.system = system
+        self.fluid = fluid_residual or FluidResidual(system.fluid.steady)
+        q_s0, q_f0 = self.fluid.steady_point()
+        self.q_solid0, self.q_fluid0 = q_s0, q_f0
+        solid = system.solid
+        lift0, moment0 = self._coefficients(q_s0[1], system.fluid.loads0)
+        self.lift_ext = -lift0
+        self.moment_ext = solid.mass_ratio * solid.r_theta**2 * q_s0[1] / solid.reduced_velocity**2 - moment0
+
+    @staticmethod
+    def _coefficients(theta: float, loads: np.ndarray) -> tuple[float, float]:
+        rows, _ = lift_and_moment_rows(theta, loads)
+        lift, moment = rows @ loads
+        return float(lift), float(moment)
+
+    def point(self) -> np.ndarray:
+        """The steady state as a coupled vector."""
+        return np.concatenate([self.q_solid0[self.system.active], self.q_fluid0])
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        solid = self.system.solid
+        q_solid = self.q_solid0.copy()
+        q_solid[self.system.active] = q[: self.system.n_solid]
+        q_fluid = q[self.system.n_solid :]
+        r_fluid, loads = self.fluid(q_solid, q_fluid)
+        lift, moment = self._coefficients(q_solid[1], loads)
+        r_solid = solid_stiffness(solid) @ q_solid
+        r_solid[2] -= (lift + self.lift_ext) / solid.mass_ratio
+        r_solid[3] -= (moment + self.moment_ext) / (solid.mass_ratio * solid.r_theta**2)
+        return np.concatenate([r_solid[self.system.active], r_fluid])

@@ -1,0 +1,249 @@
+"""Linear operators of the fluid at a steady state (MODEL.md §5, §7), exported as SciPy matrices.
+
+The fluid unknowns ``q_f`` are the free dofs of the Taylor–Hood space (velocity off the Dirichlet
+boundaries, all pressure dofs). The wall velocity dofs are not unknowns: they follow the solid,
+``u_Γ(q_s) = a_x(θ, ḣ) ℓ_x + a_y(θ, ḣ) ℓ_y + θ' ℓ_rot`` with ``(a_x, a_y) = R(θ)ᵀ(-1, ḣ)ᵀ``
+(MODEL.md §4 wall condition, lifted with the discrete fields ``ℓ`` of :mod:`fsistab.forces`).
+Hence the discrete Jacobian has, besides the shape derivatives ``D_θ, D_ḣ, D_θ'`` of MODEL.md §7,
+the wall-coupling columns ``A_{fΓ} ∂u_Γ/∂q_s`` and a mass coupling ``M_{fΓ} ∂u_Γ/∂q_s``.
+
+Solid columns are ordered ``SOLID_STATE = (h, θ, ḣ, θ')``; ``h`` never enters the fluid.
+Loads are the reaction loads ``(F_x, F_y, M)`` in body axes, ``F·ℓ = -(ℓᵀ M u̇ + R(q; ℓ))``:
+their derivatives are rows ``-ℓᵀ A`` and their inertia rows ``-ℓᵀ M`` (the wall-adjacent fluid
+mass that the lifting puts into the force, consistent with the discrete equations).
+Everything here depends on (mesh, Re, α0) only, never on the solid parameters.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
+from fsistab.steady import SteadyState, momentum_form, wall_velocity
+
+SOLID_STATE = ("h", "theta", "hdot", "thetadot")
+NEAR_RADIUS = 1.0  # body lengths around G
+
+
+def rotation_matrix(theta: float) -> np.ndarray:
+    """``R(θ)`` of MODEL.md §4 (counter-clockwise rotation)."""
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def grid_velocity_derivatives(theta: float) -> dict[str, tuple[float, float]]:
+    """Uniform parts of ``∂W/∂θ = R'(θ)ᵀ(-1, 0)ᵀ`` and ``∂W/∂ḣ = R(θ)ᵀ(0, 1)ᵀ`` (at ḣ = θ' = 0)."""
+    c, s = math.cos(theta), math.sin(theta)
+    return {"theta": (s, c), "hdot": (s, c)}
+
+
+def wall_coefficients(q_solid: np.ndarray) -> np.ndarray:
+    """Coefficients of ``(ℓ_x, ℓ_y, ℓ_rot)`` in ``u_Γ(q_s)``: ``(R(θ)ᵀ(-1, ḣ)ᵀ, θ')``."""
+    _, theta, hdot, thetadot = q_solid
+    ax, ay = rotation_matrix(theta).T @ np.array([-1.0, hdot])
+    return np.array([ax, ay, thetadot])
+
+
+def wall_coefficients_jacobian(q_solid: np.ndarray) -> np.ndarray:
+    """``∂(a_x, a_y, θ')/∂(h, θ, ḣ, θ')`` (3 × 4)."""
+    _, theta, hdot, _ = q_solid
+    c, s = math.cos(theta), math.sin(theta)
+    d_theta = np.array([[-s, c], [-c, -s]]) @ np.array([-1.0, hdot])  # R'(θ)ᵀ(-1, ḣ)ᵀ
+    d_hdot = rotation_matrix(theta).T @ np.array([0.0, 1.0])
+    jac = np.zeros((3, 4))
+    jac[:2, 1] = d_theta
+    jac[:2, 2] = d_hdot
+    jac[2, 3] = 1.0
+    return jac
+
+
+def _to_scipy(matrix, n: int) -> sp.csr_matrix:
+    rows, cols, values = matrix.COO()
+    return sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(n, n))
+
+
+def _linear_form_vector(space, integrand_of_test) -> np.ndarray:
+    from ngsolve import LinearForm, dx
+
+    (_, _), (v, q) = space.TnT()
+    form = LinearForm(space)
+    form += integrand_of_test(v, q) * dx
+    form.Assemble()
+    return form.vec.FV().NumPy().copy()
+
+
+def jacobian_integrand(u, p, v, q, base_velocity, grid_velocity, inv_reynolds):
+    """Linearised momentum and continuity (MODEL.md §7, ``J_ff``) as a bilinear integrand.
+
+    ``A u = (∇u)(U⁰ - W⁰) + (∇U⁰) u - Re⁻¹∇·(∇u + ∇uᵀ)``, pressure gradient, divergence.
+    """
+    from ngsolve import Grad, InnerProduct, div
+
+    return (
+        InnerProduct(Grad(u) * (base_velocity - grid_velocity), v)
+        + InnerProduct(Grad(base_velocity) * u, v)
+        + inv_reynolds * InnerProduct(Grad(u) + Grad(u).trans, Grad(v))
+        - p * div(v)
+        - q * div(u)
+    )
+
+
+@dataclass(frozen=True)
+class FluidOperators:
+    """Fluid blocks at one steady state, SciPy sparse, independent of the solid parameters.
+
+    Attributes (``n`` = number of fluid unknowns, the free dofs ``free_dofs`` of the space):
+
+    * ``jff``, ``mff`` (n × n): ``J_ff`` and ``M_f`` (velocity mass, zero on pressure);
+    * ``jfs``, ``mfs`` (n × 4): fluid rows, solid columns ``(h, θ, ḣ, θ')`` of ``J`` and ``M``;
+    * ``load_f`` (3 × n), ``load_s`` (3 × 4): derivatives of the loads ``(F_x, F_y, M)`` in body
+      axes (units ``ρU∞²L``) with respect to the fluid and solid unknowns;
+    * ``load_mass_f`` (3 × n), ``load_mass_s`` (3 × 4): the loads' inertia, ``L = -(Mf q̇) - ...``;
+    * ``loads0``: steady ``(F_x, F_y, M)``; ``theta0``: steady pitch;
+    * ``mff_near``: velocity mass restricted to the disc ``|X| < NEAR_RADIUS`` (to label modes:
+      global wake modes grow downstream, so whole-domain energies say little about the body).
+    """
+
+    steady: SteadyState
+    free_dofs: np.ndarray
+    jff: sp.csr_matrix
+    mff: sp.csr_matrix
+    jfs: np.ndarray
+    mfs: np.ndarray
+    load_f: sp.csr_matrix
+    load_s: np.ndarray
+    load_mass_f: sp.csr_matrix
+    load_mass_s: np.ndarray
+    loads0: np.ndarray
+    theta0: float
+    mff_near: sp.csr_matrix
+
+    @property
+    def n_fluid(self) -> int:
+        return int(self.jff.shape[0])
+
+    @property
+    def reynolds(self) -> float:
+        return self.steady.flow.reynolds
+
+
+def free_dof_indices(space) -> np.ndarray:
+    """Indices of the fluid unknowns: free dofs of the space, in dof order."""
+    return np.nonzero(np.array(list(space.FreeDofs()), dtype=bool))[0]
+
+
+def wall_lifting_matrix(steady: SteadyState) -> np.ndarray:
+    """Dof vectors of ``ℓ_x, ℓ_y, ℓ_rot`` as columns (ndof × 3)."""
+    liftings = wall_liftings(steady.space, steady.mesh)
+    return np.column_stack([liftings[k].vec.FV().NumPy().copy() for k in RIGID_MOTIONS])
+
+
+def fluid_operators(steady: SteadyState) -> FluidOperators:
+    """Assemble every fluid block of MODEL.md §7 once at ``steady`` (one real assembly each)."""
+    from ngsolve import CF, BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
+
+    space, n_all = steady.space, steady.space.ndof
+    theta0 = steady.flow.theta0
+    base = steady.velocity
+    grid_velocity = CF(wall_velocity(theta0))
+    (u, p), (v, q) = space.TnT()
+
+    jacobian = BilinearForm(space)
+    jacobian += jacobian_integrand(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds) * dx
+    jacobian.Assemble()
+    mass = BilinearForm(space)
+    mass += InnerProduct(u, v) * dx
+    mass.Assemble()
+    near = BilinearForm(space)
+    near += IfPos(NEAR_RADIUS**2 - x * x - y * y, 1.0, 0.0) * InnerProduct(u, v) * dx
+    near.Assemble()
+    a_all, m_all = _to_scipy(jacobian.mat, n_all), _to_scipy(mass.mat, n_all)
+
+    # shape derivatives: the residual's explicit dependence on (θ, ḣ, θ') through W and θ' e_z∧U
+    dw = grid_velocity_derivatives(theta0)
+    d_theta = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["theta"]), v))
+    d_hdot = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["hdot"]), v))
+    d_thetadot = _linear_form_vector(
+        space,
+        lambda v, q: -InnerProduct(Grad(base) * CF((-y, x)), v) + InnerProduct(CF((-base[1], base[0])), v),
+    )
+    explicit = np.column_stack([np.zeros(n_all), d_theta, d_hdot, d_thetadot])
+
+    # wall coupling: u_Γ(q_s) = L a(q_s), so ∂u/∂q_s = L ∂a/∂q_s
+    lifting = wall_lifting_matrix(steady)
+    q0 = np.array([0.0, theta0, 0.0, 0.0])
+    wall_columns = lifting @ wall_coefficients_jacobian(q0)  # ndof × 4
+    j_all_s = a_all @ wall_columns + explicit
+    m_all_s = m_all @ wall_columns
+
+    index = free_dof_indices(space)
+    loads = reaction_loads(steady)
+    lift_t = sp.csr_matrix(lifting.T)
+    return FluidOperators(
+        steady=steady,
+        free_dofs=index,
+        jff=a_all[index][:, index].tocsr(),
+        mff=m_all[index][:, index].tocsr(),
+        jfs=j_all_s[index],
+        mfs=m_all_s[index],
+        load_f=-(lift_t @ a_all[:, index]).tocsr(),
+        load_s=-(lifting.T @ j_all_s),
+        load_mass_f=-(lift_t @ m_all[:, index]).tocsr(),
+        load_mass_s=-(lifting.T @ m_all_s),
+        loads0=np.array([loads["force_x"], loads["force_y"], loads["moment"]]),
+        theta0=theta0,
+        mff_near=_to_scipy(near.mat, n_all)[index][:, index].tocsr(),
+    )
+
+
+class FluidResidual:
+    """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (MODEL.md §5).
+
+    For finite-difference checks of every block of :func:`fluid_operators`: the wall dofs are set
+    from the solid state by the nonlinear lifting, the grid velocity is
+    ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` and the rotation term ``θ' e_z∧U`` is included.
+    """
+
+    def __init__(self, steady: SteadyState):
+        from ngsolve import CF, BilinearForm, InnerProduct, Parameter, cos, dx, sin, x, y
+
+        self.steady = steady
+        space = steady.space
+        (u, p), (v, q) = space.TnT()
+        self.theta, self.hdot, self.thetadot = Parameter(0.0), Parameter(0.0), Parameter(0.0)
+        ct, st = cos(self.theta), sin(self.theta)
+        grid_velocity = CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
+        form = BilinearForm(space)
+        form += (
+            momentum_form(u, p, v, q, grid_velocity, 1.0 / steady.flow.reynolds)
+            + self.thetadot * InnerProduct(CF((-u[1], u[0])), v)
+        ) * dx
+        self.form = form
+        self.lifting = wall_lifting_matrix(steady)
+        self.index = free_dof_indices(space)
+        self._vector = steady.state.vec.CreateVector()
+        self._residual = steady.state.vec.CreateVector()
+
+    def full_state(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> np.ndarray:
+        values = self.lifting @ wall_coefficients(q_solid)  # zero off the wall
+        values[self.index] = q_fluid
+        return values
+
+    def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(R_f on the free dofs, loads (F_x, F_y, M) = -ℓᵀ R)`` for solid state ``(h, θ, ḣ, θ')``."""
+        self.theta.Set(q_solid[1])
+        self.hdot.Set(q_solid[2])
+        self.thetadot.Set(q_solid[3])
+        self._vector.FV().NumPy()[:] = self.full_state(q_solid, q_fluid)
+        self.form.Apply(self._vector, self._residual)
+        r = self._residual.FV().NumPy()
+        return r[self.index].copy(), -(self.lifting.T @ r)
+
+    def steady_point(self) -> tuple[np.ndarray, np.ndarray]:
+        """The steady state as ``(q_s⁰, q_f⁰)``."""
+        q_solid = np.array([0.0, self.steady.flow.theta0, 0.0, 0.0])
+        return q_solid, self.steady.state.vec.FV().NumPy()[self.index].copy()
