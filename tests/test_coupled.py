@@ -1,0 +1,138 @@
+"""The coupled Jacobian against finite differences of the nonlinear residual (MODEL.md §5, §7),
+and the eigen-solver against analytic limits (REFERENCE.md §B)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from fsistab.coupled import CoupledResidual, CoupledSystem
+from fsistab.eigen import eigenpairs_near
+from fsistab.errors import ConvergenceError, InputError
+from fsistab.linalg import ShiftedSolver
+from fsistab.mesh import mesh_spec
+from fsistab.operators import fluid_operators, wall_coefficients, wall_coefficients_jacobian
+from fsistab.params import Cylinder, Flow, Plate, Solid
+from fsistab.steady import solve_steady
+
+
+@pytest.fixture(scope="module", params=[0.0, 5.0], ids=["alpha0=0", "alpha0=5"])
+def plate_system(request):
+    steady = solve_steady(mesh_spec(Plate(), "coarse", 500), Flow(500, request.param))
+    system = CoupledSystem(fluid_operators(steady), Solid(mass_ratio=3.0, reduced_velocity=2.0))
+    return system, CoupledResidual(system)
+
+
+def _fd_error(residual, jacobian, q0, direction, rows, eps=1e-5):
+    fd = (residual(q0 + eps * direction) - residual(q0 - eps * direction)) / (2 * eps)
+    exact = jacobian @ direction
+    return np.linalg.norm(fd[rows] - exact[rows]) / np.linalg.norm(exact[rows])
+
+
+def test_steady_state_is_an_equilibrium(plate_system):
+    system, residual = plate_system
+    r = residual(residual.point())
+    assert np.abs(r).max() < 1e-10
+
+
+@pytest.mark.parametrize(
+    ("perturbed", "rows", "block"),
+    [("solid", "solid", "J_ss"), ("solid", "fluid", "J_fs"), ("fluid", "solid", "J_sf"), ("fluid", "fluid", "J_ff")],
+)
+def test_jacobian_blocks_match_finite_differences(plate_system, perturbed, rows, block):
+    system, residual = plate_system
+    rng = np.random.default_rng(1)
+    ns = system.n_solid
+    parts = {"solid": slice(0, ns), "fluid": slice(ns, None)}
+    for _ in range(2):
+        direction = np.zeros(system.size)
+        direction[parts[perturbed]] = rng.standard_normal(direction[parts[perturbed]].shape)
+        direction /= np.linalg.norm(direction)
+        error = _fd_error(residual, system.jacobian, residual.point(), direction, parts[rows])
+        assert error < 1e-6, f"{block}: relative error {error:.2e}"
+
+
+def test_whole_jacobian_matches_finite_differences(plate_system):
+    system, residual = plate_system
+    direction = np.random.default_rng(2).standard_normal(system.size)
+    error = _fd_error(residual, system.jacobian, residual.point(), direction, slice(None))
+    assert error < 1e-6
+
+
+def test_wall_lifting_coefficients_derivative():
+    q = np.array([0.3, -0.2, 0.4, 0.7])
+    jac = wall_coefficients_jacobian(q)
+    eps = 1e-6
+    for k in range(4):
+        e = np.zeros(4)
+        e[k] = eps
+        fd = (wall_coefficients(q + e) - wall_coefficients(q - e)) / (2 * eps)
+        assert np.allclose(fd, jac[:, k], atol=1e-9)
+
+
+def test_solid_parameters_do_not_touch_the_fluid(plate_system):
+    system, _ = plate_system
+    other = CoupledSystem(system.fluid, Solid(mass_ratio=50.0, reduced_velocity=7.0))
+    assert other.fluid is system.fluid
+    assert (other.jacobian[other.n_solid :, other.n_solid :] != system.fluid.jff).nnz == 0
+
+
+def test_bordered_umfpack_equals_superlu_on_coupled_matrix(plate_system):
+    system, _ = plate_system
+    shift = 0.05 + 0.2j
+    b = np.random.default_rng(3).standard_normal(system.size) + 0j
+    x_bordered = ShiftedSolver(system, shift).solve(b)
+    x_direct = ShiftedSolver(system, shift, backend="superlu").solve(b)
+    assert np.linalg.norm(x_bordered - x_direct) < 1e-9 * np.linalg.norm(x_direct)
+    residual = (system.jacobian + shift * system.mass) @ x_bordered - b
+    assert np.linalg.norm(residual) < 1e-9 * np.linalg.norm(b)
+
+
+def test_unknown_backend_refused(plate_system):
+    system, _ = plate_system
+    with pytest.raises(InputError, match="backend"):
+        ShiftedSolver(system, 1j, backend="magic")
+
+
+@pytest.fixture(scope="module")
+def cylinder_60():
+    steady = solve_steady(mesh_spec(Cylinder(), "coarse", 60), Flow(60))
+    return fluid_operators(steady)
+
+
+def test_fixed_cylinder_wake_mode_coarse(cylinder_60):
+    """REFERENCE.md §A, Re = 60: 0.0468 + 0.745i (coarse mesh here: a loose check)."""
+    pairs = eigenpairs_near(CoupledSystem(cylinder_60, Solid(dofs=())), [0.75j], 3)
+    leading = pairs[0]
+    assert leading.label == "fluid" and leading.residual < 1e-8
+    assert leading.growth_rate == pytest.approx(0.0468, abs=0.01)
+    assert leading.frequency == pytest.approx(0.745, rel=0.03)
+
+
+def test_heaving_cylinder_limits(cylinder_60):
+    """REFERENCE.md §B (Re = 60, m = 20): as U* -> 0 the fluid mode tends to the fixed-cylinder
+    mode and the solid mode to iω_n √(m/(m + C_m)).
+
+    ``C_m = 1`` (potential flow) is the high-frequency limit; at finite Stokes number
+    ``β = D²f/ν = Re ω/2π`` Stokes' oscillating cylinder gives ``C_m = 1 + 4(πβ)^-1/2 + (πβ)^-3/2``
+    (Sarpkaya 1986), which at U* = 3 (β ≈ 19) lowers the frequency by 1.2 %."""
+    fixed = eigenpairs_near(CoupledSystem(cylinder_60, Solid(dofs=())), [0.75j], 3)[0].value
+    reduced_velocity = 3.0
+    omega_n = 2 * math.pi / reduced_velocity
+    system = CoupledSystem(cylinder_60, Solid.cylinder(20, reduced_velocity))
+    fluid = min(eigenpairs_near(system, [fixed + 0.01j], 2), key=lambda p: abs(p.value - fixed))
+    # shifted at the in-vacuo frequency: the nearest eigenvalue must be the structure mode
+    solid = min(eigenpairs_near(system, [1j * omega_n], 2), key=lambda p: abs(p.value - 1j * omega_n))
+    assert abs(fluid.value - fixed) < 2e-3
+    assert solid.label == "heave"
+    beta = 60 * solid.frequency / (2 * math.pi)
+    added_mass = 1 + 4 / math.sqrt(math.pi * beta) + (math.pi * beta) ** -1.5
+    assert solid.frequency / omega_n == pytest.approx(math.sqrt(20 / (20 + added_mass)), rel=0.01)
+    assert solid.frequency / omega_n < math.sqrt(20 / 21)  # more than the potential added mass
+    assert solid.growth_rate < 0  # viscous damping of the structure mode
+
+
+def test_shift_far_from_spectrum_reports_clearly(cylinder_60):
+    system = CoupledSystem(cylinder_60, Solid(dofs=()))
+    with pytest.raises(ConvergenceError, match="shift"):
+        eigenpairs_near(system, [0.75j], 2, max_residual=1e-300)
