@@ -89,7 +89,7 @@ def test_recirculation_behind_cylinder_grows_with_reynolds(cylinder_coarse_40):
     [(40, (1.50, 1.54), (2.2, 2.3)), (50, None, (2.9, 3.0))],
 )
 def test_cylinder_against_reference_medium_mesh(reynolds, drag_range, length_range):
-    """REFERENCE.md §A on the medium mesh, domain [-25, 50] × [-25, 25]."""
+    """REFERENCE.md §A on the medium mesh, default domain [-50, 100] × [-50, 50]."""
     steady = solve_steady(mesh_spec(Cylinder(), "medium", reynolds), Flow(reynolds))
     if drag_range:
         assert drag_range[0] <= aerodynamic_coefficients(steady).drag <= drag_range[1]
