@@ -344,6 +344,83 @@ def spectrum(
     )
 
 
+@app.command()
+@user_errors
+def slopes(
+    reynolds: Annotated[list[float], typer.Option("--Re", help="Reynolds numbers: --Re 10 100 1000")],
+    more_reynolds: Annotated[
+        list[float] | None, typer.Argument(help="further Reynolds numbers", show_default=False)
+    ] = None,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+):
+    """Static slopes dC_L/dα and d(-C_M)/dα of the plate against Re (MODEL.md §9)."""
+    import numpy as np
+    import xarray as xr
+
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
+    from fsistab.steady import solve_steady
+    from fsistab.store import write_dataset
+
+    values = sorted({*reynolds, *(more_reynolds or [])})
+    flows = [Flow(re, alpha0) for re in values]  # validate every value before any work
+    specs = [_spec("plate", re, preset, aspect_ratio, corner_radius, domain) for re in values]
+    console = _console(as_json)
+    results = []
+    with console.status("steady slopes") as status:
+        for flow, spec in zip(flows, specs, strict=True):
+            status.update(f"Re = {flow.reynolds:g}: steady state and one linear solve")
+            steady_state = solve_steady(spec, flow, cache_dir=_cache(cache))
+            results.append(static_slopes(fluid_operators(steady_state)))
+    ds = xr.Dataset(
+        {
+            "lift_slope_alpha": ("reynolds", np.array([r.lift_slope_alpha for r in results])),
+            "moment_slope_alpha": ("reynolds", np.array([r.moment_slope_alpha for r in results])),
+            "drag_slope_theta": ("reynolds", np.array([r.drag for r in results])),
+        },
+        coords={"reynolds": np.array(values)},
+        attrs={
+            "alpha0_deg": alpha0,
+            "mesh": preset,
+            "convention": "dC_L/dalpha and d(-C_M)/dalpha per radian, alpha = -theta, moment about mid-chord",
+            "thin_airfoil_lift_slope": THIN_AIRFOIL_LIFT_SLOPE,
+            "thin_airfoil_moment_slope": THIN_AIRFOIL_MOMENT_SLOPE,
+        },
+    )
+    data_path = write_dataset(ds, out / f"slopes_plate_a{alpha0:g}_{preset}.nc")
+    payload = {
+        "alpha0_deg": alpha0,
+        "slopes": [
+            {
+                "reynolds": r.reynolds,
+                "lift_slope_alpha": r.lift_slope_alpha,
+                "moment_slope_alpha": r.moment_slope_alpha,
+            }
+            for r in results
+        ],
+        "netcdf": str(data_path),
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"static slopes, plate, alpha0 = {alpha0:g} deg, mesh {preset} (per radian)")
+    for column in ("Re", "dC_L/dα", "d(-C_M)/dα"):
+        table.add_column(column, justify="right")
+    for r in results:
+        table.add_row(f"{r.reynolds:g}", f"{r.lift_slope_alpha:.4f}", f"{r.moment_slope_alpha:.4f}")
+    table.add_row("thin airfoil", f"{THIN_AIRFOIL_LIFT_SLOPE:.4f}", f"{THIN_AIRFOIL_MOMENT_SLOPE:.4f}")
+    console.print(table)
+    console.print(f"data {data_path}")
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

@@ -101,7 +101,10 @@ def eigenpairs_near(
         operator = shift_invert_operator(solver)
         k = min(n_eigenvalues, system.size - 2)
         try:
-            mu, vectors = spla.eigs(operator, k=k, which="LM", ncv=max(2 * k + 1, 20), tol=tol, maxiter=2000)
+            # a wide Krylov space: the solid modes sit among many weakly damped fluid modes, and
+            # restarts cost more than the memory (ncv vectors) here
+            ncv = min(max(3 * k, 40), system.size - 1)
+            mu, vectors = spla.eigs(operator, k=k, which="LM", ncv=ncv, tol=tol, maxiter=2000)
         except spla.ArpackNoConvergence as exc:
             mu, vectors = exc.eigenvalues, exc.eigenvectors
             if len(mu) == 0:
