@@ -37,7 +37,12 @@ def test_steady_state_is_an_equilibrium(plate_system):
 
 @pytest.mark.parametrize(
     ("perturbed", "rows", "block"),
-    [("solid", "solid", "J_ss"), ("solid", "fluid", "J_fs"), ("fluid", "solid", "J_sf"), ("fluid", "fluid", "J_ff")],
+    [
+        ("solid", "solid", "J_ss"),
+        ("solid", "fluid", "J_fs"),
+        ("fluid", "solid", "J_sf"),
+        ("fluid", "fluid", "J_ff"),
+    ],
 )
 def test_jacobian_blocks_match_finite_differences(plate_system, perturbed, rows, block):
     system, residual = plate_system

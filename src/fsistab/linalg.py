@@ -91,14 +91,15 @@ class ShiftedSolver:
         if self.backend not in BACKENDS:
             raise InputError(f"unknown linear solver backend {self.backend!r}: choose {', '.join(BACKENDS)}")
         s, sys_ = complex(self.shift), self.system
+        s = s.real if s.imag == 0 else s  # real arithmetic for a real shift (divergence, slopes)
         if self.backend == "superlu":
-            matrix = (sys_.jacobian + s * sys_.mass).astype(complex if s.imag else float).tocsc()
+            matrix = (sys_.jacobian + s * sys_.mass).tocsc()
             self._lu = spla.splu(matrix)
             self.counter.count += 1
             return
         if self.fluid_factor is None:
             self.fluid_factor = FluidFactor(sys_.fluid, s, self.counter)
-        elif self.fluid_factor.shift != s:
+        elif self.fluid_factor.shift != complex(s):
             raise InputError("the fluid factorisation was made for another shift")
         if sys_.n_solid:
             kfs = sys_.jfs + s * sys_.mfs

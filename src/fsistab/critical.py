@@ -1,0 +1,181 @@
+"""Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (MODEL.md §8).
+
+Dynamic instability: Newton on the augmented system in the unknowns ``(q̂, ω, U*)`` at fixed ``m``::
+
+    (iω M + J(U*)) q̂ = 0,     Re(ĥ) = 0 (phase),     q̂ᴴ M q̂ = 1 (amplitude)
+
+(for a pitch-only system the phase is fixed on ``θ̂``). Each Newton step solves three systems with
+the same matrix ``iωM + J(U*)`` — one factorisation of the fluid block at ``iω`` (independent of
+``U*``) reused through the bordered solver of :mod:`fsistab.linalg` — and a 2×2 real system for
+``(δω, δU*)``. Static instability: ``J(U*) q̂ = 0`` with ``θ̂ = 1``, real, where the fluid block
+``J_ff`` is factorised once for all iterations.
+
+``U*`` enters ``J`` only through the in-vacuo solid rows, so ``∂J/∂U*`` is explicit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fsistab.coupled import CoupledSystem
+from fsistab.errors import ConvergenceError, InputError
+from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
+from fsistab.operators import FluidOperators
+from fsistab.params import Solid
+
+
+def stiffness_derivative(solid: Solid) -> np.ndarray:
+    """``∂J_ss/∂U*`` (4 × 4): derivative of the in-vacuo rows (``ω_h = Ω/U*``, ``ω_θ = 1/U*``)."""
+    u = solid.reduced_velocity
+    w_h, w_t = solid.freq_ratio / u, 1.0 / u
+    d = np.zeros((4, 4))
+    d[2, 0] = -2 * w_h**2 / u
+    d[2, 2] = -2 * solid.zeta_h * w_h / u
+    d[3, 1] = -2 * w_t**2 / u
+    d[3, 3] = -2 * solid.zeta_theta * w_t / u
+    return d
+
+
+@dataclass(frozen=True)
+class CriticalPoint:
+    """A point of a neutral curve: ``λ = 0`` at ``(m, U*_c)`` with frequency ``ω_c`` (L/U∞ units).
+
+    ``kind`` is ``flutter`` (ω_c > 0) or ``divergence`` (ω_c = 0); ``mode`` the critical mode
+    (coupled vector, solid states first); ``history`` the Newton residual norms.
+    """
+
+    kind: str
+    mass_ratio: float
+    reduced_velocity: float
+    frequency: float
+    mode: np.ndarray
+    history: tuple[float, ...]
+    factorisations: int
+
+
+def _with_velocity(solid: Solid, reduced_velocity: float) -> Solid:
+    if not np.isfinite(reduced_velocity) or reduced_velocity <= 0:
+        raise ConvergenceError(
+            f"critical-point Newton left the admissible range (U* = {reduced_velocity:g}); "
+            "start closer to the crossing (a finer sweep in U*)"
+        )
+    return replace(solid, reduced_velocity=float(reduced_velocity))
+
+
+def _phase_index(system: CoupledSystem) -> int:
+    """Index in the coupled vector of ``h`` (or ``θ`` for a pitch-only system)."""
+    labels = system.state_labels()
+    for name in ("h", "theta"):
+        if name in labels:
+            return labels.index(name)
+    raise InputError("a critical point of the coupled system needs at least one solid degree of freedom")
+
+
+def flutter_point(
+    fluid: FluidOperators,
+    solid: Solid,
+    frequency: float,
+    mode: np.ndarray,
+    *,
+    tol: float = 1e-10,
+    maxit: int = 12,
+    counter: FactorCounter | None = None,
+) -> CriticalPoint:
+    """Newton on the augmented system of MODEL.md §8 from ``(mode, frequency, solid.reduced_velocity)``.
+
+    ``mode`` is a coupled vector of the system for ``solid`` (e.g. the eigenvector of the
+    eigenvalue closest to the axis). Converges quadratically; raises ConvergenceError otherwise.
+    """
+    counter = counter if counter is not None else FactorCounter()
+    start = counter.count
+    system = CoupledSystem(fluid, solid)
+    k = _phase_index(system)
+    q = np.asarray(mode, dtype=complex)
+    q = q * np.exp(-1j * (np.angle(q[k]) - np.pi / 2))  # Re(q_k) = 0
+    q /= np.sqrt(np.vdot(q, system.mass @ q).real)
+    omega, velocity = float(frequency), float(solid.reduced_velocity)
+    history: list[float] = []
+    for _ in range(maxit + 1):
+        system = CoupledSystem(fluid, _with_velocity(solid, velocity))
+        matrix_q = system.jacobian @ q + 1j * omega * (system.mass @ q)
+        residual = np.concatenate([matrix_q, [q[k].real, np.vdot(q, system.mass @ q).real - 1.0]])
+        history.append(float(np.linalg.norm(residual)))
+        if history[-1] < tol:
+            return CriticalPoint(
+                "flutter", solid.mass_ratio, velocity, omega, q, tuple(history), counter.count - start
+            )
+        if len(history) > maxit or not np.isfinite(history[-1]):
+            break
+        solver = ShiftedSolver(system, 1j * omega, counter=counter)
+        d_jss = np.zeros((system.size,), dtype=complex)
+        d_jss[: system.n_solid] = (
+            stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[: system.n_solid]
+        )
+        a = solver.solve(-matrix_q)
+        b = solver.solve(-1j * (system.mass @ q))
+        c = solver.solve(-d_jss)
+        mq = system.mass @ q
+        border = np.array([[b[k].real, c[k].real], [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real]])
+        rhs = np.array([-(q[k] + a[k]).real, 1.0 - np.vdot(q, mq).real - 2 * np.vdot(mq, a).real])
+        d_omega, d_velocity = np.linalg.solve(border, rhs)
+        q = q + a + d_omega * b + d_velocity * c
+        omega += d_omega
+        velocity += d_velocity
+    raise ConvergenceError(
+        f"flutter Newton did not converge near U* = {velocity:.4g}, omega = {omega:.4g} "
+        f"(residuals {', '.join(f'{r:.1e}' for r in history[-4:])}); start closer to the crossing"
+    )
+
+
+def divergence_point(
+    fluid: FluidOperators,
+    solid: Solid,
+    *,
+    tol: float = 1e-10,
+    maxit: int = 20,
+    counter: FactorCounter | None = None,
+    fluid_factor: FluidFactor | None = None,
+) -> CriticalPoint:
+    """Static instability ``J(U*) q̂ = 0`` (``θ̂ = 1``) by Newton in ``(q̂, 1/U*²)``.
+
+    One real factorisation of ``J_ff`` (pass ``fluid_factor`` to share it between mass ratios).
+    """
+    counter = counter if counter is not None else FactorCounter()
+    start = counter.count
+    if "pitch" not in solid.dofs:
+        raise InputError("divergence needs the pitch degree of freedom")
+    factor = fluid_factor or FluidFactor(fluid, 0.0, counter)
+    system = CoupledSystem(fluid, solid)
+    k = system.state_labels().index("theta")
+    q = ShiftedSolver(system, 0.0, fluid_factor=factor).solve(np.eye(system.size)[k])
+    q /= q[k]
+    velocity = float(solid.reduced_velocity)
+    history: list[float] = []
+    for _ in range(maxit + 1):
+        system = CoupledSystem(fluid, _with_velocity(solid, velocity))
+        residual = system.jacobian @ q
+        history.append(float(np.linalg.norm(residual)))
+        if history[-1] < tol:
+            return CriticalPoint(
+                "divergence", solid.mass_ratio, velocity, 0.0, q, tuple(history), counter.count - start
+            )
+        if len(history) > maxit:
+            break
+        solver = ShiftedSolver(system, 0.0, fluid_factor=factor)
+        d_jss = np.zeros(system.size)
+        d_jss[: system.n_solid] = (
+            stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[: system.n_solid]
+        )
+        # Newton in κ = 1/U*²: the static problem is affine in κ (ḣ = θ' = 0 in the mode)
+        d_jss *= -(velocity**3) / 2  # ∂J/∂κ q
+        a = solver.solve(-residual)
+        c = solver.solve(-d_jss)
+        d_kappa = -(q[k] + a[k] - 1.0) / c[k]
+        q = q + a + d_kappa * c
+        velocity = 1.0 / np.sqrt(max(velocity**-2 + d_kappa, 1e-300))
+    raise ConvergenceError(
+        f"divergence Newton did not converge near U* = {velocity:.4g} "
+        f"(residuals {', '.join(f'{r:.1e}' for r in history[-4:])}); try another starting U*"
+    )

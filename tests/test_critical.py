@@ -1,0 +1,90 @@
+"""Critical points of the plate (MODEL.md §8), Re = 2900, α0 = 0, coarse mesh."""
+
+import math
+
+import numpy as np
+import pytest
+
+from fsistab.coupled import CoupledSystem
+from fsistab.critical import divergence_point, flutter_point, stiffness_derivative
+from fsistab.eigen import eigenpairs_near
+from fsistab.errors import InputError
+from fsistab.linalg import FactorCounter
+from fsistab.operators import fluid_operators
+from fsistab.params import Solid
+from fsistab.slopes import static_slopes
+
+
+@pytest.fixture(scope="module")
+def plate_operators(plate_2900):
+    return fluid_operators(plate_2900)
+
+
+def _quadratic(history):
+    """Converged, and the last step squares the residual (up to a bounded constant)."""
+    r = np.array(history)
+    return r[-1] < 1e-9 and r[-1] < 1e4 * r[-2] ** 2
+
+
+def test_stiffness_derivative_matches_finite_difference():
+    from fsistab.coupled import solid_stiffness
+
+    solid, eps = Solid(mass_ratio=10, reduced_velocity=3.0, zeta_h=0.02), 1e-6
+    fd = (
+        solid_stiffness(Solid(**{**solid.__dict__, "reduced_velocity": 3.0 + eps}))
+        - solid_stiffness(Solid(**{**solid.__dict__, "reduced_velocity": 3.0 - eps}))
+    ) / (2 * eps)
+    assert np.allclose(fd, stiffness_derivative(solid), atol=1e-8)
+
+
+def test_divergence_is_the_torsional_formula(plate_operators):
+    """MODEL.md §8: U*_D = sqrt(m r_θ² / (dC_M/dθ)) with the computed static slope."""
+    slope = static_slopes(plate_operators).moment
+    counter = FactorCounter()
+    for mass_ratio in (100.0, 1000.0):
+        point = divergence_point(
+            plate_operators, Solid(mass_ratio=mass_ratio, reduced_velocity=5.0), counter=counter
+        )
+        expected = math.sqrt(mass_ratio * 0.289**2 / slope)
+        assert point.reduced_velocity == pytest.approx(expected, rel=1e-9)
+        assert point.kind == "divergence" and point.frequency == 0
+        assert _quadratic(point.history)
+    assert counter.count == 2  # one real factorisation of J_ff per call
+
+
+def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):
+    # bracket the crossing with two eigen-solves, interpolate, then Newton from there
+    branch = {}
+    for velocity in (4.3, 4.7):
+        system = CoupledSystem(plate_operators, Solid(mass_ratio=1000, reduced_velocity=velocity))
+        pairs = eigenpairs_near(system, [0.003 + 0.17j], 4)
+        branch[velocity] = max((p for p in pairs if p.label != "fluid"), key=lambda p: p.growth_rate)
+    assert branch[4.3].growth_rate < 0 < branch[4.7].growth_rate  # flutter onset (REFERENCE.md §E)
+    weight = branch[4.7].growth_rate / (branch[4.7].growth_rate - branch[4.3].growth_rate)
+    guess_velocity = 4.7 - weight * 0.4
+    solid = Solid(mass_ratio=1000, reduced_velocity=guess_velocity)
+    counter = FactorCounter()
+    guess = branch[4.7]
+    point = flutter_point(plate_operators, solid, guess.frequency, guess.vector, counter=counter)
+    assert _quadratic(point.history)
+    assert counter.count == len(point.history) - 1  # one factorisation per Newton step
+    assert 4.0 < point.reduced_velocity < 4.7  # REFERENCE.md §E: U*_F ≈ 4.5 (fine mesh)
+    # the eigen-solver at the critical U* finds a neutral eigenvalue at the critical frequency
+    at_critical = CoupledSystem(
+        plate_operators, Solid(mass_ratio=1000, reduced_velocity=point.reduced_velocity)
+    )
+    shift = 1j * point.frequency + 0.002
+    nearest = min(eigenpairs_near(at_critical, [shift], 3), key=lambda p: abs(p.value - 1j * point.frequency))
+    assert abs(nearest.growth_rate) < 1e-8
+    assert nearest.frequency == pytest.approx(point.frequency, rel=1e-8)
+    # and the growth rate changes sign across U*_c: onset of flutter as U* increases
+    below = CoupledSystem(
+        plate_operators, Solid(mass_ratio=1000, reduced_velocity=0.99 * point.reduced_velocity)
+    )
+    value = min(eigenpairs_near(below, [shift], 3), key=lambda p: abs(p.value - 1j * point.frequency))
+    assert value.growth_rate < 0
+
+
+def test_critical_point_needs_a_solid(plate_operators):
+    with pytest.raises(InputError, match="pitch"):
+        divergence_point(plate_operators, Solid(dofs=("heave",)))
