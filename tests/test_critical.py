@@ -88,3 +88,27 @@ def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):
 def test_critical_point_needs_a_solid(plate_operators):
     with pytest.raises(InputError, match="pitch"):
         divergence_point(plate_operators, Solid(dofs=("heave",)))
+
+
+def test_thresholds_along_reduced_velocity(plate_operators):
+    """m = 1000: flutter onset, then divergence (REFERENCE.md §E order), from one sweep."""
+    from fsistab.critical import find_thresholds
+
+    counter = FactorCounter()
+    thresholds, branches = find_thresholds(
+        plate_operators, Solid(mass_ratio=1000, reduced_velocity=3.0), np.geomspace(3, 9, 12), counter=counter
+    )
+    kinds = [(t.kind, t.boundary) for t in thresholds]
+    assert kinds[0] == ("flutter", "onset") and ("divergence", "onset") in kinds
+    direct = flutter_point(
+        plate_operators,
+        Solid(mass_ratio=1000, reduced_velocity=thresholds[0].reduced_velocity * 1.01),
+        thresholds[0].frequency,
+        thresholds[0].point.mode,
+    )
+    assert thresholds[0].reduced_velocity == pytest.approx(direct.reduced_velocity, rel=1e-8)
+    divergence = next(t for t in thresholds if t.kind == "divergence")
+    slope = static_slopes(plate_operators).moment
+    assert divergence.reduced_velocity == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
+    heave = branches["heave"]
+    assert all(label != "fluid" for label in heave.labels)  # the branch kept its identity

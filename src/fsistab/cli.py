@@ -421,6 +421,100 @@ def slopes(
     console.print(f"data {data_path}")
 
 
+@app.command()
+@user_errors
+def critical(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+    mass_ratio: MassOpt = None,
+    freq_ratio: FreqRatioOpt = 0.8,
+    zeta_h: ZetaHOpt = 0.0,
+    zeta_theta: ZetaThetaOpt = 0.05,
+    r_theta: RThetaOpt = 0.289,
+    dofs: DofsOpt = None,
+    velocity_range: Annotated[
+        tuple[float, float], typer.Option("--reduced-velocity-range", help="U* range of the sweep")
+    ] = (2.0, 10.0),
+    points: Annotated[int, typer.Option("--points", help="U* values of the sweep (log-spaced)")] = 24,
+    wake_shift: Annotated[
+        str | None, typer.Option("--wake-shift", help="shift near the wake mode, to follow it too (VIV)")
+    ] = None,
+):
+    """Every instability threshold along U* at one mass ratio (MODEL.md §8): branch tracking,
+    then Newton on the augmented system at each crossing; divergence from the static system."""
+    import numpy as np
+
+    from fsistab.critical import find_thresholds
+    from fsistab.linalg import FactorCounter
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.steady import solve_steady
+
+    flow = Flow(reynolds, alpha0)
+    default_dofs = "heave" if body == "cylinder" else "heave,pitch"
+    lo, hi = velocity_range
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
+    if not 2 <= points <= 500:
+        raise InputError(f"--points must be between 2 and 500, got {points}")
+    solid = _solid(body, mass_ratio, lo, freq_ratio, zeta_h, zeta_theta, r_theta, dofs or default_dofs)
+    if not solid.dofs:
+        raise InputError("critical points need at least one solid degree of freedom (--dofs)")
+    shifts = _shifts([wake_shift]) if wake_shift else [None]
+    velocities = np.geomspace(lo, hi, points)
+    if body == "cylinder":  # MODEL.md §10 U* = 2π × the generic one
+        velocities = velocities / (2 * math.pi)
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    counter = FactorCounter()
+    with console.status("steady state") as status:
+        steady_state = solve_steady(spec, flow, cache_dir=_cache(cache))
+        fluid = fluid_operators(steady_state)
+
+        def progress(i, velocity):
+            status.update(f"tracking branches: point {i + 1}/{points}, {counter.count} factorisations")
+
+        thresholds, _ = find_thresholds(
+            fluid, solid, velocities, wake_shift=shifts[0], counter=counter, progress=progress
+        )
+    scale = 2 * math.pi if body == "cylinder" else 1.0
+    user_mass = mass_ratio or (20.0 if body == "cylinder" else 1000.0)
+    payload = {
+        "mass_ratio": user_mass,
+        "critical_points": [
+            {
+                "kind": t.kind,
+                "reduced_velocity": t.reduced_velocity * scale,
+                "frequency": t.frequency,
+                "boundary": t.boundary,
+            }
+            for t in thresholds
+        ],
+        "factorisations": counter.count,
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"thresholds: {body}, Re = {reynolds:g}, m = {user_mass:g}, U* in [{lo:g}, {hi:g}]")
+    for column in ("kind", "boundary", "U*_c", "ω_c", "ω_c U*_c"):
+        table.add_column(column, justify="right")
+    for t in thresholds:
+        u = t.reduced_velocity * scale
+        table.add_row(
+            t.kind, t.boundary, f"{u:.6g}", f"{t.frequency:.6g}", f"{t.frequency * t.reduced_velocity:.4g}"
+        )
+    console.print(table)
+    console.print(f"{counter.count} factorisations; {points} values of U* tracked")
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

@@ -179,3 +179,108 @@ def divergence_point(
         f"divergence Newton did not converge near U* = {velocity:.4g} "
         f"(residuals {', '.join(f'{r:.1e}' for r in history[-4:])}); try another starting U*"
     )
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """An instability threshold along U* at fixed m: ``kind`` flutter, divergence or viv;
+    ``boundary`` onset (unstable above U*_c along the branch) or restabilisation."""
+
+    kind: str
+    boundary: str
+    branch: str
+    point: CriticalPoint
+
+    @property
+    def reduced_velocity(self) -> float:
+        return self.point.reduced_velocity
+
+    @property
+    def frequency(self) -> float:
+        return self.point.frequency
+
+
+def solid_mode_starts(
+    system: CoupledSystem, wake_shift: complex | None = None, n_eigenvalues: int = 8
+) -> dict:
+    """Starting eigenpairs of the branches to follow: one per active solid dof (the eigenvalue near
+    its in-vacuo frequency holding the most solid energy) and, if ``wake_shift`` is given, the
+    least stable fluid mode near it."""
+    from fsistab.eigen import eigenpairs_near
+
+    solid = system.solid
+    in_vacuo = {"heave": solid.freq_ratio / solid.reduced_velocity, "pitch": 1.0 / solid.reduced_velocity}
+    starts = {}
+    for dof in solid.dofs:
+        pairs = eigenpairs_near(system, [0.002 + 1j * in_vacuo[dof]], n_eigenvalues)
+        matching = [p for p in pairs if p.label in (dof, "coupled")] or pairs
+        candidates = [p for p in matching if all(abs(p.value - s.value) > 1e-9 for s in starts.values())]
+        starts[dof] = max(candidates, key=lambda p: p.solid_energy_fraction)
+    if wake_shift is not None:
+        pairs = eigenpairs_near(system, [wake_shift], n_eigenvalues)
+        fluid = [p for p in pairs if p.label == "fluid"] or pairs
+        starts["wake"] = max(fluid, key=lambda p: p.growth_rate)
+    return starts
+
+
+def find_thresholds(
+    fluid: FluidOperators,
+    solid: Solid,
+    velocities: np.ndarray,
+    *,
+    wake_shift: complex | None = None,
+    counter: FactorCounter | None = None,
+    progress=None,
+) -> tuple[list[Threshold], dict]:
+    """Every threshold along ``velocities`` (increasing U*) at ``solid.mass_ratio``.
+
+    Branches are tracked (:mod:`fsistab.tracking`); each sign change of a growth rate is refined by
+    :func:`flutter_point` from the interpolated crossing; divergence comes from
+    :func:`divergence_point` when pitch is active. A crossing is ``viv`` when its branch is the
+    wake mode or its frequency is within 30 % of the wake frequency, ``flutter`` otherwise.
+    Returns the thresholds sorted by U* and the tracked branches.
+    """
+    from fsistab.tracking import track_branches
+
+    counter = counter if counter is not None else FactorCounter()
+    velocities = np.asarray(velocities, dtype=float)
+    if velocities.ndim != 1 or len(velocities) < 2 or np.any(np.diff(velocities) <= 0) or velocities[0] <= 0:
+        raise InputError("the reduced velocities must be positive and increasing (at least two)")
+
+    def system_at(velocity: float) -> CoupledSystem:
+        return CoupledSystem(fluid, replace(solid, reduced_velocity=float(velocity)))
+
+    starts = solid_mode_starts(system_at(velocities[0]), wake_shift)
+    branches = track_branches(
+        system_at, velocities, starts, inverse_scaling=solid.dofs, counter=counter, progress=progress
+    )
+    wake_frequency = starts["wake"].frequency if "wake" in starts else None
+    found: list[Threshold] = []
+    for name, branch in branches.items():
+        growth = np.array([v.real for v in branch.values])
+        for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
+            u0, u1 = branch.parameters[i], branch.parameters[i + 1]
+            weight = growth[i] / (growth[i] - growth[i + 1])
+            guess_velocity = u0 + weight * (u1 - u0)
+            guess = branch.values[i] + weight * (branch.values[i + 1] - branch.values[i])
+            if abs(guess.imag) < 1e-6:
+                continue  # a static crossing: divergence, found below
+            point = flutter_point(
+                fluid,
+                replace(solid, reduced_velocity=guess_velocity),
+                guess.imag,
+                branch.vectors[i + 1],
+                counter=counter,
+            )
+            is_viv = name == "wake" or (
+                wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
+            )
+            boundary = "onset" if growth[i] < 0 else "restabilisation"
+            found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+    if "pitch" in solid.dofs:
+        point = divergence_point(
+            fluid, replace(solid, reduced_velocity=float(velocities[-1])), counter=counter
+        )
+        if velocities[0] <= point.reduced_velocity <= velocities[-1]:
+            found.append(Threshold("divergence", "onset", "static", point))
+    return sorted(found, key=lambda t: t.reduced_velocity), branches
