@@ -68,3 +68,23 @@ def test_divergence_curve_and_bad_input(plate_operators):
     point = divergence_point(plate_operators, Solid(mass_ratio=1000, reduced_velocity=7.0))
     with pytest.raises(InputError, match="dynamic"):
         continue_neutral_curve(plate_operators, point, Solid())
+
+
+def test_interrupted_curve_resumes_from_its_last_point(plate_operators, tmp_path):
+    from fsistab.errors import CacheError
+    from fsistab.neutral import trace_curve_resumable
+
+    solid = Solid(mass_ratio=1000, reduced_velocity=4.7)
+    pairs = eigenpairs_near(CoupledSystem(plate_operators, solid), [0.003 + 0.17j], 4)
+    guess = max((p for p in pairs if p.label != "fluid"), key=lambda p: p.growth_rate)
+    start = flutter_point(
+        plate_operators, Solid(mass_ratio=1000, reduced_velocity=4.56), guess.frequency, guess.vector
+    )
+    path, attrs = tmp_path / "curve.nc", {"case": "plate"}
+    first = trace_curve_resumable(plate_operators, start, solid, path, attrs, direction=1, max_points=2)
+    resumed = trace_curve_resumable(plate_operators, start, solid, path, attrs, direction=1, max_points=4)
+    assert len(first) == 2 and len(resumed) == 4
+    assert [p.mass_ratio for p in resumed[:2]] == [p.mass_ratio for p in first]
+    assert resumed[-1].mass_ratio > resumed[-2].mass_ratio > 1000
+    with pytest.raises(CacheError, match="does not match"):
+        trace_curve_resumable(plate_operators, start, solid, path, {"case": "other"}, max_points=4)

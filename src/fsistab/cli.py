@@ -515,6 +515,144 @@ def critical(
     console.print(f"{counter.count} factorisations; {points} values of U* tracked")
 
 
+@app.command()
+@user_errors
+def neutral(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+    mass_range: Annotated[tuple[float, float], typer.Option("--mass-ratio-range", help="m range")] = (
+        1.0,
+        1e4,
+    ),
+    start_mass: Annotated[float, typer.Option("--start-mass-ratio", help="m of the initial sweep")] = 1000.0,
+    velocity_range: Annotated[
+        tuple[float, float], typer.Option("--reduced-velocity-range", help="U* range of the initial sweep")
+    ] = (2.0, 10.0),
+    points: Annotated[int, typer.Option("--points", help="U* values of the initial sweep")] = 24,
+    max_points: Annotated[int, typer.Option("--max-points", help="points per curve and direction")] = 60,
+    freq_ratio: FreqRatioOpt = 0.8,
+    zeta_h: ZetaHOpt = 0.0,
+    zeta_theta: ZetaThetaOpt = 0.05,
+    r_theta: RThetaOpt = 0.289,
+):
+    """Neutral curves of flutter and divergence in the (m, U*) plane by pseudo-arclength
+    continuation (MODEL.md §8), from the thresholds of a sweep at --start-mass-ratio.
+
+    Each curve is saved (NetCDF) after every point; rerunning the same command resumes."""
+    import numpy as np
+
+    from fsistab.critical import find_thresholds
+    from fsistab.linalg import FactorCounter
+    from fsistab.neutral import divergence_curve, trace_curve_resumable
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.slopes import static_slopes
+    from fsistab.steady import solve_steady
+    from fsistab.store import write_dataset
+
+    if body != "plate":
+        raise InputError("neutral maps are implemented for the plate (heave and pitch)")
+    flow = Flow(reynolds, alpha0)
+    lo_m, hi_m = mass_range
+    if not (0 < lo_m < hi_m and math.isfinite(hi_m)) or not lo_m <= start_mass <= hi_m:
+        raise InputError("--mass-ratio-range must be 0 < low < high and contain --start-mass-ratio")
+    lo, hi = velocity_range
+    if not 0 < lo < hi:
+        raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
+    solid = _solid(body, start_mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    counter = FactorCounter()
+    tag = _tag(body, reynolds, alpha0)
+    attrs = {
+        "reynolds": reynolds,
+        "alpha0_deg": alpha0,
+        "mesh_key": spec.key(),
+        "freq_ratio": freq_ratio,
+        "zeta_h": zeta_h,
+        "zeta_theta": zeta_theta,
+        "r_theta": r_theta,
+    }
+    with console.status("steady state and operators") as status:
+        fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
+        status.update(f"sweep in U* at m = {start_mass:g}")
+        thresholds, _ = find_thresholds(fluid, solid, np.geomspace(lo, hi, points), counter=counter)
+        curves = []
+        dynamic = [t for t in thresholds if t.kind != "divergence"]
+        for k, threshold in enumerate(dynamic):
+            for direction in (-1, 1):
+                path = out / f"neutral_{tag}_curve{k}_{'down' if direction < 0 else 'up'}.nc"
+                towards = "smaller" if direction < 0 else "larger"
+                status.update(f"curve {k + 1}/{len(dynamic)} ({threshold.kind}), towards {towards} m")
+                traced = trace_curve_resumable(
+                    fluid,
+                    threshold.point,
+                    solid,
+                    path,
+                    {**attrs, "kind": threshold.kind, "direction": direction},
+                    direction=direction,
+                    mass_range=mass_range,
+                    max_points=max_points,
+                    counter=counter,
+                )
+                curves.append((threshold.kind, direction, traced))
+        slope = static_slopes(fluid, counter).moment
+    masses = np.geomspace(lo_m, hi_m, 60)
+    import xarray as xr
+
+    divergence = xr.Dataset(
+        {"reduced_velocity": ("mass_ratio", divergence_curve(slope, r_theta, masses))},
+        coords={"mass_ratio": masses},
+        attrs={**attrs, "moment_slope": slope},
+    )
+    write_dataset(divergence, out / f"neutral_{tag}_divergence.nc")
+    payload = {
+        "curves": [
+            {
+                "kind": kind,
+                "direction": "decreasing m" if direction < 0 else "increasing m",
+                "mass_ratio": [p.mass_ratio for p in traced],
+                "reduced_velocity": [p.reduced_velocity for p in traced],
+                "frequency": [p.frequency for p in traced],
+            }
+            for kind, direction, traced in curves
+        ],
+        "divergence": {
+            "mass_ratio": masses.tolist(),
+            "reduced_velocity": divergence.reduced_velocity.values.tolist(),
+        },
+        "factorisations": counter.count,
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"neutral curves: plate, Re = {reynolds:g}, m in [{lo_m:g}, {hi_m:g}]")
+    for column in ("curve", "points", "m range", "U* range"):
+        table.add_column(column, justify="right")
+    for kind, direction, traced in curves:
+        m = [p.mass_ratio for p in traced]
+        u = [p.reduced_velocity for p in traced]
+        table.add_row(
+            f"{kind} ({'down' if direction < 0 else 'up'})",
+            str(len(traced)),
+            f"{min(m):.4g}–{max(m):.4g}",
+            f"{min(u):.4g}–{max(u):.4g}",
+        )
+    table.add_row(
+        "divergence", "analytic", f"{lo_m:g}–{hi_m:g}", f"U*_D = {math.sqrt(r_theta**2 / slope):.4g} √m"
+    )
+    console.print(table)
+    console.print(f"{counter.count} factorisations; curves saved in {out}")
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

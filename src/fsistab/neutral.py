@@ -230,3 +230,63 @@ def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarra
     if moment_slope <= 0:
         return np.full_like(mass_ratios, np.nan)
     return np.sqrt(mass_ratios * r_theta**2 / moment_slope)
+
+
+def curve_dataset(curve_points: list[NeutralPoint], attrs: dict, complete: bool):
+    """Points of a neutral curve (and the last point's mode, to resume) as an xarray Dataset."""
+    import xarray as xr
+
+    last = curve_points[-1]
+    return xr.Dataset(
+        {
+            "mass_ratio": ("point", np.array([p.mass_ratio for p in curve_points])),
+            "reduced_velocity": ("point", np.array([p.reduced_velocity for p in curve_points])),
+            "frequency": ("point", np.array([p.frequency for p in curve_points])),
+            "last_mode_real": ("unknown", last.mode.real),
+            "last_mode_imag": ("unknown", last.mode.imag),
+        },
+        attrs={**attrs, "complete": int(complete)},
+    )
+
+
+def trace_curve_resumable(
+    fluid: FluidOperators,
+    start: CriticalPoint,
+    template: Solid,
+    path,
+    attrs: dict,
+    **options,
+) -> list[NeutralPoint]:
+    """:func:`continue_neutral_curve` writing ``path`` (NetCDF) after every point.
+
+    If ``path`` holds a curve with the same ``attrs`` that was interrupted, or stopped at fewer
+    than ``max_points`` points, it continues from its last point; a mismatched file is refused."""
+    from fsistab.store import read_dataset, write_dataset
+
+    points: list[NeutralPoint] = []
+    if path.exists():
+        ds = read_dataset(path, expect=attrs)
+        points = [
+            NeutralPoint(m, u, w, np.zeros(0), 0)
+            for m, u, w in zip(
+                ds.mass_ratio.values, ds.reduced_velocity.values, ds.frequency.values, strict=True
+            )
+        ]
+        mode = ds.last_mode_real.values + 1j * ds.last_mode_imag.values
+        points[-1] = replace(points[-1], mode=mode)
+        wanted = options.get("max_points", 200)
+        if ds.attrs.get("complete") and (ds.attrs.get("stop") != "max_points" or len(points) >= wanted):
+            return points
+        options = {**options, "max_points": wanted - len(points) + 1}
+        last = points[-1]
+        start = CriticalPoint("flutter", last.mass_ratio, last.reduced_velocity, last.frequency, mode, (), 0)
+    else:
+        points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
+
+    def save(point: NeutralPoint) -> None:
+        points.append(point)
+        write_dataset(curve_dataset(points, attrs, complete=False), path)
+
+    curve = continue_neutral_curve(fluid, start, template, on_point=save, **options)
+    write_dataset(curve_dataset(points, {**attrs, "stop": curve.stop}, complete=True), path)
+    return points

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import matplotlib
 
@@ -117,3 +118,196 @@ def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Pat
     path.parent.mkdir(parents=True, exist_ok=True)
     VTKOutput(steady.mesh, coefs=coefs, names=names, filename=str(path.with_suffix("")), subdivision=1).Do()
     return path.with_suffix(".vtu")
+
+
+# --- modes -----------------------------------------------------------------------------------------
+
+
+def _mode_window(kind: str):
+    return ((-1.0, 2.0), (-0.75, 0.75)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
+
+
+def _draw_body(ax, body) -> None:
+    from matplotlib.patches import Circle, FancyBboxPatch
+
+    if body.kind == "plate":
+        e = body.thickness
+        r = body.corner_radius * e
+        patch = FancyBboxPatch(
+            (-0.5 + r, -e / 2 + r), 1 - 2 * r, e - 2 * r, boxstyle=f"round,pad={r}", fc="0.6", ec="k", lw=0.6
+        )
+    else:
+        patch = Circle((0.0, 0.0), 0.5, fc="0.6", ec="k", lw=0.6)
+    ax.add_patch(patch)
+
+
+def mode_pressure(steady, fluid_index, fluid_vector: np.ndarray, phase: float = 0.0):
+    """``Re(p̂ e^{iφ})`` of a mode at the mesh vertices, with the matching triangulation.
+
+    ``fluid_vector`` holds the fluid unknowns (the dofs ``fluid_index`` of ``steady.space``); the
+    pressure dofs are all free, so the wall lifting of the solid states does not enter.
+    """
+    from ngsolve import GridFunction
+
+    field = GridFunction(steady.space)
+    field.vec.FV().NumPy()[fluid_index] = (np.asarray(fluid_vector) * np.exp(1j * phase)).real
+    tri = _triangulation(steady.mesh)
+    values = np.asarray(field.components[1](steady.mesh(tri.x, tri.y))).reshape(-1)
+    return tri, values
+
+
+def plot_mode_snapshot(
+    steady, fluid_index, pair, system, path: Path, phase: float = 0.0, window=None
+) -> Path:
+    """Pressure ``Re(p̂ e^{iφ})`` of an eigenmode near the body, with the body's motion as arrows.
+
+    ``pair`` is an :class:`fsistab.eigen.Eigenpair` of ``system`` (its vector holds the active solid
+    states, then the fluid unknowns ``fluid_index`` of ``steady.space``). At phase ``φ`` the heave
+    ``h = Re(ĥ e^{iφ})`` is drawn at G along ``e_y`` (red) and, for the plate, the pitch rotation
+    ``θ = Re(θ̂ e^{iφ})`` as the displacements ``θ e_z∧X = (0, ±θ/2)`` of the leading and trailing
+    edges ``X = ∓1/2`` (green), with the displaced chord dashed. Arrows are scaled so that the
+    largest amplitude is a quarter of a body length (the scale is in the legend).
+    """
+    kind = steady.mesh_spec.body.kind
+    n_solid = system.n_solid
+    tri, pressure = mode_pressure(steady, fluid_index, pair.vector[n_solid:], phase)
+    window = window or _mode_window(kind)
+    inside = (
+        (tri.x >= window[0][0]) & (tri.x <= window[0][1]) & (tri.y >= window[1][0]) & (tri.y <= window[1][1])
+    )
+    vmax = float(np.percentile(np.abs(pressure[inside]), 99.5)) if inside.any() else 1.0
+    vmax = vmax if vmax > 0 else 1.0
+    fig, ax = plt.subplots(figsize=(10, 4.6))
+    levels = np.linspace(-vmax, vmax, 41)
+    cs = ax.tricontourf(tri, np.clip(pressure, -vmax, vmax), levels=levels, cmap="RdBu_r", extend="both")
+    fig.colorbar(cs, ax=ax, label=f"Re(p̂ e^(iφ)), φ = {phase:.3g}")
+    _draw_body(ax, steady.mesh_spec.body)
+
+    rotation = np.exp(1j * phase)
+    h_hat, theta_hat = pair.solid[0], pair.solid[1]
+    h, theta = (h_hat * rotation).real, (theta_hat * rotation).real
+    amplitude = max(abs(h_hat), 0.5 * abs(theta_hat) if kind == "plate" else 0.0)
+    if n_solid and amplitude > 0:
+        scale = 0.25 / amplitude
+        arrow = {"angles": "xy", "scale_units": "xy", "scale": 1.0, "width": 0.004, "zorder": 5}
+        ax.quiver([0.0], [0.0], [0.0], [scale * h], color="tab:red", label=f"heave h (×{scale:.3g})", **arrow)
+        if kind == "plate":
+            ax.quiver(
+                [-0.5, 0.5],
+                [0.0, 0.0],
+                [0.0, 0.0],
+                [-scale * theta / 2, scale * theta / 2],
+                color="tab:green",
+                label=f"pitch θ e_z∧X at the edges (×{scale:.3g})",
+                **arrow,
+            )
+            ax.plot(
+                [-0.5, 0.5],
+                [scale * (h - theta / 2), scale * (h + theta / 2)],
+                "k--",
+                lw=1.0,
+                label="displaced chord",
+                zorder=5,
+            )
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlim(*window[0])
+    ax.set_ylim(*window[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("X")
+    ax.set_ylabel("Y")
+    ax.set_title(
+        f"{kind}, Re = {steady.flow.reynolds:g}: mode σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i "
+        f"({pair.label}), pressure at phase {phase:.3g}"
+    )
+    return _save(fig, path)
+
+
+class SolidMotion(NamedTuple):
+    """The body's motion over one period of a mode (what :func:`plot_solid_motion` draws).
+
+    ``time`` is ``t/T`` with ``T = 2π/ω`` (or ``1/|λ|`` for a non-oscillating mode, ``1`` if both
+    vanish); ``heave`` is ``Re(ĥ e^{σt})`` and ``angle_of_attack`` is ``-Re(θ̂ e^{σt})``.
+    """
+
+    path: Path
+    time: np.ndarray
+    heave: np.ndarray
+    angle_of_attack: np.ndarray
+    period: float
+
+
+def solid_motion(value: complex, solid: np.ndarray, n: int = 201) -> tuple[np.ndarray, ...]:
+    """``(t/T, h(t), α(t), T)`` over one period of ``q e^{σt}``, growth included."""
+    value = complex(value)
+    omega, growth = abs(value.imag), value.real
+    period = 2 * np.pi / omega if omega > 1e-12 else (1.0 / abs(growth) if abs(growth) > 1e-12 else 1.0)
+    t = np.linspace(0.0, 1.0, n)
+    factor = np.exp(value * t * period)
+    heave = (solid[0] * factor).real
+    alpha = -(solid[1] * factor).real
+    return t, heave, alpha, period
+
+
+def plot_solid_motion(pair, path: Path, n: int = 201) -> SolidMotion:
+    """Heave ``h(t)`` and angle of attack ``α(t) = -θ(t)`` over one period of an eigenmode.
+
+    From the complex amplitudes ``pair.solid`` (``ĥ`` index 0, ``θ̂`` index 1) and
+    ``σ = pair.value``: ``h = Re(ĥ e^{σt})``, growth ``e^{λt}`` included, ``t`` normalised by
+    ``T = 2π/ω``. Returns the path and the plotted arrays.
+    """
+    t, heave, alpha, period = solid_motion(pair.value, pair.solid, n)
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    axes[0].plot(t, heave, color="tab:red")
+    axes[0].set_ylabel("heave h")
+    axes[1].plot(t, alpha, color="tab:green")
+    axes[1].set_ylabel("angle of attack α = -θ [rad]")
+    axes[1].set_xlabel("t / T" if abs(pair.value.imag) > 1e-12 else "t |λ|")
+    for ax in axes:
+        ax.axhline(0, color="k", lw=0.6)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(
+        f"σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i ({pair.label}), T = {period:.4g}; "
+        f"|ĥ| = {abs(pair.solid[0]):.3g}, |θ̂| = {abs(pair.solid[1]):.3g}"
+    )
+    return SolidMotion(_save(fig, path), t, heave, alpha, period)
+
+
+def plot_branches(
+    ds, path: Path, frequency_scale=None, scale_label: str = "", reference_lines=None, title: str = ""
+) -> Path:
+    """Growth rate and frequency of eigenvalue branches against the reduced velocity.
+
+    ``ds`` has dims ``reduced_velocity`` and ``branch`` and variables ``growth_rate`` and
+    ``frequency``. ``frequency_scale`` (a number, or one value per ``reduced_velocity``) divides
+    both, e.g. ``ω_n = 2π/U*`` (named ``scale_label``). ``reference_lines`` maps a legend label to
+    frequencies (a number or one per ``reduced_velocity``), drawn dashed in the frequency panel
+    and scaled the same way. Unstable points (growth rate > 0) are filled.
+    """
+    u = np.asarray(ds["reduced_velocity"].values, dtype=float)
+    scale = (
+        np.ones_like(u) if frequency_scale is None else np.broadcast_to(np.asarray(frequency_scale), u.shape)
+    )
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, name in enumerate(ds["branch"].values):
+        colour = colours[i % len(colours)]
+        growth = np.asarray(ds["growth_rate"].sel(branch=name).values, dtype=float)
+        frequency = np.asarray(ds["frequency"].sel(branch=name).values, dtype=float)
+        for ax, y in zip(axes, (growth / scale, frequency / scale), strict=True):
+            ax.plot(u, y, "-", color=colour, lw=1.2, label=str(name))
+            unstable = growth > 0
+            ax.plot(u[~unstable], y[~unstable], "o", mfc="white", mec=colour, ms=5)
+            ax.plot(u[unstable], y[unstable], "o", color=colour, ms=5)
+    for j, (label, values) in enumerate((reference_lines or {}).items()):
+        values = np.broadcast_to(np.asarray(values, dtype=float), u.shape)
+        axes[1].plot(u, values / scale, ls=("--", ":", "-.")[j % 3], color="0.3", lw=1, label=label)
+    axes[0].axhline(0, color="k", lw=0.8)
+    suffix = f" / {scale_label}" if frequency_scale is not None else ""
+    axes[0].set_ylabel(f"growth rate λ{suffix}")
+    axes[1].set_ylabel(f"frequency ω{suffix}")
+    for ax in axes:
+        ax.set_xlabel("reduced velocity U*")
+        ax.grid(alpha=0.3)
+    axes[1].legend(fontsize=8)
+    axes[0].set_title(title or "eigenvalue branches (filled: unstable)")
+    return _save(fig, path)
