@@ -554,6 +554,7 @@ def neutral(
     from fsistab.neutral import divergence_curve, trace_curve_resumable
     from fsistab.operators import fluid_operators
     from fsistab.params import Flow
+    from fsistab.plots import plot_stability_map
     from fsistab.slopes import static_slopes
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
@@ -614,6 +615,17 @@ def neutral(
         attrs={**attrs, "moment_slope": slope},
     )
     write_dataset(divergence, out / f"neutral_{tag}_divergence.nc")
+    joined = []  # each threshold's two directions as one polyline in order of m
+    for k in range(0, len(curves), 2):
+        (kind, _, down), (_, _, up) = curves[k], curves[k + 1]
+        ordered = list(reversed(down)) + up[1:]
+        joined.append((kind, [p.mass_ratio for p in ordered], [p.reduced_velocity for p in ordered]))
+    figure = plot_stability_map(
+        joined,
+        (masses, divergence.reduced_velocity.values),
+        out / f"neutral_{tag}.png",
+        title=f"plate, Re = {reynolds:g}, alpha0 = {alpha0:g} deg (grey: divergence)",
+    )
     payload = {
         "curves": [
             {
@@ -630,6 +642,7 @@ def neutral(
             "reduced_velocity": divergence.reduced_velocity.values.tolist(),
         },
         "factorisations": counter.count,
+        "figure": str(figure),
     }
     if as_json:
         _emit_json(payload)
@@ -650,7 +663,7 @@ def neutral(
         "divergence", "analytic", f"{lo_m:g}–{hi_m:g}", f"U*_D = {math.sqrt(r_theta**2 / slope):.4g} √m"
     )
     console.print(table)
-    console.print(f"{counter.count} factorisations; curves saved in {out}")
+    console.print(f"{counter.count} factorisations; curves saved in {out}; figure {figure}")
 
 
 def main() -> None:  # pragma: no cover - console entry point

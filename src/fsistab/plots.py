@@ -311,3 +311,49 @@ def plot_branches(
     axes[1].legend(fontsize=8)
     axes[0].set_title(title or "eigenvalue branches (filled: unstable)")
     return _save(fig, path)
+
+
+def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
+    """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
+
+    ``curves``: list of ``(kind, mass_ratios, reduced_velocities)`` for the dynamic neutral curves
+    (kind ``flutter`` or ``viv``); ``divergence``: ``(mass_ratios, reduced_velocities)``. The region
+    above the divergence curve is shaded (static instability); dynamic curves are drawn with
+    their kind, the side where a growth rate is positive being above an ``onset`` curve.
+    """
+    colours = {"flutter": "tab:red", "viv": "tab:blue"}
+    fig, ax = plt.subplots(figsize=(7.5, 5.5))
+    m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
+    ok = np.isfinite(u_div)
+    if ok.any():
+        ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
+        ax.fill_between(m_div[ok], u_div[ok], u_div[ok].max() * 10, color="0.85", zorder=0)
+    labelled = set()
+    for kind, masses, velocities in curves:
+        order = np.argsort(masses) if np.all(np.diff(masses) != 0) else slice(None)
+        label = kind if kind not in labelled else None
+        labelled.add(kind)
+        ax.plot(
+            np.asarray(masses)[order],
+            np.asarray(velocities)[order],
+            "-",
+            color=colours.get(kind, "tab:purple"),
+            lw=1.8,
+            label=label,
+        )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    all_u = (
+        np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok]])
+        if curves or ok.any()
+        else np.array([1.0])
+    )
+    ax.set_ylim(all_u.min() / 1.5, all_u.max() * 1.5)
+    ax.set_xlabel("mass ratio m")
+    ax.set_ylabel("reduced velocity U*")
+    secondary = ax.secondary_yaxis("right", functions=(lambda u: 1 / u, lambda w: 1 / w))
+    secondary.set_ylabel("ω_θ = 1/U*")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="upper left")
+    ax.set_title(title or "stability map (grey: static divergence)")
+    return _save(fig, path)
