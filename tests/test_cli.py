@@ -69,3 +69,25 @@ def test_corrupt_cache_is_refused(tmp_path):
     result = _run(args, tmp_path)
     assert result.exit_code == 2
     assert "corrupt" in result.stderr
+
+
+def test_spectrum_json_and_figures(tmp_path):
+    args = ["spectrum", "--body", "cylinder", "--Re", "60", "--mesh", "coarse", "--mass-ratio", "20"]
+    args += ["--reduced-velocity", "4", "--shift", "0.05+0.75j", "--n-eigenvalues", "2", "--json"]
+    result = _run(args, tmp_path)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    first = payload["eigenvalues"][0]
+    assert set(first) == {"growth_rate", "frequency", "label", "residual"}
+    assert first["residual"] < 1e-8
+    assert (tmp_path / "out" / "spectrum_cylinder_Re60_a0.nc").exists()
+    assert len(payload["mode_figures"]) == 4 and all((tmp_path / "out").glob("mode0_*.png"))
+    assert payload["vtk"].endswith(".vtu")
+
+
+def test_spectrum_refuses_bad_solid_before_work(tmp_path):
+    result = _run(["spectrum", "--mass-ratio", "-1", "--json"], tmp_path)
+    assert result.exit_code == 2 and "mass ratio must be positive" in result.stderr
+    assert not (tmp_path / "cache").exists()
+    result = _run(["spectrum", "--shift", "abc", "--json"], tmp_path)
+    assert result.exit_code == 2 and "cannot read the shift" in result.stderr

@@ -276,13 +276,18 @@ def spectrum(
     shift: Annotated[list[str] | None, typer.Option("--shift", help="complex shift, repeatable")] = None,
     n_eigenvalues: Annotated[int, typer.Option("--n-eigenvalues", help="eigenvalues per shift")] = 6,
     vtk: Annotated[bool, typer.Option("--vtk/--no-vtk", help="write the modes as VTK")] = True,
+    mode_figures: Annotated[
+        int,
+        typer.Option("--mode-figures", help="pressure snapshots and h(t), -θ(t) of the N least stable modes"),
+    ] = 2,
+    phase: Annotated[float, typer.Option("--phase", help="phase (rad) of the pressure snapshots")] = 0.0,
 ):
     """Eigenvalues of the coupled fluid–solid system nearest the given shifts (MODEL.md §7)."""
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near, spectrum_dataset
     from fsistab.operators import fluid_operators
     from fsistab.params import Flow
-    from fsistab.plots import plot_spectrum, write_modes_vtk
+    from fsistab.plots import plot_mode_snapshot, plot_solid_motion, plot_spectrum, write_modes_vtk
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
 
@@ -306,6 +311,17 @@ def spectrum(
     ds = spectrum_dataset(pairs, system, {"shifts": json.dumps([[z.real, z.imag] for z in shifts])})
     data_path = write_dataset(ds, out / f"spectrum_{tag}.nc")
     figure = plot_spectrum(ds, out / f"spectrum_{tag}.png", title=f"{body}, Re = {reynolds:g}")
+    mode_paths = []
+    for i, pair in enumerate(pairs[: max(0, mode_figures)]):
+        mode_paths.append(
+            str(
+                plot_mode_snapshot(
+                    steady_state, system.fluid.free_dofs, pair, system, out / f"mode{i}_{tag}.png", phase
+                )
+            )
+        )
+        if system.n_solid:
+            mode_paths.append(str(plot_solid_motion(pair, out / f"mode{i}_motion_{tag}.png").path))
     vtk_path = None
     if vtk:
         n_solid = system.n_solid
@@ -320,6 +336,7 @@ def spectrum(
         "netcdf": str(data_path),
         "figure": str(figure),
         "vtk": str(vtk_path) if vtk_path else None,
+        "mode_figures": mode_paths,
     }
     if as_json:
         _emit_json(payload)
