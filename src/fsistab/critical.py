@@ -38,6 +38,14 @@ def stiffness_derivative(solid: Solid) -> np.ndarray:
     return d
 
 
+def velocity_derivative(system: CoupledSystem, q: np.ndarray) -> np.ndarray:
+    """``∂J/∂U* q``: nonzero on the solid rows only."""
+    ns = system.n_solid
+    out = np.zeros(system.size, dtype=q.dtype)
+    out[:ns] = stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[:ns]
+    return out
+
+
 @dataclass(frozen=True)
 class CriticalPoint:
     """A point of a neutral curve: ``λ = 0`` at ``(m, U*_c)`` with frequency ``ω_c`` (L/U∞ units).
@@ -109,10 +117,7 @@ def flutter_point(
         if len(history) > maxit or not np.isfinite(history[-1]):
             break
         solver = ShiftedSolver(system, 1j * omega, counter=counter)
-        d_jss = np.zeros((system.size,), dtype=complex)
-        d_jss[: system.n_solid] = (
-            stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[: system.n_solid]
-        )
+        d_jss = velocity_derivative(system, q)
         a = solver.solve(-matrix_q)
         b = solver.solve(-1j * (system.mass @ q))
         c = solver.solve(-d_jss)
@@ -164,10 +169,7 @@ def divergence_point(
         if len(history) > maxit:
             break
         solver = ShiftedSolver(system, 0.0, fluid_factor=factor)
-        d_jss = np.zeros(system.size)
-        d_jss[: system.n_solid] = (
-            stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[: system.n_solid]
-        )
+        d_jss = velocity_derivative(system, q)
         # Newton in κ = 1/U*²: the static problem is affine in κ (ḣ = θ' = 0 in the mode)
         d_jss *= -(velocity**3) / 2  # ∂J/∂κ q
         a = solver.solve(-residual)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fsistab.coupled import CoupledSystem, solid_stiffness
-from fsistab.critical import CriticalPoint, _phase_index, stiffness_derivative
+from fsistab.critical import CriticalPoint, _phase_index, velocity_derivative
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import FluidOperators
@@ -114,10 +114,7 @@ def _newton_arclength(
             system, factor.shift if factor else 1j * omega, fluid_factor=factor, counter=counter
         )
         factor = solver.fluid_factor
-        d_velocity = np.zeros(system.size, dtype=complex)
-        d_velocity[: system.n_solid] = (
-            stiffness_derivative(solid)[np.ix_(system.active, system.active)] @ q[: system.n_solid]
-        )
+        d_velocity = velocity_derivative(system, q)
         a = solver.solve(-matrix_q)
         b = solver.solve(-1j * mq)
         c = solver.solve(-d_velocity)
