@@ -683,6 +683,317 @@ def neutral(
     console.print(f"{counter.count} factorisations; curves saved in {out}; figure {figure}")
 
 
+SLOPE_SOURCES = ("thin-airfoil", "calibrated", "given")
+
+
+def _theodorsen_slopes(
+    slopes: str,
+    lift_slope_alpha: float | None,
+    moment_slope_alpha: float | None,
+    reynolds: float,
+    alpha0: float,
+    preset: str,
+    aspect_ratio: float,
+    corner_radius: float,
+    domain,
+    cache: Path | None,
+    console: Console,
+):
+    """Slopes of the Theodorsen model: thin airfoil, given (dC_L/dα, d(-C_M)/dα), or the viscous
+    static slopes of MODEL.md §9 (``calibrated``) through the same API path as ``fsistab slopes``:
+    cached steady state, fluid operators, one linear solve."""
+    from fsistab.theodorsen import AirfoilSlopes
+
+    if slopes not in SLOPE_SOURCES:
+        raise InputError(f"unknown --slopes {slopes!r}: choose {', '.join(SLOPE_SOURCES)}")
+    given = (lift_slope_alpha, moment_slope_alpha)
+    if slopes != "given" and any(v is not None for v in given):
+        raise InputError("--lift-slope-alpha and --moment-slope-alpha need --slopes given")
+    if slopes == "thin-airfoil":
+        return AirfoilSlopes.thin_airfoil()
+    if slopes == "given":
+        if any(v is None for v in given):
+            raise InputError("--slopes given needs both --lift-slope-alpha and --moment-slope-alpha")
+        return AirfoilSlopes.from_alpha(lift_slope_alpha, moment_slope_alpha)
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.slopes import static_slopes
+    from fsistab.steady import solve_steady
+
+    flow = Flow(reynolds, alpha0)
+    spec = _spec("plate", reynolds, preset, aspect_ratio, corner_radius, domain)
+    with console.status(f"viscous static slopes at Re = {reynolds:g} (steady state, one linear solve)"):
+        steady_state = solve_steady(spec, flow, cache_dir=_cache(cache))
+        return AirfoilSlopes.from_static(static_slopes(fluid_operators(steady_state)))
+
+
+def _viscous_neutral_curves(out: Path, tag: str, section):
+    """Flutter curves and divergence written by ``fsistab neutral`` in ``out`` for ``tag``, if they
+    exist and were computed with the section's solid parameters; ``(curves, note)``."""
+    from fsistab.errors import CacheError
+    from fsistab.store import read_dataset
+
+    files = sorted(out.glob(f"neutral_{tag}_curve*_*.nc"))
+    if not files:
+        return None, f"no neutral_{tag}_curve*.nc in {out}: no viscous comparison"
+    if section.elastic_axis != 0 or section.static_unbalance != 0:
+        return None, "the viscous plate has a = 0 and x_θ = 0: no viscous comparison"
+    solid = section.solid
+    wanted = {
+        "freq_ratio": solid.freq_ratio,
+        "zeta_h": solid.zeta_h,
+        "zeta_theta": solid.zeta_theta,
+        "r_theta": solid.r_theta,
+    }
+    pieces: dict[str, dict[str, object]] = {}
+    for path in files:
+        try:
+            ds = read_dataset(path)
+        except CacheError as exc:
+            return None, f"{exc}: no viscous comparison"
+        if any(not math.isclose(float(ds.attrs.get(k, math.nan)), v) for k, v in wanted.items()):
+            return None, f"{path.name} has other solid parameters: no viscous comparison"
+        if ds.attrs.get("kind") != "flutter":
+            continue
+        curve, direction = path.stem.rsplit("_", 2)[-2:]
+        pieces.setdefault(curve, {})[direction] = (ds.mass_ratio.values, ds.reduced_velocity.values)
+    flutter = []
+    for parts in pieces.values():
+        down = parts.get("down", ([], []))
+        up = parts.get("up", ([], []))
+        masses = [*reversed(list(down[0])), *list(up[0])[1 if len(down[0]) else 0 :]]
+        velocities = [*reversed(list(down[1])), *list(up[1])[1 if len(down[1]) else 0 :]]
+        if masses:
+            flutter.append(([float(m) for m in masses], [float(u) for u in velocities]))
+    divergence = None
+    divergence_path = out / f"neutral_{tag}_divergence.nc"
+    if divergence_path.is_file():
+        ds = read_dataset(divergence_path)
+        divergence = (ds.mass_ratio.values, ds.reduced_velocity.values)
+    return {"flutter": flutter, "divergence": divergence}, f"viscous neutral curves from {out}"
+
+
+@app.command()
+@user_errors
+def theodorsen(
+    mass_ratio: Annotated[float, typer.Option("--mass-ratio", help="m = m_solid/(½ρc²)")] = 1000.0,
+    mass_range: Annotated[
+        tuple[float, float] | None,
+        typer.Option("--mass-ratio-range", help="draw the neutral curves U*(m) over this m range"),
+    ] = None,
+    points: Annotated[int, typer.Option("--points", help="mass ratios of the neutral curves (log)")] = 40,
+    velocity_range: Annotated[
+        tuple[float, float], typer.Option("--reduced-velocity-range", help="U* range searched")
+    ] = (0.01, 100.0),
+    slopes: Annotated[
+        str, typer.Option("--slopes", help="thin-airfoil | calibrated (viscous, at --Re) | given")
+    ] = "thin-airfoil",
+    lift_slope_alpha: Annotated[
+        float | None, typer.Option("--lift-slope-alpha", help="dC_L/dα per radian (--slopes given)")
+    ] = None,
+    moment_slope_alpha: Annotated[
+        float | None,
+        typer.Option("--moment-slope-alpha", help="d(-C_M)/dα about mid-chord per radian (--slopes given)"),
+    ] = None,
+    elastic_axis: Annotated[
+        float, typer.Option("--elastic-axis", help="a: mid-chord → elastic axis, chords, downstream +")
+    ] = 0.0,
+    static_unbalance: Annotated[
+        float, typer.Option("--static-unbalance", help="x_θ: elastic axis → centre of mass, chords, aft +")
+    ] = 0.0,
+    freq_ratio: FreqRatioOpt = 0.8,
+    zeta_h: ZetaHOpt = 0.0,
+    zeta_theta: ZetaThetaOpt = 0.05,
+    r_theta: Annotated[
+        float, typer.Option("--r-theta", help="radius of gyration about the elastic axis")
+    ] = 0.289,
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+):
+    """Analytic typical section with Theodorsen aerodynamics (MODEL.md §9): every flutter boundary
+    (real roots of the 2×2 determinant) and the divergence along U* at one mass ratio, or the
+    neutral curves U*(m) with --mass-ratio-range (compared with `fsistab neutral` if its files for
+    the same Re are in --out). --Re, --alpha0 and --mesh matter for --slopes calibrated only
+    (and --Re for finding the viscous curves)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from fsistab.theodorsen import (
+        TypicalSection,
+        critical_points,
+        lower_envelope,
+        lowest_flutter_velocity,
+        neutral_curves,
+    )
+
+    lo, hi = velocity_range
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
+    if mass_range is not None:
+        lo_m, hi_m = mass_range
+        if not (0 < lo_m < hi_m and math.isfinite(hi_m)):
+            raise InputError(f"--mass-ratio-range must be 0 < low < high, got {lo_m:g} {hi_m:g}")
+        if not 2 <= points <= 2000:
+            raise InputError(f"--points must be between 2 and 2000, got {points}")
+    section = TypicalSection.create(
+        mass_ratio=mass_ratio,
+        reduced_velocity=lo,
+        freq_ratio=freq_ratio,
+        zeta_h=zeta_h,
+        zeta_theta=zeta_theta,
+        r_theta=r_theta,
+        elastic_axis=elastic_axis,
+        static_unbalance=static_unbalance,
+    )
+    console = _console(as_json)
+    airfoil = _theodorsen_slopes(
+        slopes,
+        lift_slope_alpha,
+        moment_slope_alpha,
+        reynolds,
+        alpha0,
+        preset,
+        aspect_ratio,
+        corner_radius,
+        domain,
+        cache,
+        console,
+    )
+    section = replace(section, slopes=airfoil)
+    slope_info = {
+        "source": airfoil.source,
+        "lift_slope_alpha": airfoil.lift_slope_alpha,
+        "moment_slope_alpha": airfoil.moment_slope_alpha,
+        "moment_slope_elastic_axis": section.moment_slope_elastic_axis,
+    }
+    if mass_range is None:
+        found = critical_points(section, (lo, hi))
+        payload = {
+            "mass_ratio": section.mass_ratio,
+            "critical_points": [
+                {
+                    "kind": p.kind,
+                    "reduced_velocity": p.reduced_velocity,
+                    "frequency": p.frequency,
+                    "boundary": p.boundary,
+                }
+                for p in found
+            ],
+            "slopes": slope_info,
+        }
+        if as_json:
+            _emit_json(payload)
+            return
+        table = Table(
+            title=f"Theodorsen typical section: m = {section.mass_ratio:g}, slopes {airfoil.source}, "
+            f"a = {elastic_axis:g}, x_θ = {static_unbalance:g}, U* in [{lo:g}, {hi:g}]"
+        )
+        for column in ("kind", "boundary", "U*_c", "ω_c", "ω_c/ω_θ = ω_c U*_c"):
+            table.add_column(column, justify="right")
+        for p in found:
+            table.add_row(
+                p.kind,
+                p.boundary,
+                f"{p.reduced_velocity:.6g}",
+                f"{p.frequency:.6g}",
+                f"{p.frequency_ratio:.4g}",
+            )
+        console.print(table)
+        if not found:
+            console.print("no flutter or divergence boundary in this U* range")
+        console.print(
+            f"dC_L/dα = {airfoil.lift_slope_alpha:.4f}, d(-C_M)/dα = {airfoil.moment_slope_alpha:.4f} "
+            f"(mid-chord), dC_M/dθ about the elastic axis = {section.moment_slope_elastic_axis:.4f}"
+        )
+        return
+    masses = np.geomspace(lo_m, hi_m, points)
+    with console.status(f"Theodorsen neutral curves at {points} mass ratios"):
+        ds = neutral_curves(section, masses, (lo, hi))
+    tag = _tag("plate", reynolds, alpha0)
+    name = f"theodorsen_{tag}_{slopes}"
+    ds.attrs.update({"reynolds": reynolds, "alpha0_deg": alpha0})
+    from fsistab.plots import plot_theodorsen_map
+    from fsistab.store import write_dataset
+
+    viscous, note = _viscous_neutral_curves(out, tag, section)
+    comparison = None
+    if viscous and viscous["flutter"]:
+        lowest = lower_envelope(viscous["flutter"])
+        errors = []
+        for m, u in lowest:
+            u_theodorsen = lowest_flutter_velocity(section.with_mass_ratio(m), (lo, hi))
+            errors.append((m, u, u_theodorsen, (u_theodorsen - u) / u))
+        comparison = errors
+        ds.attrs["viscous_comparison"] = note
+    data_path = write_dataset(ds, out / f"{name}.nc")
+    figure = plot_theodorsen_map(
+        ds,
+        out / f"{name}.png",
+        viscous=viscous,
+        comparison=([c[0] for c in comparison], [c[3] for c in comparison]) if comparison else None,
+        title=f"Theodorsen ({airfoil.source}) vs viscous, plate, Re = {reynolds:g}"
+        if viscous
+        else f"Theodorsen typical section, slopes {airfoil.source}",
+    )
+    velocities = ds.reduced_velocity.values
+    payload = {
+        "mass_ratio": masses.tolist(),
+        "flutter": {
+            "reduced_velocity": [
+                [None if not math.isfinite(v) else float(v) for v in row] for row in velocities
+            ],
+            "frequency": [
+                [None if not math.isfinite(v) else float(v) for v in row] for row in ds.frequency.values
+            ],
+        },
+        "divergence": [None if not math.isfinite(v) else float(v) for v in ds.divergence_velocity.values],
+        "slopes": slope_info,
+        "comparison": [
+            {
+                "mass_ratio": m,
+                "viscous": u,
+                "theodorsen": t if math.isfinite(t) else None,
+                "relative_error": e if math.isfinite(e) else None,
+            }
+            for m, u, t, e in comparison
+        ]
+        if comparison
+        else None,
+        "netcdf": str(data_path),
+        "figure": str(figure),
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"Theodorsen neutral curves, slopes {airfoil.source}, m in [{lo_m:g}, {hi_m:g}]")
+    for column in ("m", "flutter U*_F", "ω_F/ω_θ", "divergence U*_D"):
+        table.add_column(column, justify="right")
+    for i in np.unique(np.linspace(0, points - 1, min(points, 12)).round().astype(int)):
+        row = velocities[i]
+        ok = np.isfinite(row)
+        flutter = ", ".join(f"{v:.4g}" for v in row[ok]) or "none"
+        ratio = ", ".join(f"{v:.3g}" for v in (row * ds.frequency.values[i])[ok]) or "-"
+        table.add_row(f"{masses[i]:.4g}", flutter, ratio, f"{ds.divergence_velocity.values[i]:.4g}")
+    console.print(table)
+    errors = np.array([c[3] for c in comparison or [] if math.isfinite(c[3])])
+    if errors.size:
+        console.print(
+            f"lowest flutter boundary vs viscous ({errors.size} points): relative error "
+            f"{100 * errors.min():+.1f} % to {100 * errors.max():+.1f} %"
+        )
+    else:
+        console.print(note)
+    console.print(f"data {data_path}; figure {figure}")
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

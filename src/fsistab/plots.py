@@ -357,3 +357,63 @@ def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
     ax.legend(loc="upper left")
     ax.set_title(title or "stability map (grey: static divergence)")
     return _save(fig, path)
+
+
+def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: str = "") -> Path:
+    """Theodorsen neutral curves (:func:`fsistab.theodorsen.neutral_curves`) in log–log ``(m, U*)``.
+
+    ``ds`` has ``reduced_velocity(mass_ratio, boundary)``, ``onset`` and ``divergence_velocity``.
+    ``viscous``: optional ``{"flutter": [(masses, velocities), ...], "divergence": (masses,
+    velocities) or None}`` from ``fsistab neutral``, drawn dashed. ``comparison``: optional
+    ``(masses, relative_errors)`` of the lowest flutter boundary, drawn in a second panel.
+    """
+    panels = 2 if comparison is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(7.5 * panels, 5.5), squeeze=False)
+    ax = axes[0, 0]
+    m = np.asarray(ds["mass_ratio"].values, dtype=float)
+    u_div = np.asarray(ds["divergence_velocity"].values, dtype=float)
+    ok = np.isfinite(u_div)
+    if ok.any():
+        ax.plot(m[ok], u_div[ok], color="k", lw=1.5, label="divergence (Theodorsen)")
+        ax.fill_between(m[ok], u_div[ok], u_div[ok].max() * 10, color="0.88", zorder=0)
+    velocities = np.asarray(ds["reduced_velocity"].values, dtype=float)
+    onset = np.asarray(ds["onset"].values)
+    for j in range(velocities.shape[1]):
+        u = velocities[:, j]
+        ax.plot(m, u, "-", color="tab:red", lw=1.5, label="flutter (Theodorsen)" if j == 0 else None)
+        ax.plot(m[onset[:, j] == 1], u[onset[:, j] == 1], "o", color="tab:red", ms=3)
+        ax.plot(m[onset[:, j] == 0], u[onset[:, j] == 0], "o", mfc="white", mec="tab:red", ms=3)
+    extra = []
+    if viscous:
+        for i, (masses, vel) in enumerate(viscous.get("flutter", [])):
+            ax.plot(
+                masses, vel, "--", color="tab:blue", lw=1.5, label="flutter (viscous)" if i == 0 else None
+            )
+            extra.append(np.asarray(vel, dtype=float))
+        if viscous.get("divergence") is not None:
+            masses, vel = viscous["divergence"]
+            ax.plot(masses, vel, "--", color="0.4", lw=1.2, label="divergence (viscous)")
+            extra.append(np.asarray(vel, dtype=float))
+    all_u = np.concatenate([velocities[np.isfinite(velocities)], u_div[ok], *extra])
+    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
+    if all_u.size:
+        ax.set_ylim(all_u.min() / 1.5, all_u.max() * 1.5)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("mass ratio m")
+    ax.set_ylabel("reduced velocity U*")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(title or "Theodorsen typical section (filled: onset, open: restabilisation)")
+    if comparison is not None:
+        err_ax = axes[0, 1]
+        masses, errors = (np.asarray(v, dtype=float) for v in comparison)
+        order = np.argsort(masses)
+        err_ax.plot(masses[order], 100 * errors[order], "o-", color="tab:purple", ms=4)
+        err_ax.axhline(0, color="k", lw=0.8)
+        err_ax.set_xscale("log")
+        err_ax.set_xlabel("mass ratio m")
+        err_ax.set_ylabel("(U*_F Theodorsen - U*_F viscous) / U*_F viscous  [%]")
+        err_ax.grid(alpha=0.3, which="both")
+        err_ax.set_title("lowest flutter boundary: relative error")
+    return _save(fig, path)
