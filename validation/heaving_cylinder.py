@@ -156,7 +156,7 @@ def main() -> None:
             sigma, q = np.conj(sigma), np.conj(q)
         solid, fluid_part = system.split(q)
         energy = 0.5 * float(np.vdot(fluid_part, system.fluid.mff_near @ fluid_part).real)
-        label, fraction = label_mode(solid, system, energy)
+        label, fraction = label_mode(solid, system.solid, energy)
         return Eigenpair(complex(sigma), q, residual, label, solid, fraction, shift), shift
 
     # fixed cylinder on the same mesh (the U* → 0 limit of the fluid branch)

@@ -994,6 +994,104 @@ def theodorsen(
     console.print(f"data {data_path}; figure {figure}")
 
 
+@app.command()
+@user_errors
+def transfer(
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+    k_range: Annotated[
+        tuple[float, float],
+        typer.Option("--reduced-frequency-range", help="k = ω L/(2U∞) range, log-spaced"),
+    ] = (0.01, 2.0),
+    points: Annotated[int, typer.Option("--points", help="number of reduced frequencies")] = 24,
+):
+    """Viscous Theodorsen function: the body's load transfer G(ik) against Theodorsen's model."""
+    import numpy as np
+
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.plots import plot_viscous_theodorsen
+    from fsistab.steady import solve_steady
+    from fsistab.store import write_dataset
+    from fsistab.transfer import from_parts, viscous_theodorsen_dataset
+
+    k_low, k_high = k_range
+    if not (math.isfinite(k_low) and math.isfinite(k_high) and 0 < k_low < k_high):
+        raise InputError(f"the reduced-frequency range must be 0 < low < high, got {k_low:g} {k_high:g}")
+    if points < 2:
+        raise InputError("--points must be at least 2")
+    flow = Flow(reynolds, alpha0)
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    omega = 2 * np.geomspace(k_low, k_high, points)
+    with console.status("steady state") as status:
+        fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
+
+        def progress(done: int, total: int) -> None:
+            status.update(f"G(iω): {done}/{total} frequencies ({fluid.n_fluid} fluid unknowns)")
+
+        ds = viscous_theodorsen_dataset(fluid, omega, progress=progress)
+    tag = _tag(body, reynolds, alpha0)
+    data_path = write_dataset(ds, out / f"transfer_{tag}_{preset}.nc")
+    figure = plot_viscous_theodorsen(ds, out / f"transfer_{tag}_{preset}.png")
+    loads = from_parts(ds.viscous_loads)
+    thin = from_parts(ds.theodorsen_thin_airfoil)
+    calibrated = from_parts(ds.theodorsen_calibrated)
+    pair = lambda z: [float(z.real), float(z.imag)]  # noqa: E731
+    payload = {
+        "reynolds": reynolds,
+        "alpha0_deg": alpha0,
+        "ndof": fluid.n_fluid,
+        "factorisations": int(ds.attrs["factorisations"]),
+        "lift_slope_alpha": float(ds.attrs["lift_slope_alpha"]),
+        "moment_slope_alpha": float(ds.attrs["moment_slope_alpha"]),
+        "samples": [
+            {
+                "frequency": float(w),
+                "reduced_frequency": float(w / 2),
+                "lift_per_pitch": pair(loads[i, 0, 1]),
+                "moment_per_pitch": pair(loads[i, 1, 1]),
+                "lift_per_heave": pair(loads[i, 0, 0]),
+                "moment_per_heave": pair(loads[i, 1, 0]),
+            }
+            for i, w in enumerate(omega)
+        ],
+        "netcdf": str(data_path),
+        "figure": str(figure),
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"C_L/θ̂ and C_M/θ̂, {body}, Re = {reynolds:g}, α0 = {alpha0:g}°, mesh {preset}")
+    for column in (
+        "k",
+        "C_L/θ̂ (NS)",
+        "thin airfoil",
+        "calibrated",
+        "C_M/θ̂ (NS)",
+        "thin airfoil",
+        "calibrated",
+    ):
+        table.add_column(column, justify="right")
+    fmt = lambda z: f"{z.real:+.2f}{z.imag:+.2f}i"  # noqa: E731
+    for i, w in enumerate(omega):
+        table.add_row(
+            f"{w / 2:.3g}",
+            *(fmt(a[i, 0, 1]) for a in (loads, thin, calibrated)),
+            *(fmt(a[i, 1, 1]) for a in (loads, thin, calibrated)),
+        )
+    console.print(table)
+    console.print(f"{ds.attrs['factorisations']} factorisations; data {data_path}; figure {figure}")
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

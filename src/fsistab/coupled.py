@@ -50,6 +50,26 @@ def solid_stiffness(solid: Solid) -> np.ndarray:
     )
 
 
+def solid_blocks(
+    solid: Solid, theta0: float, loads0: np.ndarray, load_s: np.ndarray, load_mass_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Solid rows of ``J`` and ``M`` on the solid columns (4 × 4 each, MODEL.md §7) and the map
+    ``C = ∂(C_L/m, C_M/(m r_θ²))/∂(F_x, F_y, M)`` (2 × 3) that turns loads into solid rows.
+
+    ``load_s``, ``load_mass_s`` (3 × 4) are the loads' derivatives with respect to ``(h, θ, ḣ, θ')``
+    and their rates. The rows of ``J``/``M`` on fluid columns are ``-C`` times the fluid ones.
+    """
+    rows, dcl_dtheta = lift_and_moment_rows(theta0, loads0)
+    scale = np.array([1.0 / solid.mass_ratio, 1.0 / (solid.mass_ratio * solid.r_theta**2)])
+    coefficient_rows = scale[:, None] * rows
+    jss = solid_stiffness(solid).astype(np.result_type(load_s, float))
+    jss[2:, :] -= coefficient_rows @ load_s
+    jss[2, 1] -= dcl_dtheta / solid.mass_ratio  # the steady force rotated with the body
+    mss = np.eye(4, dtype=np.result_type(load_mass_s, float))
+    mss[2:, :] -= coefficient_rows @ load_mass_s
+    return jss, mss, coefficient_rows
+
+
 @dataclass(frozen=True)
 class CoupledSystem:
     """``J`` and ``M`` of MODEL.md (E) for one set of solid parameters, as SciPy sparse matrices.
@@ -77,16 +97,11 @@ class CoupledSystem:
     @cached_property
     def _solid_rows(self):
         """Full 4-state solid rows: (jss, jsf, mss, msf) before selecting the active states."""
-        ops, solid = self.fluid, self.solid
-        rows, dcl_dtheta = lift_and_moment_rows(ops.theta0, ops.loads0)
-        scale = np.array([1.0 / solid.mass_ratio, 1.0 / (solid.mass_ratio * solid.r_theta**2)])
-        coefficient_rows = scale[:, None] * rows  # ∂(C_L/m, C_M/(m r²))/∂(F_x, F_y, M)
-        jss = solid_stiffness(solid)
-        jss[2:, :] -= coefficient_rows @ ops.load_s
-        jss[2, 1] -= dcl_dtheta / solid.mass_ratio
+        ops = self.fluid
+        jss, mss, coefficient_rows = solid_blocks(
+            self.solid, ops.theta0, ops.loads0, ops.load_s, ops.load_mass_s
+        )
         jsf = sp.vstack([sp.csr_matrix((2, ops.n_fluid)), -sp.csr_matrix(coefficient_rows) @ ops.load_f])
-        mss = np.eye(4)
-        mss[2:, :] -= coefficient_rows @ ops.load_mass_s
         msf = sp.vstack([sp.csr_matrix((2, ops.n_fluid)), -sp.csr_matrix(coefficient_rows) @ ops.load_mass_f])
         return jss, jsf.tocsr(), mss, msf.tocsr()
 

@@ -17,6 +17,7 @@ import scipy.sparse.linalg as spla
 from fsistab.coupled import CoupledSystem
 from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver, residual_norm, shift_invert_operator
+from fsistab.params import Solid
 
 
 @dataclass(frozen=True)
@@ -46,11 +47,11 @@ class Eigenpair:
         return float(self.value.imag)
 
 
-def label_mode(solid: np.ndarray, system: CoupledSystem, fluid_energy: float) -> tuple[str, float]:
+def label_mode(solid: np.ndarray, params: Solid, fluid_energy: float) -> tuple[str, float]:
     """``fluid`` when the solid holds less than half the kinetic energy, else ``heave``, ``pitch``
     or ``coupled`` (both above a quarter of the solid energy)."""
     # m̃ = m ρL²/2, so the kinetic energy ½m̃|ḣ|² is (m/4)|ḣ|² in units of ρL²U∞²; the fluid's is ½∫|û|²
-    m, r = system.solid.mass_ratio, system.solid.r_theta
+    m, r = params.mass_ratio, params.r_theta
     heave, pitch = 0.25 * m * abs(solid[2]) ** 2, 0.25 * m * r**2 * abs(solid[3]) ** 2
     solid_energy = heave + pitch
     fraction = solid_energy / (solid_energy + fluid_energy) if solid_energy + fluid_energy > 0 else 0.0
@@ -126,7 +127,7 @@ def eigenpairs_near(
             vector = _normalise(system, vector)
             solid, fluid = system.split(vector)
             fluid_energy = 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
-            label, fraction = label_mode(solid, system, fluid_energy)
+            label, fraction = label_mode(solid, system.solid, fluid_energy)
             found.append(Eigenpair(complex(sigma), vector, residual, label, solid, fraction, shift))
             kept += 1
         if kept == 0:

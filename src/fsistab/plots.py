@@ -417,3 +417,36 @@ def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: st
         err_ax.grid(alpha=0.3, which="both")
         err_ax.set_title("lowest flutter boundary: relative error")
     return _save(fig, path)
+
+
+def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
+    """The viscous Theodorsen function: ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` against the reduced
+    frequency ``k = ω/2``, real and imaginary parts, from the linearised Navier–Stokes equations
+    (``fsistab.transfer.viscous_theodorsen_dataset``) beside Theodorsen's model with thin-airfoil and
+    with calibrated (viscous static) slopes."""
+    k = ds.reduced_frequency.values
+    styles = {
+        "viscous_loads": dict(color="k", marker="o", ms=3, lw=1.2, label="linearised NS"),
+        "theodorsen_thin_airfoil": dict(color="tab:blue", ls="--", lw=1.2, label="Theodorsen, thin airfoil"),
+        "theodorsen_calibrated": dict(color="tab:red", ls=":", lw=1.6, label="Theodorsen, calibrated"),
+    }
+    fig, axes = plt.subplots(2, 4, figsize=(14, 6.5), sharex=True)
+    for row, coefficient in enumerate(("lift", "moment")):
+        for col, (motion, part) in enumerate(
+            (("pitch", "real"), ("pitch", "imag"), ("heave", "real"), ("heave", "imag"))
+        ):
+            ax = axes[row, col]
+            for name, style in styles.items():
+                values = ds[name].sel(coefficient=coefficient, motion=motion, part=part).values
+                ax.plot(k, values, **style)
+            symbol = "C_L" if coefficient == "lift" else "C_M"
+            unit = "θ̂" if motion == "pitch" else "ĥ"
+            ax.set_title(f"{'Re' if part == 'real' else 'Im'} {symbol}/{unit}", fontsize=10)
+            ax.set_xscale("log")
+            ax.grid(alpha=0.3, which="both")
+            if row == 1:
+                ax.set_xlabel("k = ω c / (2 U∞)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(title or f"viscous Theodorsen function, Re = {ds.attrs.get('reynolds', float('nan')):g}")
+    fig.tight_layout()
+    return _save(fig, path)
