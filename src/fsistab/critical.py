@@ -286,3 +286,87 @@ def find_thresholds(
         if velocities[0] <= point.reduced_velocity <= velocities[-1]:
             found.append(Threshold("divergence", "onset", "static", point))
     return sorted(found, key=lambda t: t.reduced_velocity), branches
+
+
+@dataclass(frozen=True)
+class FlowCriticalPoint:
+    """Flutter and divergence thresholds at one flow ``(reynolds, alpha0_deg)`` for fixed solid
+    parameters (``mass_ratio`` etc.); ``reduced_velocity`` and ``frequency`` in the body's units."""
+
+    reynolds: float
+    alpha0_deg: float
+    flutter_velocity: float
+    flutter_frequency: float
+    divergence_velocity: float
+    factorisations: int
+
+
+def critical_points_along_flow(
+    spec,
+    flows,
+    solid: Solid,
+    flutter_frequency: float,
+    *,
+    cache_dir=None,
+    counter: FactorCounter | None = None,
+    progress=None,
+):
+    """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (MODEL.md §8) at fixed solid
+    parameters: natural continuation along ``flows`` (ordered), on one mesh ``spec``. A generator
+    of :class:`FlowCriticalPoint`, one per flow, so that a caller keeps the points computed before
+    a failure (:class:`~fsistab.errors.ConvergenceError`: try smaller steps in the flow parameter).
+
+    Each steady state continues from the previous one; the flutter point is converged by Newton on
+    ``det T(iω; U*) = 0`` (:func:`fsistab.transfer.transfer_flutter_point`), started from a secant
+    extrapolation of the last two points in ``(ω, log U*)`` (``solid.reduced_velocity`` and
+    ``flutter_frequency`` at the first flow, e.g. a threshold of :func:`find_thresholds`); the
+    divergence point by :func:`divergence_point`, started from the previous one.
+    """
+    from fsistab.operators import fluid_operators
+    from fsistab.steady import solve_steady
+    from fsistab.transfer import transfer_flutter_point
+
+    flows = list(flows)
+    if not flows:
+        raise InputError("give at least one flow")
+    counter = counter if counter is not None else FactorCounter()
+    previous_state = None
+    guesses = [(float(flutter_frequency), float(np.log(solid.reduced_velocity)))]
+    divergence_guess = float(solid.reduced_velocity)
+    for i, flow in enumerate(flows):
+        start = counter.count
+        steady = solve_steady(spec, flow, cache_dir=cache_dir, initial=previous_state)
+        previous_state = steady
+        fluid = fluid_operators(steady)
+        if len(guesses) >= 2 and i >= 2:
+            (w1, u1), (w2, u2) = guesses[-2], guesses[-1]
+            x0, x1, x2 = (_flow_parameter(flows[j], flows) for j in (i - 2, i - 1, i))
+            ratio = (x2 - x1) / (x1 - x0) if x1 != x0 else 0.0
+            omega, log_u = w2 + ratio * (w2 - w1), u2 + ratio * (u2 - u1)
+        else:
+            omega, log_u = guesses[-1]
+        flutter = transfer_flutter_point(
+            fluid, replace(solid, reduced_velocity=float(np.exp(log_u))), omega, counter=counter
+        )
+        guesses.append((flutter.frequency, float(np.log(flutter.reduced_velocity))))
+        divergence = divergence_point(
+            fluid, replace(solid, reduced_velocity=divergence_guess), counter=counter
+        )
+        divergence_guess = divergence.reduced_velocity
+        if progress:
+            progress(i + 1, len(flows))
+        yield FlowCriticalPoint(
+            flow.reynolds,
+            flow.alpha0_deg,
+            flutter.reduced_velocity,
+            flutter.frequency,
+            divergence.reduced_velocity,
+            counter.count - start,
+        )
+
+
+def _flow_parameter(flow, flows) -> float:
+    """The parameter that varies along ``flows``: log Re if Re varies, else α0."""
+    if len({f.reynolds for f in flows}) > 1:
+        return float(np.log(flow.reynolds))
+    return float(flow.alpha0_deg)
