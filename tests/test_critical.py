@@ -112,3 +112,23 @@ def test_thresholds_along_reduced_velocity(plate_operators):
     assert divergence.reduced_velocity == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
     heave = branches["heave"]
     assert all(label != "fluid" for label in heave.labels)  # the branch kept its identity
+
+
+def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900):
+    """(Re, U*) plane: the continued flutter point is an eigenvalue on the axis of the full problem at
+    the new Re, and the divergence point obeys the torsional formula with that Re's static slope."""
+    from fsistab.critical import critical_points_along_flow
+    from fsistab.params import Flow
+    from fsistab.steady import solve_steady
+
+    flows = [Flow(2900.0), Flow(2600.0)]
+    points = list(critical_points_along_flow(plate_coarse_spec, flows, Solid(1000.0, 4.5), 0.18))
+    assert [p.reynolds for p in points] == [2900.0, 2600.0]
+    point = points[1]
+    fluid = fluid_operators(solve_steady(plate_coarse_spec, flows[1], initial=plate_2900))
+    system = CoupledSystem(fluid, Solid(1000.0, point.flutter_velocity))
+    nearest = eigenpairs_near(system, [1j * point.flutter_frequency], 2)[0]
+    assert abs(nearest.value - 1j * point.flutter_frequency) < 1e-8
+    slope = static_slopes(fluid).moment
+    assert point.divergence_velocity == pytest.approx(math.sqrt(1000.0 * 0.289**2 / slope), rel=1e-9)
+    assert point.flutter_velocity != pytest.approx(points[0].flutter_velocity, rel=1e-3)  # it moved
