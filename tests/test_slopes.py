@@ -33,3 +33,23 @@ def test_slopes_match_finite_differences_of_steady_states(alpha0):
     # viscous slopes are below the thin-airfoil values at Re = 200, and of the same sign
     assert 0.4 * 2 * math.pi < slopes.lift_slope_alpha < 2 * math.pi
     assert 0.4 * math.pi / 2 < slopes.moment_slope_alpha < math.pi / 2
+
+
+def test_slopes_command_prints_json_and_draws_the_figure(tmp_path, monkeypatch):
+    import json
+
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+
+    monkeypatch.setenv("FSISTAB_CACHE", str(tmp_path / "cache"))
+    args = ["slopes", "--Re", "2900", "1000", "--mesh", "coarse", "--out", str(tmp_path), "--json"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert [s["reynolds"] for s in payload["slopes"]] == [1000.0, 2900.0]
+    for entry in payload["slopes"]:
+        # viscous slopes lie below the thin-airfoil values, by a few per cent at these Re
+        assert 0.85 * 2 * math.pi < entry["lift_slope_alpha"] < 2 * math.pi
+        assert 0.85 * math.pi / 2 < entry["moment_slope_alpha"] < 1.05 * math.pi / 2
+    assert (tmp_path / "slopes_plate_a0_coarse.png").is_file()

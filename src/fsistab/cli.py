@@ -383,6 +383,7 @@ def slopes(
 
     from fsistab.operators import fluid_operators
     from fsistab.params import Flow
+    from fsistab.plots import plot_slopes
     from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
@@ -413,6 +414,7 @@ def slopes(
         },
     )
     data_path = write_dataset(ds, out / f"slopes_plate_a{alpha0:g}_{preset}.nc")
+    figure = plot_slopes(ds, out / f"slopes_plate_a{alpha0:g}_{preset}.png")
     payload = {
         "alpha0_deg": alpha0,
         "slopes": [
@@ -424,6 +426,7 @@ def slopes(
             for r in results
         ],
         "netcdf": str(data_path),
+        "figure": str(figure),
     }
     if as_json:
         _emit_json(payload)
@@ -435,7 +438,7 @@ def slopes(
         table.add_row(f"{r.reynolds:g}", f"{r.lift_slope_alpha:.4f}", f"{r.moment_slope_alpha:.4f}")
     table.add_row("thin airfoil", f"{THIN_AIRFOIL_LIFT_SLOPE:.4f}", f"{THIN_AIRFOIL_MOMENT_SLOPE:.4f}")
     console.print(table)
-    console.print(f"data {data_path}")
+    console.print(f"data {data_path}; figure {figure}")
 
 
 @app.command()

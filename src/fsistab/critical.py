@@ -352,7 +352,8 @@ def critical_points_along_flow(
         divergence = divergence_point(
             fluid, replace(solid, reduced_velocity=divergence_guess), counter=counter
         )
-        divergence_guess = divergence.reduced_velocity
+        # restart a little below the last root: at the root itself the static system is singular
+        divergence_guess = 0.95 * divergence.reduced_velocity
         if progress:
             progress(i + 1, len(flows))
         yield FlowCriticalPoint(

@@ -450,3 +450,26 @@ def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
     fig.suptitle(title or f"viscous Theodorsen function, Re = {ds.attrs.get('reynolds', float('nan')):g}")
     fig.tight_layout()
     return _save(fig, path)
+
+
+def plot_slopes(ds, path: Path, title: str = "") -> Path:
+    """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, MODEL.md §9) against Re,
+    with the thin-airfoil values 2π and π/2 as lines; ``ds`` as written by ``fsistab slopes``."""
+    reynolds = ds.reynolds.values
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for ax, name, thin, label in (
+        (axes[0], "lift_slope_alpha", 2 * np.pi, "dC_L/dα"),
+        (axes[1], "moment_slope_alpha", np.pi / 2, "d(−C_M)/dα"),
+    ):
+        ax.plot(reynolds, ds[name].values, "o-", color="k", label="linearised NS")
+        ax.axhline(thin, color="tab:blue", ls="--", label="thin airfoil")
+        ax.set_xscale("log")
+        ax.set_xlabel("Re")
+        ax.set_ylabel(f"{label} [1/rad]")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    fig.suptitle(
+        title or f"static slopes, α0 = {ds.attrs.get('alpha0_deg', 0):g}°, mesh {ds.attrs.get('mesh', '')}"
+    )
+    fig.tight_layout()
+    return _save(fig, path)
