@@ -30,7 +30,7 @@ from fsistab.params import Flow, Plate, Solid  # noqa: E402
 from fsistab.store import default_cache_dir, write_dataset  # noqa: E402
 
 REYNOLDS = [2900.0, 2400.0, 2000.0, 1600.0, 1300.0, 1000.0, 800.0, 650.0, 500.0, 400.0, 300.0]
-ALPHA0 = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
+ALPHA0 = [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0]
 
 
 def sweep(spec, flows, solid, cache, label):

@@ -158,17 +158,23 @@ def divergence_point(
     q /= q[k]
     velocity = float(solid.reduced_velocity)
     history: list[float] = []
+    d_kappa = np.inf
     for _ in range(maxit + 1):
         system = CoupledSystem(fluid, _with_velocity(solid, velocity))
         residual = system.jacobian @ q
         history.append(float(np.linalg.norm(residual)))
-        if history[-1] < tol:
-            return CriticalPoint(
-                "divergence", solid.mass_ratio, velocity, 0.0, q, tuple(history), counter.count - start
-            )
+        point = CriticalPoint(
+            "divergence", solid.mass_ratio, velocity, 0.0, q, tuple(history), counter.count - start
+        )
+        if history[-1] < tol or abs(d_kappa) < 1e-13 * velocity**-2:
+            return point
         if len(history) > maxit:
             break
-        solver = ShiftedSolver(system, 0.0, fluid_factor=factor)
+        try:
+            solver = ShiftedSolver(system, 0.0, fluid_factor=factor)
+        except np.linalg.LinAlgError:
+            # the problem is affine in κ: a step can land on the root, where J(U*) is exactly singular
+            return point
         d_jss = velocity_derivative(system, q)
         # Newton in κ = 1/U*²: the static problem is affine in κ (ḣ = θ' = 0 in the mode)
         d_jss *= -(velocity**3) / 2  # ∂J/∂κ q

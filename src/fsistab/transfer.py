@@ -368,6 +368,12 @@ def transfer_flutter_point(
         step = np.linalg.solve(jacobian, -np.array([det.real, det.imag]))
         omega, log_u = omega + step[0], log_u + step[1]
         if abs(step[0]) < tolerance * max(1.0, abs(omega)) and abs(step[1]) < tolerance:
+            if abs(omega) < 1e-6:
+                raise ConvergenceError(
+                    f"Newton on det T(iω; U*) from ω = {frequency:.4g} converged to the static root "
+                    f"ω = 0 at U* = {np.exp(log_u):.5g} (a divergence, not a flutter point); "
+                    "start closer to the dynamic crossing"
+                )
             return TransferCriticalPoint(
                 solid.mass_ratio,
                 float(np.exp(log_u)),
