@@ -60,6 +60,44 @@ def test_flutter_curve_towards_small_mass_ratios(plate_operators):
     assert nearest.frequency == pytest.approx(last.frequency, rel=1e-7)
 
 
+def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
+    """On the coarse mesh the flutter curve traced from m = 1000 towards small m turns back in m a
+    little below m = 600 (MODEL.md §8: the continuation must pass turning points). Started at
+    m = 600, it must report one located turning point, where m is smallest, and go on to larger m;
+    the turning point is itself neutral (checked by the eigen-solver)."""
+    solid = Solid(mass_ratio=600, reduced_velocity=3.76)
+    pairs = eigenpairs_near(CoupledSystem(plate_operators, solid), [0.002 + 0.22j], 4)
+    guess = max((p for p in pairs if p.label != "fluid"), key=lambda p: p.growth_rate)
+    start = flutter_point(plate_operators, solid, guess.frequency, guess.vector)
+    folds = []
+    curve = continue_neutral_curve(
+        plate_operators,
+        start,
+        solid,
+        direction=-1,
+        step=0.1,
+        max_step=0.1,
+        max_points=5,
+        on_fold=folds.append,
+    )
+    m = curve.mass_ratios
+    (fold,) = curve.turning_points
+    assert folds == [fold] and curve.folds == (fold.index,) and fold.localised
+    assert np.all(np.diff(m[: fold.index + 1]) < 0) and np.all(np.diff(m[fold.index + 1 :]) > 0)
+    assert fold.mass_ratio <= m.min()  # the located fold is the smallest m of the curve
+    u = curve.reduced_velocities
+    assert np.all(np.diff(u) < 0)  # U* keeps falling through the fold: U*_F(m) is double-valued
+    system = CoupledSystem(
+        plate_operators, Solid(mass_ratio=fold.mass_ratio, reduced_velocity=fold.reduced_velocity)
+    )
+    nearest = min(
+        eigenpairs_near(system, [0.002 + 1j * fold.frequency], 3),
+        key=lambda p: abs(p.value - 1j * fold.frequency),
+    )
+    assert abs(nearest.growth_rate) < 1e-8
+    assert nearest.frequency == pytest.approx(fold.frequency, rel=1e-7)
+
+
 def test_divergence_curve_and_bad_input(plate_operators):
     assert divergence_curve(1.0, 0.5, np.array([4.0]))[0] == pytest.approx(1.0)
     assert np.isnan(divergence_curve(-1.0, 0.5, np.array([4.0]))[0])
@@ -88,3 +126,62 @@ def test_interrupted_curve_resumes_from_its_last_point(plate_operators, tmp_path
     assert resumed[-1].mass_ratio > resumed[-2].mass_ratio > 1000
     with pytest.raises(CacheError, match="does not match"):
         trace_curve_resumable(plate_operators, start, solid, path, {"case": "other"}, max_points=4)
+
+
+def test_crossing_of_a_flutter_line_with_the_divergence_curve():
+    """``U*_D = r_θ √(m/s)`` is ``(r_θ/√s) e^{μ/2}`` in μ = log m: it meets ``U* = 4`` at
+    ``μ* = 2 log(4 √s / r_θ)``. The chord of the convex curve lies above it, so the interpolated
+    crossing comes early, by at most ``h²/8 · max U_D'' / U_D' = h²/16`` (× e^{h/2}) on a grid h."""
+    from fsistab.neutral import curve_crossings
+
+    slope, r_theta, level, h = math.pi / 2, 0.289, 4.0, 0.1
+    exact = 2 * math.log(level * math.sqrt(slope) / r_theta)
+    mu = np.arange(0.0, 10.0, h)
+    divergence = np.column_stack([mu, divergence_curve(slope, r_theta, np.exp(mu))])
+    flutter = [[0.0, level], [10.0, level]]
+    (crossing,) = curve_crossings(flutter, divergence)
+    error = exact - math.log(crossing.mass_ratio)
+    assert 0 < error <= h**2 / 16 * math.exp(h / 2)
+    assert crossing.reduced_velocity == pytest.approx(level) and not crossing.refined
+    assert (
+        divergence[crossing.segments[1], 0]
+        < math.log(crossing.mass_ratio)
+        < divergence[crossing.segments[1] + 1, 0]
+    )
+
+    def refine(log_mass, velocity, segments):  # Newton on U_D(μ) = level
+        for _ in range(20):
+            u = divergence_curve(slope, r_theta, np.array([math.exp(log_mass)]))[0]
+            log_mass -= (u - level) / (u / 2)
+        return log_mass, level
+
+    (refined,) = curve_crossings(flutter, divergence, refine)
+    assert refined.refined and math.log(refined.mass_ratio) == pytest.approx(exact, abs=1e-12)
+
+
+def test_a_folded_curve_crosses_twice_and_failed_refinements_are_kept():
+    from fsistab.errors import ConvergenceError
+    from fsistab.neutral import curve_crossings
+
+    folded = [[2.0, 1.0], [0.0, 2.0], [2.0, 3.0]]  # turns back in log m at (0, 2)
+    line = [[1.0, 0.0], [1.0, 4.0]]  # log m = 1
+
+    def fail(*_):
+        raise ConvergenceError("no convergence")
+
+    crossings = curve_crossings(folded, line, fail)
+    assert [(c.segments, c.refined) for c in crossings] == [((0, 0), False), ((1, 0), False)]
+    assert [c.reduced_velocity for c in crossings] == pytest.approx([1.5, 2.5])
+    assert all(c.mass_ratio == pytest.approx(math.e) for c in crossings)
+
+
+def test_turning_points_are_stored_with_the_curve(tmp_path):
+    from fsistab.neutral import NeutralPoint, TurningPoint, _turning_points_of, curve_dataset
+    from fsistab.store import read_dataset, write_dataset
+
+    points = [NeutralPoint(m, 5.0, 0.2, np.ones(3) * (1 + 1j), 2) for m in (3.0, 2.0, 2.5)]
+    folds = [TurningPoint(1.9, 4.9, 0.21, 1, True)]
+    write_dataset(curve_dataset(points, {"case": "plate"}, True, folds), tmp_path / "c.nc")
+    ds = read_dataset(tmp_path / "c.nc", expect={"case": "plate"})
+    assert ds.attrs["n_folds"] == 1 and _turning_points_of(ds) == folds
+    assert curve_dataset(points, {}, False).attrs["n_folds"] == 0

@@ -1,27 +1,36 @@
 """Neutral curves in the (m, U*) plane by pseudo-arclength continuation (MODEL.md §8).
 
-A point of a dynamic neutral curve solves, in the unknowns ``(q̂, ω, U*, μ = log m)``::
+A point of a dynamic neutral curve solves, in the unknowns ``y = (Re q̂, Im q̂, ω, U*, μ = log m)``::
 
     (iω M(m) + J(U*, m)) q̂ = 0,   Re(ĥ) = 0,   q̂ᴴ M q̂ = 1,
     t_U (U* - U*_k) + t_μ (μ - μ_k) = Δs                       (arclength in the parameter plane)
 
-with ``(t_U, t_μ)`` the unit tangent of the curve at the previous point ``k`` (secant). Because the
-arclength is measured in the plane (log m, U*), the continuation passes turning points where the
-curve folds back in ``m``. Every aerodynamic term of the solid rows, and their inertia, scale with
-``1/m``: ``∂(J + iωM)/∂μ q̂ = -(aerodynamic solid rows)(q̂)`` is explicit. Each Newton step needs one
-factorisation of the fluid block at ``iω`` (:mod:`fsistab.linalg`), three extra solves and a 3×3
-real border. The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static moment
-independent of ``h``).
+with ``(t_U, t_μ)`` the unit tangent of the curve at the previous point ``k``. The continuation
+is the generic one of :mod:`fsistab.continuation` with arclength weights on ``(U*, μ)`` only and a
+tangent predictor (three extra solves per point with the last factorisation; the turn control
+that it allows keeps the steps from jumping across the S-shaped part of the flutter curve, which
+a secant predictor with ``Δs = 0.5`` does on the coarse plate mesh); this module supplies the
+residual and the bordered solve. Because the arclength
+is measured in the plane (log m, U*), the continuation passes turning points where the curve folds
+back in ``m``; they are reported (where ``d(log m)/ds`` changes sign, located where the tangent's
+``μ`` component vanishes) and stored with the curve. Every aerodynamic term of the solid rows, and
+their inertia, scale with ``1/m``: ``∂(J + iωM)/∂μ q̂ = -(aerodynamic solid rows)(q̂)`` is explicit.
+Each Newton step needs one factorisation of the fluid block at ``iω`` (:mod:`fsistab.linalg`),
+kept while the residual falls tenfold per iteration (chord), four solves and a 3×3 real border.
+The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static moment independent of
+``h``). Codimension-two points where two neutral curves cross (flutter meeting divergence, two
+flutter curves) come from :func:`curve_crossings`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fsistab.continuation import CurveProblem, TestFunction, continuation, polyline_intersections
 from fsistab.coupled import CoupledSystem, solid_stiffness
 from fsistab.critical import CriticalPoint, _phase_index, velocity_derivative
 from fsistab.errors import ConvergenceError, InputError
@@ -40,14 +49,29 @@ class NeutralPoint:
 
 
 @dataclass(frozen=True)
+class TurningPoint:
+    """A turning point of a neutral curve in m (a fold of ``U*_c(m)``: ``d(log m)/ds = 0``) between
+    the curve's points ``index`` and ``index + 1``; ``localised`` when it was located on the curve
+    (otherwise it is the sampled point of extreme m)."""
+
+    mass_ratio: float
+    reduced_velocity: float
+    frequency: float
+    index: int
+    localised: bool
+
+
+@dataclass(frozen=True)
 class NeutralCurve:
     """Points of one neutral curve in order of arclength; ``folds`` are indices after which
-    ``d(log m)/ds`` changes sign (turning points in m); ``stop`` says why the continuation ended."""
+    ``d(log m)/ds`` changes sign (turning points in m), ``turning_points`` those points located on
+    the curve; ``stop`` says why the continuation ended."""
 
     points: tuple[NeutralPoint, ...]
     folds: tuple[int, ...]
     stop: str
     factorisations: int
+    turning_points: tuple[TurningPoint, ...] = ()
 
     @property
     def mass_ratios(self) -> np.ndarray:
@@ -60,6 +84,11 @@ class NeutralCurve:
     @property
     def frequencies(self) -> np.ndarray:
         return np.array([p.frequency for p in self.points])
+
+    @property
+    def plane_points(self) -> np.ndarray:
+        """``(log m, U*)`` of every point (rows), the input of :func:`curve_crossings`."""
+        return np.column_stack([np.log(self.mass_ratios), self.reduced_velocities])
 
 
 def _aero_rows(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
@@ -74,63 +103,83 @@ def _aero_rows(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray
     return d
 
 
-def _newton_arclength(
-    fluid: FluidOperators,
-    template: Solid,
-    q: np.ndarray,
-    omega: float,
-    velocity: float,
-    log_mass: float,
-    anchor: tuple[float, float],
-    tangent: tuple[float, float],
-    step: float,
-    counter: FactorCounter,
-    tol: float = 1e-10,
-    maxit: int = 12,
-):
-    """Chord-Newton corrector: the fluid factorisation at the first ``iω`` is kept while the
-    residual falls at least tenfold per iteration (the matrix differs from Newton's only by
-    ``i δω M``), and renewed otherwise."""
-    factor, previous = None, np.inf
-    for iteration in range(maxit + 1):
+class _NeutralProblem:
+    """Residual and bordered solve of the neutral-curve system (module doc) for
+    :func:`fsistab.continuation.continuation`, in real unknowns ``y = (Re q̂, Im q̂, ω, U*, μ)``.
+
+    The bordered solve eliminates ``δq̂ = a + δω b + δU* c + δμ d`` with
+    ``(J + iωM)(a, b, c, d) = (r_q, -iMq̂, -∂J/∂U* q̂, -∂(J + iωM)/∂μ q̂)`` and solves the 3×3 real
+    border of the phase, amplitude and arclength rows (the arclength row has weight on ``U*``
+    and ``μ`` only). With ``reuse`` the last fluid factorisation is kept (its shift ``iω_f``
+    differs from ``iω`` by the Newton updates of ``ω``: chord Newton)."""
+
+    def __init__(self, fluid: FluidOperators, template: Solid, counter: FactorCounter):
+        self.fluid, self.template, self.counter = fluid, template, counter
+        system = CoupledSystem(fluid, template)
+        self.n, self.phase = system.size, _phase_index(system)
+        self._system: tuple[tuple[float, float], CoupledSystem] | None = None
+        self._solver: tuple[tuple, ShiftedSolver] | None = None
+        self._factor = None
+
+    @property
+    def size(self) -> int:
+        return 2 * self.n + 3
+
+    def pack(self, q: np.ndarray, omega: float, velocity: float, log_mass: float) -> np.ndarray:
+        return np.concatenate([q.real, q.imag, [omega, velocity, log_mass]])
+
+    def unpack(self, y: np.ndarray) -> tuple[np.ndarray, float, float, float]:
+        n = self.n
+        return y[:n] + 1j * y[n : 2 * n], float(y[-3]), float(y[-2]), float(y[-1])
+
+    def system(self, velocity: float, log_mass: float) -> CoupledSystem:
         if not (math.isfinite(velocity) and velocity > 0 and math.isfinite(log_mass)):
-            break
-        solid = replace(template, reduced_velocity=float(velocity), mass_ratio=float(math.exp(log_mass)))
-        system = CoupledSystem(fluid, solid)
-        k = _phase_index(system)
+            raise ConvergenceError(
+                f"the neutral-curve corrector left the admissible range (U* = {velocity:g})"
+            )
+        key = (velocity, log_mass)
+        if self._system is None or self._system[0] != key:
+            solid = replace(self.template, reduced_velocity=velocity, mass_ratio=math.exp(log_mass))
+            self._system = (key, CoupledSystem(self.fluid, solid))
+        return self._system[1]
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        q, omega, velocity, log_mass = self.unpack(y)
+        system = self.system(velocity, log_mass)
         mq = system.mass @ q
-        matrix_q = system.jacobian @ q + 1j * omega * mq
-        arclength = tangent[0] * (velocity - anchor[0]) + tangent[1] * (log_mass - anchor[1]) - step
-        residual = np.concatenate([matrix_q, [q[k].real, np.vdot(q, mq).real - 1.0, arclength]])
-        norm = float(np.linalg.norm(residual))
-        if norm < tol:
-            return q, omega, velocity, log_mass, iteration
-        if iteration == maxit:
-            break
-        if factor is None or norm > 0.1 * previous:
-            factor = None
-        previous = norm
-        solver = ShiftedSolver(
-            system, factor.shift if factor else 1j * omega, fluid_factor=factor, counter=counter
-        )
-        factor = solver.fluid_factor
-        d_velocity = velocity_derivative(system, q)
-        a = solver.solve(-matrix_q)
+        r = system.jacobian @ q + 1j * omega * mq
+        return np.concatenate([r.real, r.imag, [q[self.phase].real, np.vdot(q, mq).real - 1.0]])
+
+    def solve(self, y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+        n, k = self.n, self.phase
+        if np.any(border[: 2 * n + 1]):
+            raise InputError("the neutral-curve arclength has weight on (U*, log m) only")
+        q, omega, velocity, log_mass = self.unpack(y)
+        system = self.system(velocity, log_mass)
+        factor = self._factor if reuse else None
+        shift = factor.shift if factor is not None else 1j * omega
+        key = (velocity, log_mass, shift, id(factor))
+        if self._solver is None or self._solver[0] != key or factor is None:
+            solver = ShiftedSolver(system, shift, fluid_factor=factor, counter=self.counter)
+            self._factor = solver.fluid_factor
+            self._solver = ((velocity, log_mass, shift, id(self._factor)), solver)
+        solver = self._solver[1]
+        mq = system.mass @ q
+        r_q = rhs[:n] + 1j * rhs[n : 2 * n]
+        a = solver.solve(r_q) if np.any(r_q) else np.zeros(n, dtype=complex)
         b = solver.solve(-1j * mq)
-        c = solver.solve(-d_velocity)
+        c = solver.solve(-velocity_derivative(system, q))
         d = solver.solve(-_aero_rows(system, q, omega))
-        border = np.array(
+        matrix = np.array(
             [
                 [b[k].real, c[k].real, d[k].real],
                 [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real, 2 * np.vdot(mq, d).real],
-                [0.0, tangent[0], tangent[1]],
+                [0.0, border[-2], border[-1]],
             ]
         )
-        rhs = np.array([-(q[k] + a[k]).real, 1.0 - np.vdot(q, mq).real - 2 * np.vdot(mq, a).real, -arclength])
-        d_omega, d_u, d_mu = np.linalg.solve(border, rhs)
-        q = q + a + d_omega * b + d_u * c + d_mu * d
-        omega, velocity, log_mass = omega + d_omega, velocity + d_u, log_mass + d_mu
-    raise ConvergenceError("neutral-curve corrector did not converge")
+        small = np.array([rhs[2 * n] - a[k].real, rhs[2 * n + 1] - 2 * np.vdot(mq, a).real, rhs[2 * n + 2]])
+        d_omega, d_velocity, d_log_mass = np.linalg.solve(matrix, small)
+        return self.pack(a + d_omega * b + d_velocity * c + d_log_mass * d, d_omega, d_velocity, d_log_mass)
 
 
 def continue_neutral_curve(
@@ -141,20 +190,27 @@ def continue_neutral_curve(
     mass_range: tuple[float, float] = (1.0, 1e4),
     velocity_range: tuple[float, float] = (1e-2, 20.0),
     direction: float = -1.0,
+    initial_direction: tuple[float, float] | None = None,
     step: float = 0.2,
     min_step: float = 1e-3,
     max_step: float = 0.5,
     max_points: int = 200,
+    locate_folds: bool = True,
     counter: FactorCounter | None = None,
     on_point: Callable[[NeutralPoint], None] | None = None,
+    on_fold: Callable[[TurningPoint], None] | None = None,
 ) -> NeutralCurve:
     """Follow the flutter/VIV neutral curve through ``start`` (a flutter CriticalPoint).
 
-    Arclength in the plane ``(U*, log m)``; ``direction`` −1 starts towards smaller m. Steps grow
-    after quick convergence and halve after a failure; the curve stops when it leaves
+    Arclength in the plane ``(U*, log m)``; ``direction`` −1 starts towards smaller m, or
+    ``initial_direction = (ΔU*, Δlog m)`` orients the first step (to resume past a turning point).
+    Steps grow after quick convergence and halve after a failure or a turn of the tangent by more
+    than 0.5 rad within one step (:func:`fsistab.continuation.continuation`); the curve stops when it leaves
     ``mass_range``/``velocity_range`` or the frequency reaches zero (a codimension-two point with
-    the divergence curve), or after ``max_points``. ``on_point`` is called for every accepted
-    point (to save progress).
+    the divergence curve), or after ``max_points``. Turning points in m are reported (and located
+    on the curve when ``locate_folds``, a few extra factorisations each). ``on_point`` is called
+    for every accepted point (to save progress), ``on_fold`` for every turning point, before the
+    point that follows it.
     """
     if start.kind != "flutter":
         raise InputError("continue_neutral_curve follows dynamic (ω > 0) neutral curves")
@@ -162,63 +218,75 @@ def continue_neutral_curve(
         raise InputError("mass and velocity ranges must be positive and increasing")
     counter = counter if counter is not None else FactorCounter()
     first = counter.count
-    log_bounds = (math.log(mass_range[0]), math.log(mass_range[1]))
-    q, omega = start.mode.astype(complex), start.frequency
-    velocity, log_mass = start.reduced_velocity, math.log(start.mass_ratio)
-    points = [NeutralPoint(start.mass_ratio, velocity, omega, q, 0)]
-    # initial tangent: move along log m, the corrector adjusts U*
-    tangent = (0.0, float(np.sign(direction)))
-    folds: list[int] = []
-    stop = "max_points"
-    last_step = None  # (Δs, Δq, Δω) of the previous accepted step, for the secant predictor
-    while len(points) < max_points:
-        anchor = (velocity, log_mass)
-        predicted = (velocity + step * tangent[0], log_mass + step * tangent[1])
-        q_guess, omega_guess = q, omega
-        if last_step is not None:
-            ratio = step / last_step[0]
-            q_guess, omega_guess = q + ratio * last_step[1], omega + ratio * last_step[2]
-        try:
-            q_new, omega_new, u_new, mu_new, iterations = _newton_arclength(
-                fluid,
-                template,
-                q_guess,
-                omega_guess,
-                predicted[0],
-                predicted[1],
-                anchor,
-                tangent,
-                step,
-                counter,
-            )
-        except ConvergenceError:
-            step /= 2
-            if step < min_step:
-                stop = "step_too_small"
-                break
-            continue
-        secant = np.array([u_new - velocity, mu_new - log_mass])
-        new_tangent = tuple(secant / np.linalg.norm(secant))
-        if tangent[1] * new_tangent[1] < 0 and len(points) > 1:
-            folds.append(len(points) - 1)
-        tangent = new_tangent
-        last_step = (step, q_new - q, omega_new - omega)
-        q, omega, velocity, log_mass = q_new, omega_new, u_new, mu_new
-        point = NeutralPoint(math.exp(log_mass), velocity, omega, q, iterations)
-        points.append(point)
+    problem = _NeutralProblem(fluid, template, counter)
+    n = problem.n
+    weights = np.zeros(problem.size)
+    weights[-2:] = 1.0
+    y0 = problem.pack(
+        np.asarray(start.mode, dtype=complex),
+        start.frequency,
+        start.reduced_velocity,
+        math.log(start.mass_ratio),
+    )
+    d0 = np.zeros(problem.size)
+    d0[-2:] = initial_direction if initial_direction is not None else (0.0, float(np.sign(direction)))
+    points = [
+        NeutralPoint(
+            start.mass_ratio, start.reduced_velocity, start.frequency, y0[:n] + 1j * y0[n : 2 * n], 0
+        )
+    ]
+    turning: list[TurningPoint] = []
+
+    def point_of(y: np.ndarray, iterations: int) -> NeutralPoint:
+        q, omega, velocity, log_mass = problem.unpack(y)
+        return NeutralPoint(math.exp(log_mass), velocity, omega, q, iterations)
+
+    def accept(y: np.ndarray, iterations: int) -> None:
+        points.append(point_of(y, iterations))
         if on_point:
-            on_point(point)
-        if not log_bounds[0] <= log_mass <= log_bounds[1]:
-            stop = "mass_bound"
-            break
-        if not velocity_range[0] <= velocity <= velocity_range[1]:
-            stop = "velocity_bound"
-            break
-        if omega <= 1e-4 * max(1.0, 1.0 / velocity):
-            stop = "zero_frequency"
-            break
-        step = min(max_step, step * 1.5) if iterations <= 4 else step
-    return NeutralCurve(tuple(points), tuple(folds), stop, counter.count - first)
+            on_point(points[-1])
+
+    def fold(event) -> None:
+        _, omega, velocity, log_mass = problem.unpack(event.point)
+        turning.append(TurningPoint(math.exp(log_mass), velocity, omega, event.index, event.localised))
+        if on_fold:
+            on_fold(turning[-1])
+
+    def zero_frequency(y: np.ndarray) -> float:
+        return float(y[-3] - 1e-4 * max(1.0, 1.0 / y[-2]))
+
+    try:
+        branch = continuation(
+            CurveProblem(problem.residual, problem.solve, parameter=-1, weights=weights),
+            y0,
+            d0,
+            step=step,
+            min_step=min_step,
+            max_step=max_step,
+            max_points=max_points,
+            predictor="tangent",
+            bounds={2 * n + 2: (math.log(mass_range[0]), math.log(mass_range[1])), 2 * n + 1: velocity_range},
+            clip=False,
+            events={"zero_frequency": TestFunction(zero_frequency, terminal=True, localise=False)},
+            tol=1e-10,
+            max_iterations=12,
+            fast_iterations=4,
+            locate_tol=1e-6,
+            locate_folds=locate_folds,
+            max_locate_iterations=8,
+            record=lambda y: y[-3:],
+            on_point=accept,
+            on_event=lambda e: fold(e) if e.kind == "fold" else None,
+        )
+    except ConvergenceError:  # no step from the start converged: a one-point curve
+        return NeutralCurve(tuple(points), (), "step_too_small", counter.count - first, ())
+    stop = branch.stop
+    if stop == "bound":
+        stop = "mass_bound" if branch.stop_event.component == 2 * n + 2 else "velocity_bound"
+    elif stop == "event:zero_frequency":
+        stop = "zero_frequency"
+    folds = tuple(t.index for t in turning)
+    return NeutralCurve(tuple(points), folds, stop, counter.count - first, tuple(turning))
 
 
 def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarray) -> np.ndarray:
@@ -229,21 +297,87 @@ def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarra
     return np.sqrt(mass_ratios * r_theta**2 / moment_slope)
 
 
-def curve_dataset(curve_points: list[NeutralPoint], attrs: dict, complete: bool):
-    """Points of a neutral curve (and the last point's mode, to resume) as an xarray Dataset."""
+@dataclass(frozen=True)
+class CurveCrossing:
+    """A codimension-two point where two neutral curves cross in the ``(m, U*)`` plane, on segment
+    ``segments[0]`` of the first curve and ``segments[1]`` of the second; ``refined`` when the
+    ``refine`` callback of :func:`curve_crossings` converged from the interpolated crossing."""
+
+    mass_ratio: float
+    reduced_velocity: float
+    segments: tuple[int, int]
+    refined: bool
+
+
+def curve_crossings(
+    first: Sequence,
+    second: Sequence,
+    refine: Callable[[float, float, tuple[int, int]], tuple[float, float]] | None = None,
+) -> tuple[CurveCrossing, ...]:
+    """Crossings of two neutral curves given as sequences of ``(log m, U*)`` points.
+
+    The piecewise-linear interpolants in ``(log m, U*)`` are intersected (error ``O(Δs²)`` times
+    the curvature); ``refine(log m, U*, segments)``, if given, returns the crossing refined on the
+    curves themselves (e.g. Newton on both neutral systems) — a refinement that raises
+    :class:`~fsistab.errors.ConvergenceError` leaves the interpolated crossing, ``refined=False``.
+    For a divergence curve use ``(log m, divergence_curve(...))`` on a fine grid of m.
+    """
+    crossings = []
+    for point, i, _, j, _ in polyline_intersections(first, second):
+        log_mass, velocity, refined = float(point[0]), float(point[1]), False
+        if refine is not None:
+            try:
+                log_mass, velocity = refine(log_mass, velocity, (i, j))
+                refined = True
+            except ConvergenceError:
+                pass
+        crossings.append(CurveCrossing(math.exp(log_mass), float(velocity), (i, j), refined))
+    return tuple(crossings)
+
+
+def curve_dataset(
+    curve_points: list[NeutralPoint],
+    attrs: dict,
+    complete: bool,
+    turning_points: Sequence[TurningPoint] = (),
+):
+    """Points of a neutral curve (and the last point's mode, to resume) as an xarray Dataset, with
+    its turning points in m (``fold_*`` variables along ``fold``; attribute ``n_folds``)."""
     import xarray as xr
 
     last = curve_points[-1]
-    return xr.Dataset(
-        {
-            "mass_ratio": ("point", np.array([p.mass_ratio for p in curve_points])),
-            "reduced_velocity": ("point", np.array([p.reduced_velocity for p in curve_points])),
-            "frequency": ("point", np.array([p.frequency for p in curve_points])),
-            "last_mode_real": ("unknown", last.mode.real),
-            "last_mode_imag": ("unknown", last.mode.imag),
-        },
-        attrs={**attrs, "complete": int(complete)},
-    )
+    variables = {
+        "mass_ratio": ("point", np.array([p.mass_ratio for p in curve_points])),
+        "reduced_velocity": ("point", np.array([p.reduced_velocity for p in curve_points])),
+        "frequency": ("point", np.array([p.frequency for p in curve_points])),
+        "last_mode_real": ("unknown", last.mode.real),
+        "last_mode_imag": ("unknown", last.mode.imag),
+    }
+    if turning_points:
+        variables |= {
+            "fold_mass_ratio": ("fold", np.array([t.mass_ratio for t in turning_points])),
+            "fold_reduced_velocity": ("fold", np.array([t.reduced_velocity for t in turning_points])),
+            "fold_frequency": ("fold", np.array([t.frequency for t in turning_points])),
+            "fold_index": ("fold", np.array([t.index for t in turning_points])),
+            "fold_localised": ("fold", np.array([int(t.localised) for t in turning_points])),
+        }
+    return xr.Dataset(variables, attrs={**attrs, "complete": int(complete), "n_folds": len(turning_points)})
+
+
+def _turning_points_of(ds) -> list[TurningPoint]:
+    if "fold_mass_ratio" not in ds:
+        return []
+    return [
+        TurningPoint(float(m), float(u), float(w), int(i), bool(ok))
+        for m, u, w, i, ok in zip(
+            ds.fold_mass_ratio.values,
+            ds.fold_reduced_velocity.values,
+            ds.fold_frequency.values,
+            ds.fold_index.values,
+            ds.fold_localised.values,
+            strict=True,
+        )
+    ]
 
 
 def trace_curve_resumable(
@@ -257,10 +391,13 @@ def trace_curve_resumable(
     """:func:`continue_neutral_curve` writing ``path`` (NetCDF) after every point.
 
     If ``path`` holds a curve with the same ``attrs`` that was interrupted, or stopped at fewer
-    than ``max_points`` points, it continues from its last point; a mismatched file is refused."""
+    than ``max_points`` points, it continues from its last point in the direction of its last
+    step (so a resumed curve keeps going past a turning point); a mismatched file is refused.
+    Turning points in m are stored with the curve (:func:`curve_dataset`)."""
     from fsistab.store import read_dataset, write_dataset
 
     points: list[NeutralPoint] = []
+    turning: list[TurningPoint] = []
     if path.exists():
         ds = read_dataset(path, expect=attrs)
         points = [
@@ -269,6 +406,7 @@ def trace_curve_resumable(
                 ds.mass_ratio.values, ds.reduced_velocity.values, ds.frequency.values, strict=True
             )
         ]
+        turning = _turning_points_of(ds)
         mode = ds.last_mode_real.values + 1j * ds.last_mode_imag.values
         points[-1] = replace(points[-1], mode=mode)
         wanted = options.get("max_points", 200)
@@ -276,14 +414,26 @@ def trace_curve_resumable(
             return points
         options = {**options, "max_points": wanted - len(points) + 1}
         last = points[-1]
+        if len(points) > 1:
+            before = points[-2]
+            options["initial_direction"] = (
+                last.reduced_velocity - before.reduced_velocity,
+                math.log(last.mass_ratio / before.mass_ratio),
+            )
         start = CriticalPoint("flutter", last.mass_ratio, last.reduced_velocity, last.frequency, mode, (), 0)
     else:
         points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
+    offset = len(points) - 1
 
     def save(point: NeutralPoint) -> None:
         points.append(point)
-        write_dataset(curve_dataset(points, attrs, complete=False), path)
+        write_dataset(curve_dataset(points, attrs, complete=False, turning_points=turning), path)
 
-    curve = continue_neutral_curve(fluid, start, template, on_point=save, **options)
-    write_dataset(curve_dataset(points, {**attrs, "stop": curve.stop}, complete=True), path)
+    def save_fold(fold: TurningPoint) -> None:
+        turning.append(replace(fold, index=fold.index + offset))
+
+    curve = continue_neutral_curve(fluid, start, template, on_point=save, on_fold=save_fold, **options)
+    write_dataset(
+        curve_dataset(points, {**attrs, "stop": curve.stop}, complete=True, turning_points=turning), path
+    )
     return points

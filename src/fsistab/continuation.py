@@ -1,0 +1,584 @@
+"""Pseudo-arclength continuation of a curve ``F(y) = 0`` in ``R^N`` (MODEL.md §8), NumPy only.
+
+The curve is the solution set of ``F: R^N → R^(N-1)``, usually ``y = (x, p)`` with state ``x`` and
+one parameter ``p`` (a complex state is passed as its real and imaginary parts by the caller).
+Point ``k + 1`` follows from point ``k`` by the predictor ``y_k + Δs t_k`` and Newton on the
+bordered system::
+
+    F(y) = 0,      ⟨t_k, y - y_k⟩_W - Δs = 0                     (pseudo-arclength)
+
+where ``⟨a, b⟩_W = Σ w_i a_i b_i`` with non-negative weights ``w`` (zero weights give a seminorm:
+the neutral curves of :mod:`fsistab.neutral` measure arclength in the plane ``(U*, log m)`` only).
+The predictor direction is the tangent, from the bordered solve::
+
+    [ F_y(y_k)       ] τ = [0]        t_k = τ / ‖τ‖_W              (orientation: ⟨τ, t_{k-1}⟩_W > 0)
+    [ (W t_{k-1})ᵀ   ]     [1]
+
+or the secant ``(y_k - y_{k-1}) / ‖y_k - y_{k-1}‖_W``. The problem supplies only ``F`` and a solver
+of that bordered matrix (``solve(y, border, rhs, reuse)``), so a solver that reuses a sparse
+factorisation (chord Newton) plugs in; :func:`dense_bordered_solver` builds one from a Jacobian
+matrix for small problems.
+
+Detection between consecutive points, each localised on the curve by a bracketing root finder
+(Illinois regula falsi inside a bisection bracket) along the chord of the bracket:
+
+- turning points (folds) of the parameter ``p = y[parameter]``: sign change of ``t_p`` (tangent
+  predictor) or of the secant's ``Δp`` (secant predictor); located where ``τ_p = 0``;
+- events: sign changes of user test functions ``g(y)`` (a Hopf point where the trace of a 2×2
+  Jacobian vanishes, two neutral curves crossing, ...), located where ``g = 0``;
+- bounds on components of ``y``: the curve stops there (at the bound itself with ``clip``).
+
+Steps grow by ``growth`` after a corrector that needed at most ``fast_iterations`` iterations,
+halve after a failure or, with the tangent predictor, when the step's chord or the new tangent
+turns by more than ``max_turn`` from the tangent (this also refuses most jumps across an S-shaped
+part of the curve), and stay within ``[min_step, max_step]``. The secant predictor has no such
+control after the first step (the angle between consecutive secants does not fall with the
+step): prefer the tangent predictor on curves with sharp turns.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fsistab.errors import ConvergenceError, InputError
+
+Residual = Callable[[np.ndarray], np.ndarray]
+BorderedSolve = Callable[[np.ndarray, np.ndarray, np.ndarray, bool], np.ndarray]
+
+
+@dataclass(frozen=True)
+class CurveProblem:
+    """``F(y) = 0`` with ``F: R^N → R^(N-1)`` and a solver of its bordered Jacobian.
+
+    ``solve(y, border, rhs, reuse)`` returns ``δ`` with ``[F_y(y); borderᵀ] δ = rhs``; ``reuse``
+    says that a factorisation made at a nearby ``y`` may be reused (chord Newton) — the corrector
+    sets it while the residual falls at least tenfold per iteration, a solver may ignore it.
+    ``parameter`` is the index of ``p`` in ``y`` (folds are turning points in ``p``); ``weights``
+    the arclength weights ``w`` (default all ones).
+    """
+
+    residual: Residual
+    solve: BorderedSolve
+    parameter: int = -1
+    weights: np.ndarray | None = None
+
+    @classmethod
+    def from_jacobian(
+        cls,
+        residual: Residual,
+        jacobian: Callable[[np.ndarray], np.ndarray],
+        *,
+        parameter: int = -1,
+        weights: np.ndarray | None = None,
+    ) -> CurveProblem:
+        """A small problem with a dense ``(N-1) × N`` Jacobian ``[F_x F_p]``."""
+        return cls(residual, dense_bordered_solver(jacobian), parameter, weights)
+
+
+def dense_bordered_solver(jacobian: Callable[[np.ndarray], np.ndarray]) -> BorderedSolve:
+    """Bordered solve ``[F_y; borderᵀ] δ = rhs`` with a dense Jacobian ``F_y`` (``(N-1) × N``)."""
+
+    def solve(y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool = False) -> np.ndarray:
+        matrix = np.atleast_2d(np.asarray(jacobian(y), dtype=float))
+        if matrix.shape != (len(y) - 1, len(y)):
+            raise InputError(
+                f"the Jacobian of F at a point of R^{len(y)} must be {len(y) - 1} × {len(y)}, "
+                f"got {matrix.shape[0]} × {matrix.shape[1]}"
+            )
+        return np.linalg.solve(np.vstack([matrix, border]), rhs)
+
+    return solve
+
+
+@dataclass(frozen=True)
+class TestFunction:
+    """A test function ``g(y)`` whose sign change along the curve is an event; ``terminal`` ends
+    the curve there (at the located point when ``localise``)."""
+
+    __test__ = False  # not a pytest class
+
+    function: Callable[[np.ndarray], float]
+    terminal: bool = False
+    localise: bool = True
+
+
+@dataclass(frozen=True)
+class Event:
+    """A special point between ``points[index]`` and ``points[index + 1]`` of a :class:`Branch`.
+
+    ``kind`` is ``"fold"`` (turning point in the parameter), ``"bound"`` or the name of a test
+    function; ``component`` the index in ``y`` of the folding parameter or of the bounded
+    component; ``point`` the full point ``y`` (on the curve when ``localised``), ``arclength``
+    its pseudo-arclength from the start, ``value`` the test function there (``τ_p`` for a fold),
+    ``iterations`` the corrector solves spent locating it.
+    """
+
+    kind: str
+    index: int
+    point: np.ndarray
+    arclength: float
+    value: float
+    localised: bool
+    iterations: int
+    component: int | None = None
+
+    @property
+    def parameter_value(self) -> float:
+        """``y[component]`` at the event (the fold value of the parameter)."""
+        return float(self.point[self.component if self.component is not None else -1])
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A continued curve: ``points`` (rows, as recorded), unit ``tangents`` (the predictor
+    direction at each point: tangent, or incoming secant), ``steps`` the ``Δs`` of each accepted
+    step, ``iterations`` the corrector iterations of each point, ``events`` in order of
+    arclength, ``stop`` why the continuation ended (``max_points``, ``bound``, ``step_too_small``
+    or ``event:<name>``)."""
+
+    points: np.ndarray
+    tangents: np.ndarray
+    steps: np.ndarray
+    iterations: np.ndarray
+    events: tuple[Event, ...]
+    stop: str
+    parameter: int = -1
+    stop_event: Event | None = field(default=None)
+
+    def __post_init__(self):
+        for name in ("points", "tangents", "steps", "iterations"):
+            value = np.array(getattr(self, name))
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+
+    @property
+    def arclengths(self) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(self.steps)])
+
+    @property
+    def folds(self) -> tuple[Event, ...]:
+        return tuple(e for e in self.events if e.kind == "fold")
+
+    @property
+    def parameter_values(self) -> np.ndarray:
+        return self.points[:, self.parameter]
+
+
+class _StepFailure(Exception):
+    """The corrector failed for this step size (caught inside this module)."""
+
+
+def _wdot(weights: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.dot(weights * a, b))
+
+
+def _wnorm(weights: np.ndarray, a: np.ndarray) -> float:
+    return math.sqrt(max(_wdot(weights, a, a), 0.0))
+
+
+def _sign(value: float) -> int:
+    return 1 if value > 0 else (-1 if value < 0 else 0)
+
+
+@dataclass
+class _Curve:
+    """The numerical kernel shared by the continuation and the localisation."""
+
+    problem: CurveProblem
+    weights: np.ndarray
+    tol: float
+    max_iterations: int
+
+    def correct(self, guess: np.ndarray, anchor: np.ndarray, direction: np.ndarray, step: float):
+        """Newton on ``F(y) = 0, ⟨direction, y - anchor⟩_W = step`` from ``guess``."""
+        border = self.weights * direction
+        y, previous = np.array(guess, dtype=float), math.inf
+        for iteration in range(self.max_iterations + 1):
+            try:
+                residual = np.append(self.problem.residual(y), border @ (y - anchor) - step)
+            except (ConvergenceError, FloatingPointError, ValueError) as error:
+                raise _StepFailure(str(error)) from error
+            norm = float(np.linalg.norm(residual))
+            if not math.isfinite(norm):
+                raise _StepFailure("non-finite residual")
+            if norm < self.tol:
+                return y, iteration
+            if iteration == self.max_iterations:
+                break
+            reuse = iteration > 0 and norm <= 0.1 * previous
+            previous = norm
+            try:
+                delta = self.problem.solve(y, border, -residual, reuse)
+            except (ConvergenceError, np.linalg.LinAlgError, FloatingPointError) as error:
+                raise _StepFailure(str(error)) from error
+            if not np.all(np.isfinite(delta)):
+                raise _StepFailure("non-finite Newton step")
+            y = y + delta
+        raise _StepFailure(f"residual {norm:.1e} after {self.max_iterations} iterations")
+
+    def tangent(self, y: np.ndarray, previous: np.ndarray, reuse: bool) -> np.ndarray:
+        """Unit tangent at ``y`` oriented along ``previous`` (bordered solve with ``W previous``)."""
+        rhs = np.zeros(len(y))
+        rhs[-1] = 1.0
+        try:
+            tau = self.problem.solve(y, self.weights * previous, rhs, reuse)
+        except (ConvergenceError, np.linalg.LinAlgError, FloatingPointError) as error:
+            raise _StepFailure(str(error)) from error
+        norm = _wnorm(self.weights, tau)
+        if not (math.isfinite(norm) and norm > 0):
+            raise _StepFailure("the tangent has no component along the weighted arclength")
+        return tau / norm
+
+
+def _locate(
+    curve: _Curve,
+    start: np.ndarray,
+    end: np.ndarray,
+    test: Callable[[np.ndarray, np.ndarray], float],
+    values: tuple[float, float],
+    tol: float,
+    max_iterations: int,
+):
+    """Zero of ``test(y, chord)`` between two points of the curve that bracket a sign change.
+
+    Points between are parametrised by ``σ ∈ [0, L]`` along the chord ``u = (end - start)/L``:
+    ``F(y) = 0, ⟨u, y - start⟩_W = σ`` (a graph over the chord while the direction turns by less
+    than 90°), predicted by linear interpolation. Illinois regula falsi, falling back to bisection
+    when it leaves the bracket; stops when ``|g| ≤ tol · max|g(ends)|`` or the bracket is shorter
+    than ``tol · L``. Returns ``(y, σ/L, g, iterations, localised)``.
+    """
+    chord = end - start
+    length = _wnorm(curve.weights, chord)
+    u = chord / length
+    lo, hi = 0.0, length
+    g_lo, g_hi = values
+    scale = max(abs(g_lo), abs(g_hi))
+    best = (start, 0.0, g_lo) if abs(g_lo) <= abs(g_hi) else (end, 1.0, g_hi)
+    side = 0
+    for iteration in range(1, max_iterations + 1):
+        sigma = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+        if not (lo < sigma < hi) or not math.isfinite(sigma):
+            sigma = 0.5 * (lo + hi)
+        try:
+            y, _ = curve.correct(start + (sigma / length) * chord, start, u, sigma)
+            g = test(y, u)
+        except _StepFailure:
+            return best[0], best[1], best[2], iteration, False
+        if abs(g) < abs(best[2]):
+            best = (y, sigma / length, g)
+        if abs(g) <= tol * scale or (hi - lo) <= tol * length:
+            return y, sigma / length, g, iteration, True
+        if _sign(g) == _sign(g_hi):
+            hi, g_hi = sigma, g
+            if side == 1:
+                g_lo /= 2
+            side = 1
+        else:
+            lo, g_lo = sigma, g
+            if side == -1:
+                g_hi /= 2
+            side = -1
+    return best[0], best[1], best[2], max_iterations, False
+
+
+@dataclass(frozen=True)
+class _Bracket:
+    """Two points of the curve ``start`` (index ``index``) and ``end`` that bracket a sign change;
+    ``middle`` the accepted point between them for a fold bracket of the secant predictor."""
+
+    start: np.ndarray
+    index: int
+    start_arclength: float
+    end: np.ndarray
+    end_arclength: float
+    middle: np.ndarray | None = None
+
+    def locate(self, curve, kind, test, values, component, localise, tol, max_iterations) -> Event:
+        """The event where ``test`` vanishes (located by :func:`_locate` when ``localise``,
+        otherwise linearly interpolated and not on the curve)."""
+        if localise:
+            point, fraction, value, its, ok = _locate(
+                curve, self.start, self.end, test, values, tol, max_iterations
+            )
+        else:
+            fraction = values[0] / (values[0] - values[1])
+            point, value, its, ok = self.start + fraction * (self.end - self.start), math.nan, 0, False
+        index = self.index
+        if self.middle is not None:  # which of the two steps holds it
+            chord = self.end - self.start
+            middle = _wdot(curve.weights, chord, self.middle - self.start) / _wdot(
+                curve.weights, chord, chord
+            )
+            index += 1 if fraction > middle else 0
+        arclength = self.start_arclength + fraction * (self.end_arclength - self.start_arclength)
+        return Event(kind, index, point, arclength, value, ok, its, component)
+
+
+def _event_test(function: Callable[[np.ndarray], float]):
+    return lambda y, _chord: float(function(y))
+
+
+def _excess(index: int, bound: float):
+    return lambda y, _chord: float(y[index] - bound)
+
+
+def continuation(
+    problem: CurveProblem,
+    start: np.ndarray,
+    direction: np.ndarray,
+    *,
+    step: float = 0.1,
+    min_step: float = 1e-4,
+    max_step: float = 1.0,
+    max_points: int = 200,
+    predictor: str = "tangent",
+    bounds: Mapping[int, tuple[float, float]] | None = None,
+    clip: bool = True,
+    events: Mapping[str, TestFunction | Callable[[np.ndarray], float]] | None = None,
+    detect_folds: bool = True,
+    locate_folds: bool = True,
+    tol: float = 1e-10,
+    max_iterations: int = 10,
+    fast_iterations: int = 3,
+    growth: float = 1.5,
+    max_turn: float = 0.5,
+    locate_tol: float = 1e-10,
+    max_locate_iterations: int = 40,
+    correct_start: bool = True,
+    record: Callable[[np.ndarray], np.ndarray] | None = None,
+    on_point: Callable[[np.ndarray, int], None] | None = None,
+    on_event: Callable[[Event], None] | None = None,
+) -> Branch:
+    """Follow the curve ``F(y) = 0`` of ``problem`` from ``start`` (pseudo-arclength, module doc).
+
+    ``direction`` orients the first step (e.g. ``+e_p``: increasing parameter); the first
+    predictor is the tangent oriented along it. ``predictor`` is ``"tangent"`` (one bordered solve
+    per point, exact fold brackets) or ``"secant"`` (no extra solve). ``bounds`` maps component
+    indices to ``(low, high)``; leaving them stops the curve, at the bound itself when ``clip``.
+    ``events`` maps names to test functions ``g(y)``. ``record(y)`` selects what is stored per
+    point (default all of ``y``; the continuation itself keeps only the last three points);
+    ``on_point(y, iterations)`` is called for every accepted point, after ``on_event`` for the
+    events found on its step.
+
+    Raises :class:`~fsistab.errors.ConvergenceError` when the start point cannot be corrected onto
+    the curve or no step down to ``min_step`` converges from it; a failure later ends the curve
+    with ``stop = "step_too_small"``.
+    """
+    y0 = np.array(start, dtype=float)
+    n = y0.size
+    if y0.ndim != 1 or n < 2:
+        raise InputError("the start of a curve is a point of R^N with N ≥ 2 (state and parameter)")
+    weights = np.ones(n) if problem.weights is None else np.asarray(problem.weights, dtype=float)
+    if weights.shape != (n,) or np.any(weights < 0) or not np.any(weights > 0):
+        raise InputError(f"the arclength weights must be {n} non-negative numbers, not all zero")
+    parameter = problem.parameter % n
+    d0 = np.asarray(direction, dtype=float)
+    if d0.shape != (n,) or _wnorm(weights, d0) == 0:
+        raise InputError("the initial direction must have a nonzero weighted component")
+    if predictor not in ("tangent", "secant"):
+        raise InputError(f"predictor must be 'tangent' or 'secant', not {predictor!r}")
+    if not (0 < min_step <= step <= max_step) or growth < 1 or max_points < 1:
+        raise InputError("steps must satisfy 0 < min_step ≤ step ≤ max_step, growth ≥ 1, max_points ≥ 1")
+    bounds = dict(bounds or {})
+    for index, (low, high) in bounds.items():
+        if not low < high:
+            raise InputError(f"bound on y[{index}] must have low < high, got ({low:g}, {high:g})")
+        if not low <= y0[index] <= high:
+            raise InputError(
+                f"the start has y[{index}] = {y0[index]:g} outside its bounds ({low:g}, {high:g})"
+            )
+    tests = {
+        name: (g if isinstance(g, TestFunction) else TestFunction(g)) for name, g in (events or {}).items()
+    }
+    record = record or (lambda y: y)
+    curve = _Curve(problem, weights, tol, max_iterations)
+
+    d0 = d0 / _wnorm(weights, d0)
+    iterations0 = 0
+    if correct_start:
+        try:
+            y0, iterations0 = curve.correct(y0, y0, d0, 0.0)
+        except _StepFailure as failure:
+            raise ConvergenceError(
+                f"the start point is not on the curve F(y) = 0 ({failure}); give a start closer to "
+                "the curve, e.g. converged by Newton at fixed parameter"
+            ) from failure
+    try:
+        t0 = curve.tangent(y0, d0, reuse=False)
+    except _StepFailure as failure:
+        raise ConvergenceError(
+            f"no tangent at the start point ({failure}): the bordered Jacobian is singular there; "
+            "start away from a bifurcation or choose another initial direction"
+        ) from failure
+
+    points, tangents, steps, counts = [record(y0)], [record(t0)], [], [iterations0]
+    found: list[Event] = []
+    recent = [y0]  # the last (up to) three full points, for fold brackets of the secant predictor
+    arclength = [0.0]
+    g_values = {name: float(test.function(y0)) for name, test in tests.items()}
+    y, t, h = y0, t0, float(step)
+    stop, stop_event = "max_points", None
+
+    locating = (locate_tol, max_locate_iterations)
+
+    def fold_test(point: np.ndarray, chord: np.ndarray) -> float:
+        # an exact tangent (no chord factorisation): its p component is the located quantity
+        return float(curve.tangent(point, chord, reuse=False)[parameter])
+
+    while len(points) < max_points:
+        try:
+            y_new, iterations = curve.correct(y + h * t, y, t, h)
+            t_new = (
+                curve.tangent(y_new, t, reuse=True)
+                if predictor == "tangent"
+                else (y_new - y) / _wnorm(weights, y_new - y)
+            )
+            chord = (y_new - y) / _wnorm(weights, y_new - y)
+            if predictor == "tangent":  # the chord and both end tangents within max_turn
+                turn = min(_wdot(weights, t, t_new), _wdot(weights, t, chord), _wdot(weights, t_new, chord))
+            elif len(points) == 1:  # t is the tangent at the start
+                turn = _wdot(weights, t, chord)
+            else:  # t is the previous secant: its angle with the chord does not fall with Δs
+                turn = 1.0
+            if h > min_step and turn < math.cos(max_turn):
+                # a large turn, or a jump to another part of the curve
+                raise _StepFailure(f"the direction turned by more than {max_turn:g} rad")
+        except _StepFailure as failure:
+            h /= 2
+            if h < min_step:
+                if len(points) == 1:
+                    raise ConvergenceError(
+                        f"pseudo-arclength corrector failed from the start point down to Δs = "
+                        f"{min_step:g} ({failure}); try a smaller min_step, a larger max_iterations "
+                        "or another initial direction"
+                    ) from failure
+                stop = "step_too_small"
+                break
+            continue
+
+        k = len(points) - 1  # the step goes from point k to point k + 1
+        s_k, s_new = arclength[-1], arclength[-1] + h
+        step_events: list[Event] = []
+        step = _Bracket(y, k, s_k, y_new, s_new)
+
+        if detect_folds and _sign(t[parameter]) * _sign(t_new[parameter]) < 0 and not locate_folds:
+            step_events.append(Event("fold", k, y, s_k, math.nan, False, 0, parameter))
+        elif detect_folds and _sign(t[parameter]) * _sign(t_new[parameter]) < 0:
+            if predictor == "tangent" or k == 0:
+                a_point, a_index, a_s = y, k, s_k
+            else:
+                a_point, a_index, a_s = recent[-2], k - 1, arclength[-2]
+            chord = y_new - a_point
+            try:
+                ends = (
+                    float(curve.tangent(a_point, chord, reuse=False)[parameter]),
+                    float(curve.tangent(y_new, chord, reuse=False)[parameter]),
+                )
+            except _StepFailure:
+                ends = (0.0, 0.0)
+            if _sign(ends[0]) * _sign(ends[1]) < 0:
+                bracket = _Bracket(a_point, a_index, a_s, y_new, s_new, y if a_index < k else None)
+                step_events.append(bracket.locate(curve, "fold", fold_test, ends, parameter, True, *locating))
+            else:  # no bracket in the tangents: report the sampled extremum of p
+                step_events.append(Event("fold", k, y, s_k, math.nan, False, 0, parameter))
+
+        new_values = {name: float(test.function(y_new)) for name, test in tests.items()}
+        for name, test in tests.items():
+            pair = (g_values[name], new_values[name])
+            if _sign(pair[0]) * _sign(pair[1]) < 0:
+                g = _event_test(test.function)
+                step_events.append(step.locate(curve, name, g, pair, None, test.localise, *locating))
+
+        terminal: Event | None = None
+        for index, (low, high) in bounds.items():
+            if low <= y_new[index] <= high:
+                continue
+            bound = high if y_new[index] > high else low
+
+            values = (y[index] - bound, y_new[index] - bound)
+            event = step.locate(curve, "bound", _excess(index, bound), values, index, clip, *locating)
+            if terminal is None or event.arclength < terminal.arclength:
+                terminal = event
+        for event in step_events:
+            if event.kind in tests and tests[event.kind].terminal:
+                if terminal is None or event.arclength < terminal.arclength:
+                    terminal = event
+        if terminal is not None:
+            step_events = [e for e in step_events if e.arclength <= terminal.arclength and e is not terminal]
+            stop = "bound" if terminal.kind == "bound" else f"event:{terminal.kind}"
+            stop_event = terminal
+            if terminal.localised:  # the curve ends at the located point
+                y_new = terminal.point
+                h = terminal.arclength - s_k
+                if predictor == "secant":
+                    t_new = (y_new - y) / _wnorm(weights, y_new - y)
+                else:
+                    try:
+                        t_new = curve.tangent(y_new, t, reuse=True)
+                    except _StepFailure:
+                        pass  # keep the tangent of the overshooting point
+        step_events.sort(key=lambda e: e.arclength)
+        for event in step_events + ([terminal] if terminal is not None else []):
+            found.append(event)
+            if on_event:
+                on_event(event)
+
+        points.append(record(y_new))
+        tangents.append(record(t_new))
+        steps.append(h)
+        counts.append(iterations)
+        arclength.append(s_k + h)
+        recent = (recent + [y_new])[-3:]
+        if on_point:
+            on_point(y_new, iterations)
+        if terminal is not None:
+            break
+        g_values = new_values
+        y, t = y_new, t_new
+        if iterations <= fast_iterations:
+            h = min(max_step, h * growth)
+    return Branch(
+        np.array(points),
+        np.array(tangents),
+        np.array(steps),
+        np.array(counts),
+        tuple(found),
+        stop,
+        parameter,
+        stop_event,
+    )
+
+
+def polyline_intersections(
+    first: Sequence, second: Sequence
+) -> list[tuple[np.ndarray, int, float, int, float]]:
+    """Crossings of two polylines in the plane (piecewise-linear interpolants of point sequences).
+
+    Returns ``(point, i, a, j, b)`` for every crossing ``point = P_i + a (P_{i+1} - P_i) =
+    Q_j + b (Q_{j+1} - Q_j)`` with ``a, b ∈ [0, 1)`` (the last segment's end included), in the order
+    of the first polyline. Parallel overlapping segments are not reported.
+    """
+    p = np.asarray(first, dtype=float)
+    q = np.asarray(second, dtype=float)
+    if p.ndim != 2 or q.ndim != 2 or p.shape[1] != 2 or q.shape[1] != 2:
+        raise InputError("polylines are sequences of points (x, y)")
+    crossings = []
+    for i in range(len(p) - 1):
+        dp = p[i + 1] - p[i]
+        for j in range(len(q) - 1):
+            dq = q[j + 1] - q[j]
+            det = dp[0] * (-dq[1]) - dp[1] * (-dq[0])
+            if det == 0:
+                continue
+            r = q[j] - p[i]
+            a = (r[0] * (-dq[1]) - r[1] * (-dq[0])) / det
+            b = (dp[0] * r[1] - dp[1] * r[0]) / det
+            a_end = 1.0 if i == len(p) - 2 else np.nextafter(1.0, 0.0)
+            b_end = 1.0 if j == len(q) - 2 else np.nextafter(1.0, 0.0)
+            if 0.0 <= a <= a_end and 0.0 <= b <= b_end:
+                crossings.append((p[i] + a * dp, i, float(a), j, float(b)))
+    return crossings
