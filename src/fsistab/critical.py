@@ -286,11 +286,19 @@ def find_thresholds(
             boundary = "onset" if growth[i] < 0 else "restabilisation"
             found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
     if "pitch" in solid.dofs:
-        point = divergence_point(
-            fluid, replace(solid, reduced_velocity=float(velocities[-1])), counter=counter
-        )
-        if velocities[0] <= point.reduced_velocity <= velocities[-1]:
-            found.append(Threshold("divergence", "onset", "static", point))
+        from fsistab.slopes import static_slopes
+
+        # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
+        factor = FluidFactor(fluid, 0.0, counter)
+        slope = static_slopes(fluid, factor=factor).moment
+        if slope > 0:
+            # (a little below it: at the root itself the static system is singular)
+            estimate = 0.98 * float(np.sqrt(solid.mass_ratio * solid.r_theta**2 / slope))
+            point = divergence_point(
+                fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
+            )
+            if velocities[0] <= point.reduced_velocity <= velocities[-1]:
+                found.append(Threshold("divergence", "onset", "static", point))
     return sorted(found, key=lambda t: t.reduced_velocity), branches
 
 

@@ -47,15 +47,19 @@ class StaticSlopes:
         return self.moment
 
 
-def static_response(fluid: FluidOperators, counter: FactorCounter | None = None) -> np.ndarray:
+def static_response(
+    fluid: FluidOperators, counter: FactorCounter | None = None, factor: FluidFactor | None = None
+) -> np.ndarray:
     """``∂q_f⁰/∂θ``: the steady flow's derivative with respect to the pitch angle."""
-    factor = FluidFactor(fluid, 0.0, counter)
+    factor = factor if factor is not None else FluidFactor(fluid, 0.0, counter)
     return factor.solve(-fluid.jfs[:, 1])
 
 
-def static_slopes(fluid: FluidOperators, counter: FactorCounter | None = None) -> StaticSlopes:
-    """Slopes of MODEL.md §9 from one factorisation of ``J_ff``."""
-    response = static_response(fluid, counter)
+def static_slopes(
+    fluid: FluidOperators, counter: FactorCounter | None = None, factor: FluidFactor | None = None
+) -> StaticSlopes:
+    """Slopes of MODEL.md §9 from one factorisation of ``J_ff`` (``factor``, if given, is reused)."""
+    response = static_response(fluid, counter, factor)
     d_loads = fluid.load_f @ response + fluid.load_s[:, 1]  # d(F_x, F_y, M)/dθ in body axes
     rows, d_lift_rotation = lift_and_moment_rows(fluid.theta0, fluid.loads0)
     d_lift, d_moment = rows @ d_loads
