@@ -313,6 +313,12 @@ def plot_branches(
     return _save(fig, path)
 
 
+def _reciprocal(values):
+    """``1/x`` with ``1/0 = inf`` and no warning (matplotlib probes secondary axes at 0)."""
+    values = np.asarray(values, dtype=float)
+    return np.divide(1.0, values, out=np.full_like(values, np.inf), where=values != 0)
+
+
 def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
@@ -351,7 +357,7 @@ def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
     ax.set_ylim(all_u.min() / 1.5, all_u.max() * 1.5)
     ax.set_xlabel("mass ratio m")
     ax.set_ylabel("reduced velocity U*")
-    secondary = ax.secondary_yaxis("right", functions=(lambda u: 1 / u, lambda w: 1 / w))
+    secondary = ax.secondary_yaxis("right", functions=(_reciprocal, _reciprocal))
     secondary.set_ylabel("ω_θ = 1/U*")
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper left")
