@@ -1,10 +1,17 @@
 """Shared fixtures: coarse meshes and steady states, computed once per test session."""
 
-import pytest
+import os
 
-from fsistab.mesh import mesh_spec
-from fsistab.params import Cylinder, Flow, Plate
-from fsistab.steady import solve_steady
+# Single-threaded BLAS before NumPy/NGSolve load: with other processes on the cores, OpenBLAS
+# threads spinning beside NGSolve's made sparse factorisations up to ten times slower.
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import pytest  # noqa: E402
+
+from fsistab.mesh import mesh_spec  # noqa: E402
+from fsistab.params import Cylinder, Flow, Plate  # noqa: E402
+from fsistab.steady import solve_steady  # noqa: E402
 
 
 @pytest.fixture(scope="session")
