@@ -114,7 +114,7 @@ def test_thresholds_along_reduced_velocity(plate_operators):
     assert all(label != "fluid" for label in heave.labels)  # the branch kept its identity
 
 
-def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900):
+def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900, tmp_path):
     """(Re, U*) plane: the continued flutter point is an eigenvalue on the axis of the full problem at
     the new Re, and the divergence point obeys the torsional formula with that Re's static slope."""
     from fsistab.critical import critical_points_along_flow
@@ -122,10 +122,13 @@ def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900):
     from fsistab.steady import solve_steady
 
     flows = [Flow(2900.0), Flow(2600.0)]
-    points = list(critical_points_along_flow(plate_coarse_spec, flows, Solid(1000.0, 4.5), 0.18))
+    sweep = critical_points_along_flow(
+        plate_coarse_spec, flows, Solid(1000.0, 4.5), 0.18, cache_dir=tmp_path, initial=plate_2900
+    )
+    points = list(sweep)
     assert [p.reynolds for p in points] == [2900.0, 2600.0]
     point = points[1]
-    fluid = fluid_operators(solve_steady(plate_coarse_spec, flows[1], initial=plate_2900))
+    fluid = fluid_operators(solve_steady(plate_coarse_spec, flows[1], cache_dir=tmp_path))  # cached
     system = CoupledSystem(fluid, Solid(1000.0, point.flutter_velocity))
     nearest = eigenpairs_near(system, [1j * point.flutter_frequency], 2)[0]
     assert abs(nearest.value - 1j * point.flutter_frequency) < 1e-8

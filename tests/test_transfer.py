@@ -12,6 +12,7 @@ from fsistab.coupled import CoupledSystem
 from fsistab.critical import flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
+from fsistab.linalg import FluidFactor
 from fsistab.operators import fluid_operators
 from fsistab.params import Solid
 from fsistab.slopes import static_slopes
@@ -56,8 +57,9 @@ def test_transfer_derivative_matches_finite_difference(plate_fluid_alpha5):
 def test_zero_frequency_loads_are_the_static_slopes(fixture, request):
     """G(0) is the quasi-static response: the pitch column of the loads gives MODEL.md §9's slopes."""
     fluid = request.getfixturevalue(fixture)
-    loads = aerodynamic_loads(exact_transfer(fluid, 0.0), fluid.theta0, fluid.loads0, 0.0)
-    slopes = static_slopes(fluid)
+    factor = FluidFactor(fluid, 0.0)  # one factorisation of J_ff serves both
+    loads = aerodynamic_loads(exact_transfer(fluid, 0.0, factor=factor), fluid.theta0, fluid.loads0, 0.0)
+    slopes = static_slopes(fluid, factor=factor)
     assert loads[0, 1] == pytest.approx(slopes.lift, rel=1e-10)
     assert loads[1, 1] == pytest.approx(slopes.moment, rel=1e-10)
     assert np.abs(loads[:, 0]).max() < 1e-12  # translation invariance: a steady heave changes nothing

@@ -322,6 +322,7 @@ def critical_points_along_flow(
     flutter_frequency: float,
     *,
     cache_dir=None,
+    initial=None,
     counter: FactorCounter | None = None,
     progress=None,
 ):
@@ -344,7 +345,7 @@ def critical_points_along_flow(
     if not flows:
         raise InputError("give at least one flow")
     counter = counter if counter is not None else FactorCounter()
-    previous_state = None
+    previous_state = initial
     guesses = [(float(flutter_frequency), float(np.log(solid.reduced_velocity)))]
     divergence_guess = float(solid.reduced_velocity)
     for i, flow in enumerate(flows):

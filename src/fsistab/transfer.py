@@ -39,12 +39,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
 import xarray as xr
 
 from fsistab.coupled import active_states, lift_and_moment_rows, solid_blocks
+from fsistab.critical import stiffness_derivative
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
@@ -191,14 +193,10 @@ class TransferFunction:
     theta0: float
     attrs: dict = field(default_factory=dict)
 
-    @property
+    @cached_property
     def fit(self) -> Barycentric:
-        cached = self.__dict__.get("_fit")
-        if cached is None:
-            tolerance = 1e-2 * self.attrs.get("tolerance", 1e-6)
-            cached = aaa(*_symmetric_samples(self.frequencies, self.samples), tolerance=tolerance)
-            object.__setattr__(self, "_fit", cached)
-        return cached
+        tolerance = 1e-2 * self.attrs.get("tolerance", 1e-6)
+        return aaa(*_symmetric_samples(self.frequencies, self.samples), tolerance=tolerance)
 
     @property
     def omega_max(self) -> float:
@@ -207,12 +205,6 @@ class TransferFunction:
     def __call__(self, s) -> np.ndarray:
         """``G(s)`` from the rational approximant (3 × 4, or n × 3 × 4 for an array of ``s``)."""
         return self.fit(s)
-
-    def wake_pole(self) -> complex | None:
-        """The least stable pole of ``G`` with ``1 < ω ≤ omega_max`` (the fixed-body wake mode)."""
-        poles = self.fit.poles()
-        poles = poles[(poles.imag > 1.0) & (poles.imag <= self.omega_max)]
-        return complex(poles[np.argmax(poles.real)]) if len(poles) else None
 
 
 def _scaled_difference(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -347,17 +339,10 @@ def transfer_flutter_point(
         u = float(np.exp(log_u))
         current = replace(solid, reduced_velocity=u)
         value, rate = exact_transfer(fluid, 1j * omega, counter, derivative=True)
-        t = characteristic_matrix(value, current, 1j * omega, fluid.theta0, fluid.loads0)
-        _, coupling, a = _solid_parts(current, fluid.theta0, fluid.loads0)
+        p0, coupling, a = _solid_parts(current, fluid.theta0, fluid.loads0)
+        t = p0 + 1j * omega * np.eye(len(a)) - coupling @ value[:, a]
         dt_ds = np.eye(len(a)) - coupling @ rate[:, a]
-        h = 1e-6
-        p_plus = _solid_parts(
-            replace(solid, reduced_velocity=float(np.exp(log_u + h))), fluid.theta0, fluid.loads0
-        )[0]
-        p_minus = _solid_parts(
-            replace(solid, reduced_velocity=float(np.exp(log_u - h))), fluid.theta0, fluid.loads0
-        )[0]
-        dt_dlogu = (p_plus - p_minus) / (2 * h)
+        dt_dlogu = u * stiffness_derivative(current)[np.ix_(a, a)]  # U* enters the in-vacuo rows only
         # det T and its derivatives through Jacobi's formula: d det T = det T · tr(T⁻¹ dT)
         det = np.linalg.det(t)
         inverse = np.linalg.inv(t)
