@@ -185,6 +185,12 @@ def test_transfer_command_json(tmp_path, monkeypatch):
     # at k → 0 the lift per unit pitch tends to the static slope dC_L/dθ = -dC_L/dα
     assert first["lift_per_pitch"][0] == pytest.approx(-payload["lift_slope_alpha"], rel=0.02)
     assert (tmp_path / "transfer_plate_Re2900_a0_coarse.png").is_file()
+    # the samples are kept: a repeated (or interrupted) run factorises only for the static slopes
+    again = CliRunner().invoke(app, [*args, "--reduced-frequency-range", "0.001", "0.5"])
+    assert again.exit_code == 0, again.output
+    repeated = json.loads(again.stdout)
+    assert repeated["factorisations"] == 1
+    assert repeated["samples"] == payload["samples"]
     bad = CliRunner().invoke(app, [*args, "--reduced-frequency-range", "0.5", "0.1"])
     assert bad.exit_code == 2
     assert "reduced-frequency range" in bad.stderr

@@ -1041,7 +1041,8 @@ def transfer(
         def progress(done: int, total: int) -> None:
             status.update(f"G(iω): {done}/{total} frequencies ({fluid.n_fluid} fluid unknowns)")
 
-        ds = viscous_theodorsen_dataset(fluid, omega, progress=progress)
+        samples_path = _cache(cache) / "transfer" / f"{spec.key()}_{_tag(body, reynolds, alpha0)}.nc"
+        ds = viscous_theodorsen_dataset(fluid, omega, progress=progress, samples_path=samples_path)
     tag = _tag(body, reynolds, alpha0)
     data_path = write_dataset(ds, out / f"transfer_{tag}_{preset}.nc")
     figure = plot_viscous_theodorsen(ds, out / f"transfer_{tag}_{preset}.png")

@@ -40,6 +40,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
@@ -51,6 +52,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.store import read_dataset, write_dataset
 
 LOADS = ("force_x", "force_y", "moment")
 RANK_TOLERANCE = 1e-10  # relative size below which a new Krylov direction is dropped as dependent
@@ -430,12 +432,16 @@ def viscous_theodorsen_dataset(
     *,
     counter: FactorCounter | None = None,
     progress: Callable[[int, int], None] | None = None,
+    samples_path: Path | None = None,
 ) -> xr.Dataset:
     """``G(iω)`` at ``frequencies`` (> 0, time unit ``L/U∞``) and the loads ``(C_L, C_M)`` per unit
     ``(ĥ, θ̂)`` it gives (:func:`aerodynamic_loads`), beside Theodorsen's loads (MODEL.md §9, ``a = 0``,
     ``k = ω/2``) with thin-airfoil slopes and with the viscous static slopes of the same steady state
     (calibrated): the viscous Theodorsen function. One factorisation per frequency, one more for the
-    slopes. Complex values carry a ``part`` dimension (real, imag)."""
+    slopes. Complex values carry a ``part`` dimension (real, imag). With ``samples_path``, every
+    sample is added to that NetCDF as soon as it is computed (atomically) and samples already there
+    for the same mesh and flow are reused: an interrupted run resumes, a repeated one factorises
+    nothing but the slopes."""
     from fsistab.slopes import static_slopes
     from fsistab.theodorsen import AirfoilSlopes, TypicalSection, load_matrices, theodorsen_function
 
@@ -443,9 +449,35 @@ def viscous_theodorsen_dataset(
     if omega.ndim != 1 or len(omega) == 0 or np.any(~np.isfinite(omega)) or np.any(omega <= 0):
         raise InputError("the frequencies must be positive finite numbers")
     counter = counter if counter is not None else FactorCounter()
+    steady = fluid.steady
+    identity = {
+        "reynolds": steady.flow.reynolds,
+        "alpha0_deg": steady.flow.alpha0_deg,
+        "mesh_key": steady.mesh_spec.key(),
+    }
+    stored: dict[float, np.ndarray] = {}
+    if samples_path is not None and Path(samples_path).is_file():
+        done = read_dataset(samples_path, expect=identity)
+        stored = dict(zip(done.frequency.values.tolist(), from_parts(done.transfer), strict=True))
     samples = []
     for i, w in enumerate(omega):
-        samples.append(exact_transfer(fluid, 1j * w, counter))
+        if float(w) not in stored:
+            stored[float(w)] = exact_transfer(fluid, 1j * w, counter)
+            if samples_path is not None:
+                keys = sorted(stored)
+                write_dataset(
+                    xr.Dataset(
+                        {
+                            "transfer": _complex_variable(
+                                ("frequency", "load", "state"), [stored[k] for k in keys]
+                            )
+                        },
+                        coords={"frequency": keys, "part": ["real", "imag"]},
+                        attrs=identity,
+                    ),
+                    samples_path,
+                )
+        samples.append(stored[float(w)])
         if progress:
             progress(i + 1, len(omega))
     samples = np.array(samples)
@@ -465,7 +497,6 @@ def viscous_theodorsen_dataset(
         s = (1j * omega)[:, None, None]
         models[name] = s * s * l2 + s * l1 + l0
     loads_dims = ("frequency", "coefficient", "motion")
-    steady = fluid.steady
     return xr.Dataset(
         {
             "transfer": _complex_variable(("frequency", "load", "state"), samples),
