@@ -1,21 +1,23 @@
-"""Benchmark of the neutral-curve path (continuation method): plate, Re = 2900, α0 = 0.
+"""Benchmark of the neutral-map path (continuation method): plate, Re = 2900, α0 = 0.
 
-Prints unknowns, the factorisations and wall time of the threshold sweep at m = 1000, of one
-flutter curve traced over m in [--mass-low, --mass-high], and peak memory.
-Usage: python benchmarks/neutral.py [coarse|medium|fine] [--cache DIR]
+Prints unknowns, factorisations and wall time of (1) the sweep at m = 1000 and the flutter curve
+traced from its threshold over the whole m range, (2) the rest of the map (sweeps at m = 100 and 10,
+the VIV sweep at the lowest m around the wake frequency, their curves), and peak memory. Curves
+are saved in --out, so a rerun resumes (delete the directory for a fresh measurement).
+Usage: python benchmarks/neutral.py [coarse|medium|fine] [--cache DIR] [--out DIR]
 """
 
 import argparse
 import resource
 import time
+from pathlib import Path
 
-import numpy as np
 from ngsolve import SetNumThreads
 
-from fsistab.critical import find_thresholds
+from fsistab.critical import wake_mode_near
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
-from fsistab.neutral import continue_neutral_curve
+from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.steady import solve_steady
@@ -25,46 +27,49 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("preset", nargs="?", default="medium")
     parser.add_argument("--cache", default=None)
-    parser.add_argument("--mass-low", type=float, default=100.0)
+    parser.add_argument("--out", default="benchmark-neutral")
+    parser.add_argument("--mass-low", type=float, default=1.0)
     parser.add_argument("--mass-high", type=float, default=1e4)
-    parser.add_argument("--points", type=int, default=16)
+    parser.add_argument("--points", type=int, default=24)
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
     args = parser.parse_args()
-    SetNumThreads(2)
-    steady = solve_steady(mesh_spec(Plate(), args.preset, 2900), Flow(2900), cache_dir=args.cache)
-    fluid = fluid_operators(steady)
-    solid = Solid(mass_ratio=1000, reduced_velocity=3.0)
-
-    sweep = FactorCounter()
+    SetNumThreads(args.threads)
+    out = Path(args.out) / args.preset
+    spec = mesh_spec(Plate(), args.preset, 2900)
     t0 = time.perf_counter()
-    thresholds, _ = find_thresholds(fluid, solid, np.geomspace(3, 9, args.points), counter=sweep)
-    t_sweep = time.perf_counter() - t0
-    flutter = next(t for t in thresholds if t.kind == "flutter")
+    fluid = fluid_operators(solve_steady(spec, Flow(2900), cache_dir=args.cache))
+    t_steady = time.perf_counter() - t0
+    template = Solid(mass_ratio=1000, reduced_velocity=2.0)
+    attrs = {"reynolds": 2900.0, "mesh_key": spec.key(), "benchmark": 1}
+    mass_range = (args.mass_low, args.mass_high)
+    seeds = map_seeds(1000.0, (2.0, 10.0), args.points)
 
-    curve_counter = FactorCounter()
+    one = FactorCounter()
     t0 = time.perf_counter()
-    n_points = 0
-    for direction in (-1, 1):
-        curve = continue_neutral_curve(
-            fluid,
-            flutter.point,
-            solid,
-            direction=direction,
-            mass_range=(args.mass_low, args.mass_high),
-            counter=curve_counter,
-        )
-        n_points += len(curve.points)
-    t_curve = time.perf_counter() - t0
+    first = trace_neutral_map(fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=one)
+    t_one = time.perf_counter() - t0
+
+    rest = FactorCounter()
+    t0 = time.perf_counter()
+    wake = wake_mode_near(fluid, args.wake_frequency, counter=rest)
+    seeds = map_seeds(1000.0, (2.0, 10.0), args.points, (100.0, 10.0), wake.frequency, args.mass_low)
+    full = trace_neutral_map(fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=rest)
+    t_rest = time.perf_counter() - t0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"preset                   {args.preset}")
-    print(f"unknowns                 {fluid.n_fluid + 4}")
-    print(f"sweep: U* points         {args.points}")
-    print(f"sweep: factorisations    {sweep.count}")
-    print(f"sweep: wall time [s]     {t_sweep:.1f}")
-    print(f"thresholds               {[(t.kind, round(t.reduced_velocity, 5)) for t in thresholds]}")
-    print(f"curve: points            {n_points} (m in [{args.mass_low:g}, {args.mass_high:g}])")
-    print(f"curve: factorisations    {curve_counter.count}")
-    print(f"curve: wall time [s]     {t_curve:.1f}")
-    print(f"peak memory [MB]         {peak:.0f}")
+    print(f"preset                         {args.preset}")
+    print(f"unknowns                       {fluid.n_fluid + 4}")
+    print(f"steady state + operators [s]   {t_steady:.1f}")
+    print(f"flutter curve: points          {sum(len(c.points) for c in first.curves)}")
+    print(f"flutter curve: factorisations  {one.count} (sweep of {args.points} U* included)")
+    print(f"flutter curve: wall time [s]   {t_one:.1f}")
+    print(f"wake mode                      {wake.value:.5f}")
+    print(f"whole map: curves              {[(c.kind, len(c.points)) for c in full.curves]}")
+    print(f"whole map: turning points      {sum(len(c.turning_points) for c in full.curves)}")
+    print(f"whole map: crossings           {len(full.crossings)}")
+    print(f"whole map: factorisations      {one.count + rest.count}")
+    print(f"whole map: wall time [s]       {t_one + t_rest:.1f}")
+    print(f"peak memory [MB]               {peak:.0f}")
 
 
 if __name__ == "__main__":

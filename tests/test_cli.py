@@ -91,3 +91,62 @@ def test_spectrum_refuses_bad_solid_before_work(tmp_path):
     assert not (tmp_path / "cache").exists()
     result = _run(["spectrum", "--shift", "abc", "--json"], tmp_path)
     assert result.exit_code == 2 and "cannot read the shift" in result.stderr
+
+
+def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec):
+    """``fsistab neutral``: one flutter curve through the m = 1000 threshold, the divergence
+    curve, figure and map file; the rerun resumes the saved curves."""
+    from fsistab.params import Flow
+    from fsistab.steady import save_steady, steady_path
+
+    cache = tmp_path / "cache"
+    save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
+    args = [
+        "neutral", "--body", "plate", "--Re", "2900", "--mesh", "coarse", "--json",
+        "--mass-ratio-range", "500", "2000", "--reduced-velocity-range", "4", "5", "--points", "3",
+        "--max-points", "2", "--out", str(tmp_path / "out"), "--cache", str(cache),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    (curve,) = payload["curves"]
+    assert curve["kind"] == "flutter" and len(curve["mass_ratio"]) == 3
+    assert curve["mass_ratio"] == sorted(curve["mass_ratio"]) and 1000.0 in curve["mass_ratio"]
+    assert payload["codimension_two"] == [] and payload["wake_frequency"] is None
+    assert payload["divergence"]["moment_slope"] > 0
+    assert (tmp_path / "out" / "neutral_plate_Re2900_a0.png").stat().st_size > 10_000
+    assert (tmp_path / "out" / "neutral_plate_Re2900_a0_map.nc").is_file()
+    again = json.loads(runner.invoke(app, args).stdout)
+    assert again["curves"][0]["reduced_velocity"] == curve["reduced_velocity"]
+    assert again["factorisations"] < payload["factorisations"]
+
+
+def test_neutral_refuses_seed_outside_the_range(tmp_path):
+    result = _run(["neutral", "--mesh", "coarse", "--seed-mass-ratio", "1e5"], tmp_path)
+    assert result.exit_code != 0 and "seed-mass-ratio" in result.output
+
+
+def test_flow_neutral_json(tmp_path, plate_2900, plate_coarse_spec):
+    """``fsistab flow-neutral``: the m = 1000 flutter onset continued towards lower Re; the rerun
+    reads the saved curves."""
+    from fsistab.params import Flow
+    from fsistab.steady import save_steady, steady_path
+
+    cache = tmp_path / "cache"
+    save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
+    args = [
+        "flow-neutral", "--parameter", "reynolds", "--range", "2000", "2900", "--Re", "2900",
+        "--mesh", "coarse", "--mass-ratio", "1000", "--reduced-velocity-range", "4", "5",
+        "--points", "3", "--max-points", "2", "--json", "--out", str(tmp_path / "out"), "--cache", str(cache),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    down, up = payload["curves"]
+    assert down["direction"] == "decreasing" and len(down["reynolds"]) == 2
+    assert down["reynolds"][0] == pytest.approx(2900) and 2000 < down["reynolds"][1] < 2900
+    assert up["stop"] == "reynolds_bound"
+    assert (tmp_path / "out" / "flow_neutral_plate_Re2900_a0_reynolds_m1000.png").stat().st_size > 10_000
+    again = json.loads(runner.invoke(app, args).stdout)
+    assert again["curves"][0]["reduced_velocity"] == down["reduced_velocity"]
+    assert again["factorisations"] < payload["factorisations"]

@@ -185,3 +185,82 @@ def test_turning_points_are_stored_with_the_curve(tmp_path):
     ds = read_dataset(tmp_path / "c.nc", expect={"case": "plate"})
     assert ds.attrs["n_folds"] == 1 and _turning_points_of(ds) == folds
     assert curve_dataset(points, {}, False).attrs["n_folds"] == 0
+
+
+def test_a_threshold_on_a_traced_curve_is_recognised():
+    """Seeds that find a curve already traced do not trace it again (1 % in U* at that m)."""
+    from fsistab.neutral import MapCurve, NeutralPoint, _on_traced_curve
+
+    points = tuple(
+        NeutralPoint(m, u, 0.2, np.zeros(0), 0) for m, u in ((10.0, 1.0), (100.0, 2.0), (50.0, 3.0))
+    )
+    curve = MapCurve("flutter", 100.0, "onset", points, (), ("", ""))
+    half = math.sqrt(10.0 * 100.0)  # log-midpoint of the first segment: U* = 1.5
+    assert _on_traced_curve([curve], "flutter", half, 1.505)
+    assert not _on_traced_curve([curve], "flutter", half, 1.6)
+    assert not _on_traced_curve([curve], "viv", half, 1.5)
+    # the folded part: at m = 70 the curve passes U* = 2 + (3 - 2) * log(100/70)/log(2)
+    assert _on_traced_curve([curve], "flutter", 70.0, 2 + math.log(100 / 70) / math.log(2))
+    assert not _on_traced_curve([curve], "flutter", 5.0, 1.0)
+
+
+def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_path):
+    """One sweep at m = 1000 gives the flutter curve through U*_F, the divergence curve from the
+    static moment slope; a second call reads the curves back (no new curve factorisations)."""
+    from fsistab.linalg import FactorCounter
+    from fsistab.neutral import Seed, neutral_map_dataset, trace_neutral_map
+    from fsistab.slopes import static_slopes
+
+    seed = Seed(1000.0, tuple(np.geomspace(4.0, 5.0, 3)))
+    attrs = {"case": "test"}
+    counter = FactorCounter()
+    first = trace_neutral_map(
+        plate_operators,
+        Solid(),
+        [seed],
+        tmp_path,
+        "t",
+        attrs,
+        mass_range=(300, 3000),
+        max_points=3,
+        counter=counter,
+    )
+    assert [c.kind for c in first.curves] == ["flutter"]
+    curve = first.curves[0]
+    masses = [p.mass_ratio for p in curve.points]
+    assert masses == sorted(masses) and len(masses) == 5  # 2 points down, the seed, 2 points up
+    seed_point = curve.points[2]
+    assert seed_point.mass_ratio == 1000.0
+    # neutral by the eigen-solver: λ = 0 with ω = ω_c at (m, U*_c)
+    system = CoupledSystem(plate_operators, Solid(reduced_velocity=seed_point.reduced_velocity))
+    pair = min(eigenpairs_near(system, [1j * seed_point.frequency], 4), key=lambda p: abs(p.value.real))
+    assert abs(pair.value.real) < 1e-8 and pair.frequency == pytest.approx(seed_point.frequency, rel=1e-7)
+    slope = static_slopes(plate_operators).moment
+    assert first.moment_slope == pytest.approx(slope, rel=1e-10)
+    assert np.allclose(
+        first.divergence_velocities, divergence_curve(slope, 0.289, first.divergence_mass_ratios)
+    )
+    used = counter.count
+    again = trace_neutral_map(
+        plate_operators,
+        Solid(),
+        [seed],
+        tmp_path,
+        "t",
+        attrs,
+        mass_range=(300, 3000),
+        max_points=3,
+        counter=counter,
+    )
+    assert [p.reduced_velocity for p in again.curves[0].points] == [p.reduced_velocity for p in curve.points]
+    # only the sweep and the static slope again: no curve point recomputed
+    from fsistab.critical import find_thresholds
+
+    sweep = FactorCounter()
+    find_thresholds(plate_operators, Solid(reduced_velocity=4.0), np.array(seed.velocities), counter=sweep)
+    static_slopes(plate_operators, sweep)
+    assert counter.count - used == sweep.count
+    ds = neutral_map_dataset(again, attrs)
+    assert ds.attrs["case"] == "test" and ds.sizes["point"] == 5
+    assert np.allclose(ds.curve_reduced_velocity.values, [p.reduced_velocity for p in curve.points])
+    assert np.allclose(ds.divergence_reduced_velocity.values, first.divergence_velocities)

@@ -94,3 +94,19 @@ def test_branches_figure(tmp_path):
         reference_lines={"added mass": 2 * np.pi / u * np.sqrt(20 / 21), "fixed": 0.745},
     )
     assert _is_png(scaled)
+
+
+def test_stability_map_with_regions_turning_points_and_crossings(tmp_path):
+    from fsistab.plots import plot_stability_map
+
+    masses = np.geomspace(1, 1e4, 50)
+    flutter = ("flutter", [30.0, 100.0, 60.0, 1000.0, 1e4], [1.0, 1.6, 2.0, 4.4, 14.0])
+    viv = ("viv", [1.0, 3.0, 5.0, 3.0, 1.0], [0.067, 0.07, 0.073, 0.076, 0.08])
+    path = plot_stability_map(
+        [flutter, viv],
+        (masses, 0.23 * np.sqrt(masses)),
+        tmp_path / "map.png",
+        turning_points=[(100.0, 1.6), (60.0, 2.0), (5.0, 0.073)],
+        crossings=[(10.0, 0.73)],
+    )
+    assert _is_png(path)

@@ -556,26 +556,42 @@ def neutral(
     velocity_range: Annotated[
         tuple[float, float], typer.Option("--reduced-velocity-range", help="U* range of the initial sweep")
     ] = (2.0, 10.0),
-    points: Annotated[int, typer.Option("--points", help="U* values of the initial sweep")] = 24,
+    seed_masses: Annotated[
+        list[float] | None,
+        typer.Option(
+            "--seed-mass-ratio",
+            help="further sweeps (repeatable; default m/10 and m/100 of the start), U* range scaled by √m",
+        ),
+    ] = None,
+    wake_frequency: Annotated[
+        float | None,
+        typer.Option(
+            "--wake-frequency",
+            help="guess of the fixed body's wake-mode ω (refined by Arnoldi): VIV sweep at the lowest m",
+        ),
+    ] = None,
+    points: Annotated[int, typer.Option("--points", help="U* values of each sweep")] = 24,
     max_points: Annotated[int, typer.Option("--max-points", help="points per curve and direction")] = 60,
     freq_ratio: FreqRatioOpt = 0.8,
     zeta_h: ZetaHOpt = 0.0,
     zeta_theta: ZetaThetaOpt = 0.05,
     r_theta: RThetaOpt = 0.289,
 ):
-    """Neutral curves of flutter and divergence in the (m, U*) plane by pseudo-arclength
-    continuation (MODEL.md §8), from the thresholds of a sweep at --start-mass-ratio.
+    """Stability map in the (m, U*) plane (MODEL.md §8): flutter and VIV neutral curves by
+    pseudo-arclength continuation from the thresholds of sweeps in U*, the divergence curve, turning
+    points and codimension-two crossings.
 
-    Each curve is saved (NetCDF) after every point; rerunning the same command resumes."""
-    import numpy as np
+    Sweeps: at --start-mass-ratio over --reduced-velocity-range, at each --seed-mass-ratio over that
+    range scaled by √(m/start), and (with --wake-frequency) at the lowest m around the coincidence of
+    the solid frequencies with the wake mode's. Each curve is saved (NetCDF) after every point; rerunning the
+    same command resumes."""
 
-    from fsistab.critical import find_thresholds
+    from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
-    from fsistab.neutral import divergence_curve, trace_curve_resumable
+    from fsistab.neutral import map_seeds, neutral_map_dataset, trace_neutral_map
     from fsistab.operators import fluid_operators
     from fsistab.params import Flow
     from fsistab.plots import plot_stability_map
-    from fsistab.slopes import static_slopes
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
 
@@ -588,7 +604,15 @@ def neutral(
     lo, hi = velocity_range
     if not 0 < lo < hi:
         raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
-    solid = _solid(body, start_mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
+    if points < 2:
+        raise InputError(f"--points must be at least 2, got {points}")
+    if seed_masses is None:
+        seed_masses = [m for m in (start_mass / 10, start_mass / 100) if m >= lo_m]
+    if any(not lo_m <= m <= hi_m for m in seed_masses):
+        raise InputError(f"every --seed-mass-ratio must lie in the mass-ratio range [{lo_m:g}, {hi_m:g}]")
+    if wake_frequency is not None and not (math.isfinite(wake_frequency) and wake_frequency > 0):
+        raise InputError(f"--wake-frequency must be positive, got {wake_frequency}")
+    template = _solid(body, start_mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
     spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
     console = _console(as_json)
     counter = FactorCounter()
@@ -604,84 +628,291 @@ def neutral(
     }
     with console.status("steady state and operators") as status:
         fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
-        status.update(f"sweep in U* at m = {start_mass:g}")
-        thresholds, _ = find_thresholds(fluid, solid, np.geomspace(lo, hi, points), counter=counter)
-        curves = []
-        dynamic = [t for t in thresholds if t.kind != "divergence"]
-        for k, threshold in enumerate(dynamic):
-            for direction in (-1, 1):
-                path = out / f"neutral_{tag}_curve{k}_{'down' if direction < 0 else 'up'}.nc"
-                towards = "smaller" if direction < 0 else "larger"
-                status.update(f"curve {k + 1}/{len(dynamic)} ({threshold.kind}), towards {towards} m")
-                traced = trace_curve_resumable(
-                    fluid,
-                    threshold.point,
-                    solid,
-                    path,
-                    {**attrs, "kind": threshold.kind, "direction": direction},
-                    direction=direction,
-                    mass_range=mass_range,
-                    max_points=max_points,
-                    counter=counter,
-                )
-                curves.append((threshold.kind, direction, traced))
-        slope = static_slopes(fluid, counter).moment
-    masses = np.geomspace(lo_m, hi_m, 60)
+        if wake_frequency is not None:
+            status.update("wake mode of the fixed body")
+            wake_frequency = wake_mode_near(fluid, wake_frequency, counter=counter).frequency
+        seeds = map_seeds(start_mass, velocity_range, points, seed_masses, wake_frequency, lo_m, freq_ratio)
+        result = trace_neutral_map(
+            fluid,
+            template,
+            seeds,
+            out,
+            tag,
+            attrs,
+            mass_range=mass_range,
+            max_points=max_points,
+            counter=counter,
+            progress=status.update,
+        )
+    map_attrs = {**attrs, "wake_frequency": wake_frequency if wake_frequency is not None else float("nan")}
+    data_path = write_dataset(neutral_map_dataset(result, map_attrs), out / f"neutral_{tag}_map.nc")
     import xarray as xr
 
     divergence = xr.Dataset(
-        {"reduced_velocity": ("mass_ratio", divergence_curve(slope, r_theta, masses))},
-        coords={"mass_ratio": masses},
-        attrs={**attrs, "moment_slope": slope},
+        {"reduced_velocity": ("mass_ratio", result.divergence_velocities)},
+        coords={"mass_ratio": result.divergence_mass_ratios},
+        attrs={**attrs, "moment_slope": result.moment_slope},
     )
     write_dataset(divergence, out / f"neutral_{tag}_divergence.nc")
-    joined = []  # each threshold's two directions as one polyline in order of m
-    for k in range(0, len(curves), 2):
-        (kind, _, down), (_, _, up) = curves[k], curves[k + 1]
-        ordered = list(reversed(down)) + up[1:]
-        joined.append((kind, [p.mass_ratio for p in ordered], [p.reduced_velocity for p in ordered]))
     figure = plot_stability_map(
-        joined,
-        (masses, divergence.reduced_velocity.values),
+        [
+            (c.kind, [p.mass_ratio for p in c.points], [p.reduced_velocity for p in c.points])
+            for c in result.curves
+        ],
+        (result.divergence_mass_ratios, result.divergence_velocities),
         out / f"neutral_{tag}.png",
-        title=f"plate, Re = {reynolds:g}, alpha0 = {alpha0:g} deg (grey: divergence)",
+        title=f"plate, Re = {reynolds:g}, alpha0 = {alpha0:g} deg",
+        turning_points=[(t.mass_ratio, t.reduced_velocity) for c in result.curves for t in c.turning_points],
+        crossings=[(c.crossing.mass_ratio, c.crossing.reduced_velocity) for c in result.crossings],
     )
+    names = [f"{c.kind} {i}" for i, c in enumerate(result.curves)]
+
+    def name_of(index: int) -> str:
+        return "divergence" if index < 0 else names[index]
+
     payload = {
         "curves": [
             {
-                "kind": kind,
-                "direction": "decreasing m" if direction < 0 else "increasing m",
-                "mass_ratio": [p.mass_ratio for p in traced],
-                "reduced_velocity": [p.reduced_velocity for p in traced],
-                "frequency": [p.frequency for p in traced],
+                "kind": c.kind,
+                "seed_mass_ratio": c.seed_mass_ratio,
+                "mass_ratio": [p.mass_ratio for p in c.points],
+                "reduced_velocity": [p.reduced_velocity for p in c.points],
+                "frequency": [p.frequency for p in c.points],
+                "turning_points": [
+                    {
+                        "mass_ratio": t.mass_ratio,
+                        "reduced_velocity": t.reduced_velocity,
+                        "frequency": t.frequency,
+                    }
+                    for t in c.turning_points
+                ],
+                "stops": list(c.stops),
             }
-            for kind, direction, traced in curves
+            for c in result.curves
         ],
         "divergence": {
-            "mass_ratio": masses.tolist(),
-            "reduced_velocity": divergence.reduced_velocity.values.tolist(),
+            "mass_ratio": result.divergence_mass_ratios.tolist(),
+            "reduced_velocity": result.divergence_velocities.tolist(),
+            "moment_slope": result.moment_slope,
         },
+        "codimension_two": [
+            {
+                "curves": [name_of(c.first), name_of(c.second)],
+                "mass_ratio": c.crossing.mass_ratio,
+                "reduced_velocity": c.crossing.reduced_velocity,
+            }
+            for c in result.crossings
+        ],
+        "wake_frequency": wake_frequency,
         "factorisations": counter.count,
+        "data": str(data_path),
         "figure": str(figure),
     }
     if as_json:
         _emit_json(payload)
         return
     table = Table(title=f"neutral curves: plate, Re = {reynolds:g}, m in [{lo_m:g}, {hi_m:g}]")
-    for column in ("curve", "points", "m range", "U* range"):
+    for column in ("curve", "seed m", "points", "m range", "U* range", "turning points (m, U*)", "stops"):
         table.add_column(column, justify="right")
-    for kind, direction, traced in curves:
-        m = [p.mass_ratio for p in traced]
-        u = [p.reduced_velocity for p in traced]
+    for name, c in zip(names, result.curves, strict=True):
+        m = [p.mass_ratio for p in c.points]
+        u = [p.reduced_velocity for p in c.points]
         table.add_row(
-            f"{kind} ({'down' if direction < 0 else 'up'})",
-            str(len(traced)),
+            name,
+            f"{c.seed_mass_ratio:g}",
+            str(len(c.points)),
             f"{min(m):.4g}–{max(m):.4g}",
             f"{min(u):.4g}–{max(u):.4g}",
+            ", ".join(f"({t.mass_ratio:.4g}, {t.reduced_velocity:.4g})" for t in c.turning_points) or "—",
+            " / ".join(c.stops),
         )
+    slope = result.moment_slope
     table.add_row(
-        "divergence", "analytic", f"{lo_m:g}–{hi_m:g}", f"U*_D = {math.sqrt(r_theta**2 / slope):.4g} √m"
+        "divergence",
+        "—",
+        "analytic",
+        f"{lo_m:g}–{hi_m:g}",
+        f"U*_D = {math.sqrt(r_theta**2 / slope):.4g} √m",
+        "—",
+        "—",
     )
+    console.print(table)
+    for c in result.crossings:
+        console.print(
+            f"codimension-two point: {name_of(c.first)} × {name_of(c.second)} at "
+            f"m = {c.crossing.mass_ratio:.5g}, U* = {c.crossing.reduced_velocity:.5g}"
+        )
+    if wake_frequency is not None:
+        console.print(f"wake-mode frequency of the VIV sweep: {wake_frequency:.5g}")
+    else:
+        console.print("no VIV sweep: give --wake-frequency (a guess of the fixed body's wake-mode frequency)")
+    console.print(f"{counter.count} factorisations; curves and map saved in {out}; figure {figure}")
+
+
+@app.command("flow-neutral")
+@user_errors
+def flow_neutral(
+    parameter: Annotated[str, typer.Option("--parameter", help="reynolds or alpha0")] = "alpha0",
+    parameter_range: Annotated[
+        tuple[float, float], typer.Option("--range", help="range of Re, or of alpha0 in degrees")
+    ] = (0.0, 5.0),
+    body: BodyOpt = "plate",
+    reynolds: ReOpt = 2900.0,
+    alpha0: AlphaOpt = 0.0,
+    preset: MeshOpt = "medium",
+    out: OutOpt = Path("fsistab-out"),
+    as_json: JsonOpt = False,
+    cache: CacheOpt = None,
+    aspect_ratio: AspectOpt = 20.0,
+    corner_radius: CornerOpt = 0.1,
+    domain: DomainOpt = None,
+    mass_ratio: MassOpt = None,
+    velocity_range: Annotated[
+        tuple[float, float], typer.Option("--reduced-velocity-range", help="U* range of the initial sweep")
+    ] = (2.0, 10.0),
+    points: Annotated[int, typer.Option("--points", help="U* values of the initial sweep")] = 24,
+    max_points: Annotated[int, typer.Option("--max-points", help="points per curve and direction")] = 40,
+    freq_ratio: FreqRatioOpt = 0.8,
+    zeta_h: ZetaHOpt = 0.0,
+    zeta_theta: ZetaThetaOpt = 0.05,
+    r_theta: RThetaOpt = 0.289,
+):
+    """Neutral curves in the (Re, U*) or (alpha0, U*) plane at one mass ratio, by pseudo-arclength
+    continuation through turning points (MODEL.md §8), from the flutter thresholds of a sweep in U*
+    at --Re/--alpha0. One mesh (fitted to --Re) for the whole curve; steady states are cached."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from fsistab.critical import find_thresholds
+    from fsistab.flow_neutral import PARAMETERS, continue_flow_neutral_curve, flow_curve_dataset
+    from fsistab.linalg import FactorCounter
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.plots import plot_flow_neutral
+    from fsistab.steady import solve_steady
+    from fsistab.store import read_dataset, write_dataset
+
+    if body != "plate":
+        raise InputError("flow-parameter neutral curves are implemented for the plate (heave and pitch)")
+    if parameter not in PARAMETERS:
+        raise InputError(f"--parameter must be one of {', '.join(PARAMETERS)}, got {parameter!r}")
+    low, high = parameter_range
+    start_value = reynolds if parameter == "reynolds" else alpha0
+    if not low <= start_value <= high or not low < high:
+        raise InputError(f"--range {low:g} {high:g} must be increasing and contain the starting {parameter}")
+    lo, hi = velocity_range
+    if not 0 < lo < hi:
+        raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
+    mass = 1000.0 if mass_ratio is None else mass_ratio
+    solid = _solid(body, mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
+    flow = Flow(reynolds, alpha0)
+    spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
+    console = _console(as_json)
+    counter = FactorCounter()
+    tag = _tag(body, reynolds, alpha0)
+    attrs = {
+        "reynolds": reynolds,
+        "alpha0_deg": alpha0,
+        "mesh_key": spec.key(),
+        "mass_ratio": mass,
+        "freq_ratio": freq_ratio,
+        "zeta_h": zeta_h,
+        "zeta_theta": zeta_theta,
+        "r_theta": r_theta,
+        "range_low": low,
+        "range_high": high,
+    }
+    curves = []
+    with console.status("steady state and operators") as status:
+        steady = solve_steady(spec, flow, cache_dir=_cache(cache))
+        status.update(f"sweep in U* at m = {mass:g}")
+        thresholds, _ = find_thresholds(
+            fluid_operators(steady), solid, np.geomspace(lo, hi, points), counter=counter
+        )
+        dynamic = [t for t in thresholds if t.kind != "divergence"]
+        for k, threshold in enumerate(dynamic):
+            for direction in (-1, 1):
+                side = "down" if direction < 0 else "up"
+                path = out / f"flow_neutral_{tag}_{parameter}_m{mass:g}_curve{k}_{side}.nc"
+                wanted = {**attrs, "kind": threshold.kind, "direction": direction, "max_points": max_points}
+                if path.exists():
+                    ds = read_dataset(path, expect=wanted)
+                    curves.append((threshold.kind, direction, ds))
+                    continue
+                status.update(f"curve {k + 1}/{len(dynamic)} towards {side} {parameter}")
+                curve = continue_flow_neutral_curve(
+                    spec,
+                    flow,
+                    replace(solid, reduced_velocity=threshold.reduced_velocity),
+                    threshold.frequency,
+                    parameter,
+                    parameter_range,
+                    direction=direction,
+                    max_points=max_points,
+                    cache_dir=_cache(cache),
+                    initial=steady,
+                    counter=counter,
+                )
+                ds = write_dataset(flow_curve_dataset(curve, wanted), path)
+                curves.append((threshold.kind, direction, read_dataset(ds)))
+    column = "reynolds" if parameter == "reynolds" else "alpha0_deg"
+    figure = plot_flow_neutral(
+        [
+            (
+                kind,
+                ds[column].values,
+                ds.reduced_velocity.values,
+                ds[f"fold_{column}"].values,
+                ds.fold_reduced_velocity.values,
+            )
+            for kind, _, ds in curves
+        ],
+        parameter,
+        out / f"flow_neutral_{tag}_{parameter}_m{mass:g}.png",
+        title=f"plate, m = {mass:g}, from Re = {reynolds:g}, alpha0 = {alpha0:g} deg",
+    )
+    payload = {
+        "parameter": parameter,
+        "mass_ratio": mass,
+        "curves": [
+            {
+                "kind": kind,
+                "direction": "decreasing" if direction < 0 else "increasing",
+                parameter: ds[column].values.tolist(),
+                "reduced_velocity": ds.reduced_velocity.values.tolist(),
+                "frequency": ds.frequency.values.tolist(),
+                "turning_points": [
+                    {parameter: float(p), "reduced_velocity": float(u)}
+                    for p, u in zip(ds[f"fold_{column}"].values, ds.fold_reduced_velocity.values, strict=True)
+                ],
+                "stop": ds.attrs["stop"],
+            }
+            for kind, direction, ds in curves
+        ],
+        "factorisations": counter.count,
+        "figure": str(figure),
+    }
+    if as_json:
+        _emit_json(payload)
+        return
+    table = Table(title=f"neutral curves in ({parameter}, U*): plate, m = {mass:g}")
+    for name in ("curve", "points", f"{parameter} range", "U* range", "turning points", "stop"):
+        table.add_column(name, justify="right")
+    for kind, direction, ds in curves:
+        values, u = ds[column].values, ds.reduced_velocity.values
+        table.add_row(
+            f"{kind} ({'down' if direction < 0 else 'up'})",
+            str(len(values)),
+            f"{values.min():.4g}–{values.max():.4g}",
+            f"{u.min():.4g}–{u.max():.4g}",
+            ", ".join(
+                f"({p:.4g}, {v:.4g})"
+                for p, v in zip(ds[f"fold_{column}"].values, ds.fold_reduced_velocity.values, strict=True)
+            )
+            or "—",
+            ds.attrs["stop"],
+        )
     console.print(table)
     console.print(f"{counter.count} factorisations; curves saved in {out}; figure {figure}")
 

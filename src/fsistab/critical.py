@@ -386,3 +386,21 @@ def _flow_parameter(flow, flows) -> float:
     if len({f.reynolds for f in flows}) > 1:
         return float(np.log(flow.reynolds))
     return float(flow.alpha0_deg)
+
+
+def wake_mode_near(
+    fluid: FluidOperators, frequency: float, n_eigenvalues: int = 6, counter: FactorCounter | None = None
+):
+    """The least stable fixed-body mode among the ``n_eigenvalues`` nearest ``iω`` (``frequency``
+    a guess in ``U∞/L``, e.g. from a Strouhal number): the wake mode that drives vortex-induced
+    vibration, refined from a guess. (A global search for "the least stable mode" is ambiguous
+    here: the truncated domain has a cloud of weakly damped modes advected through its far field
+    at every frequency, on the coarse plate mesh less damped than the wake mode itself.)"""
+    from fsistab.eigen import eigenpairs_near
+
+    if not (np.isfinite(frequency) and frequency > 0):
+        raise InputError(f"the wake-frequency guess must be positive, got {frequency}")
+    pairs = eigenpairs_near(
+        CoupledSystem(fluid, Solid(dofs=())), [1j * frequency], n_eigenvalues, counter=counter
+    )
+    return max(pairs, key=lambda p: p.growth_rate)

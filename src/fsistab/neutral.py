@@ -437,3 +437,221 @@ def trace_curve_resumable(
         curve_dataset(points, {**attrs, "stop": curve.stop}, complete=True, turning_points=turning), path
     )
     return points
+
+
+@dataclass(frozen=True)
+class Seed:
+    """A sweep in U* at fixed ``mass_ratio`` whose thresholds start neutral curves; ``wake_shift``
+    (``iω_wake``) also tracks the wake mode, so that vortex-induced vibration is found."""
+
+    mass_ratio: float
+    velocities: tuple[float, ...]
+    wake_shift: complex | None = None
+
+
+@dataclass(frozen=True)
+class MapCurve:
+    """One dynamic neutral curve of a map, traced both ways from a threshold of a seed sweep:
+    ``points`` in order of arclength (the part towards smaller m reversed, then the rest)."""
+
+    kind: str
+    seed_mass_ratio: float
+    boundary: str
+    points: tuple[NeutralPoint, ...]
+    turning_points: tuple[TurningPoint, ...]
+    stops: tuple[str, str]
+
+    @property
+    def plane_points(self) -> np.ndarray:
+        return np.column_stack(
+            [np.log([p.mass_ratio for p in self.points]), [p.reduced_velocity for p in self.points]]
+        )
+
+
+@dataclass(frozen=True)
+class MapCrossing:
+    """A codimension-two point: curves ``first`` and ``second`` (indices into the map's curves,
+    ``-1`` the divergence curve) cross."""
+
+    first: int
+    second: int
+    crossing: CurveCrossing
+
+
+@dataclass(frozen=True)
+class NeutralMap:
+    """Every neutral curve found in the ``(m, U*)`` plane (MODEL.md §8): dynamic curves (flutter,
+    VIV) with their turning points, the divergence curve ``U*_D(m)`` of the static moment slope,
+    and the codimension-two crossings of all of them."""
+
+    curves: tuple[MapCurve, ...]
+    divergence_mass_ratios: np.ndarray
+    divergence_velocities: np.ndarray
+    moment_slope: float
+    crossings: tuple[MapCrossing, ...]
+    factorisations: int
+
+
+def map_seeds(
+    start_mass: float,
+    velocity_range: tuple[float, float],
+    points: int,
+    seed_masses: Sequence[float] = (),
+    wake_frequency: float | None = None,
+    viv_mass: float = 1.0,
+    freq_ratio: float = 0.8,
+) -> list[Seed]:
+    """Sweeps of a stability map: ``points`` values of U* over ``velocity_range`` at ``start_mass``,
+    the same range scaled by ``√(m/start_mass)`` at each of ``seed_masses`` (flutter speeds grow
+    like ``√m``), and, given the wake frequency ``ω_w``, a VIV sweep at ``viv_mass`` over the U*
+    where the solid frequencies ``Ω/U*`` (heave) and ``1/U*`` (pitch) pass ``ω_w``:
+    ``U* ∈ [0.5 min(Ω, 1), 2 max(Ω, 1)]/ω_w``."""
+    low, high = velocity_range
+    seeds = [Seed(start_mass, tuple(np.geomspace(low, high, points)))]
+    for mass in seed_masses:
+        scale = math.sqrt(mass / start_mass)
+        seeds.append(Seed(mass, tuple(np.geomspace(low * scale, high * scale, points))))
+    if wake_frequency is not None:
+        viv = (0.5 * min(freq_ratio, 1.0) / wake_frequency, 2.0 * max(freq_ratio, 1.0) / wake_frequency)
+        seeds.append(Seed(viv_mass, tuple(np.geomspace(*viv, points)), 1j * wake_frequency))
+    return seeds
+
+
+def _on_traced_curve(curves: Sequence[MapCurve], kind: str, mass_ratio: float, velocity: float) -> bool:
+    """Whether a threshold at ``(m, U*)`` lies on a curve already traced (1 % in U*, linear
+    interpolation between the curve's points at that m)."""
+    log_m = math.log(mass_ratio)
+    for curve in curves:
+        if curve.kind != kind:
+            continue
+        plane = curve.plane_points
+        for (x0, u0), (x1, u1) in zip(plane[:-1], plane[1:], strict=True):
+            if min(x0, x1) <= log_m <= max(x0, x1) and x0 != x1:
+                u = u0 + (log_m - x0) / (x1 - x0) * (u1 - u0)
+                if abs(u - velocity) < 1e-2 * velocity:
+                    return True
+    return False
+
+
+def trace_neutral_map(
+    fluid: FluidOperators,
+    template: Solid,
+    seeds: Sequence[Seed],
+    out_dir,
+    tag: str,
+    attrs: dict,
+    *,
+    mass_range: tuple[float, float] = (1.0, 1e4),
+    max_points: int = 60,
+    counter: FactorCounter | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> NeutralMap:
+    """The stability map of MODEL.md §8 in the plane ``(m, U*)``.
+
+    Each seed sweep (:func:`fsistab.critical.find_thresholds`) gives thresholds; every dynamic one
+    not already on a traced curve is continued towards smaller and larger m
+    (:func:`trace_curve_resumable`, files ``neutral_{tag}_curve{k}_{down|up}.nc`` in ``out_dir``,
+    so an interrupted map resumes). Divergence is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` (exact at
+    α0 = 0, one extra solve); crossings between every pair of curves are the codimension-two points.
+    ``template`` gives the solid parameters other than ``m`` and ``U*``.
+    """
+    from pathlib import Path
+
+    from fsistab.critical import find_thresholds
+    from fsistab.slopes import static_slopes
+
+    out_dir = Path(out_dir)
+    counter = counter if counter is not None else FactorCounter()
+    say = progress or (lambda message: None)
+    curves: list[MapCurve] = []
+    k = 0
+    for seed in seeds:
+        say(f"sweep in U* at m = {seed.mass_ratio:g}")
+        solid = replace(template, mass_ratio=seed.mass_ratio, reduced_velocity=seed.velocities[0])
+        thresholds, _ = find_thresholds(
+            fluid, solid, np.array(seed.velocities), wake_shift=seed.wake_shift, counter=counter
+        )
+        for threshold in thresholds:
+            if threshold.kind == "divergence" or _on_traced_curve(
+                curves, threshold.kind, threshold.point.mass_ratio, threshold.reduced_velocity
+            ):
+                continue
+            halves, turning, stops = [], [], []
+            for direction in (-1, 1):
+                name = "down" if direction < 0 else "up"
+                path = out_dir / f"neutral_{tag}_curve{k}_{name}.nc"
+                say(f"curve {k} ({threshold.kind} from m = {seed.mass_ratio:g}) towards {name}")
+                traced = trace_curve_resumable(
+                    fluid,
+                    threshold.point,
+                    solid,
+                    path,
+                    {**attrs, "kind": threshold.kind, "direction": direction},
+                    direction=direction,
+                    mass_range=mass_range,
+                    max_points=max_points,
+                    counter=counter,
+                )
+                from fsistab.store import read_dataset
+
+                ds = read_dataset(path)
+                halves.append(traced)
+                turning.extend(_turning_points_of(ds))
+                stops.append(str(ds.attrs.get("stop", "")))
+            ordered = tuple(reversed(halves[0])) + tuple(halves[1][1:])
+            curves.append(
+                MapCurve(
+                    threshold.kind,
+                    seed.mass_ratio,
+                    threshold.boundary,
+                    ordered,
+                    tuple(turning),
+                    (stops[0], stops[1]),
+                )
+            )
+            k += 1
+    slope = static_slopes(fluid, counter).moment
+    masses = np.geomspace(mass_range[0], mass_range[1], 200)
+    divergence = divergence_curve(slope, template.r_theta, masses)
+    crossings = []
+    planes = [c.plane_points for c in curves]
+    ok = np.isfinite(divergence)
+    if ok.sum() > 1:
+        planes_div = np.column_stack([np.log(masses[ok]), divergence[ok]])
+        for i, plane in enumerate(planes):
+            crossings += [MapCrossing(i, -1, c) for c in curve_crossings(plane, planes_div)]
+    for i in range(len(planes)):
+        for j in range(i + 1, len(planes)):
+            crossings += [MapCrossing(i, j, c) for c in curve_crossings(planes[i], planes[j])]
+    return NeutralMap(tuple(curves), masses, divergence, slope, tuple(crossings), counter.count)
+
+
+def neutral_map_dataset(result: NeutralMap, attrs: dict):
+    """The map as one xarray Dataset: curve points along ``point`` with a ``curve`` index, turning
+    points along ``fold``, crossings along ``crossing``, the divergence curve along ``mass_ratio``."""
+    import xarray as xr
+
+    rows = [(i, p) for i, c in enumerate(result.curves) for p in c.points]
+    folds = [(i, t) for i, c in enumerate(result.curves) for t in c.turning_points]
+    return xr.Dataset(
+        {
+            "curve": ("point", np.array([i for i, _ in rows], dtype=int)),
+            "curve_mass_ratio": ("point", np.array([p.mass_ratio for _, p in rows])),
+            "curve_reduced_velocity": ("point", np.array([p.reduced_velocity for _, p in rows])),
+            "curve_frequency": ("point", np.array([p.frequency for _, p in rows])),
+            "curve_kind": ("curve_index", np.array([c.kind for c in result.curves], dtype=str)),
+            "fold_curve": ("fold", np.array([i for i, _ in folds], dtype=int)),
+            "fold_mass_ratio": ("fold", np.array([t.mass_ratio for _, t in folds])),
+            "fold_reduced_velocity": ("fold", np.array([t.reduced_velocity for _, t in folds])),
+            "crossing_first": ("crossing", np.array([c.first for c in result.crossings], dtype=int)),
+            "crossing_second": ("crossing", np.array([c.second for c in result.crossings], dtype=int)),
+            "crossing_mass_ratio": ("crossing", np.array([c.crossing.mass_ratio for c in result.crossings])),
+            "crossing_reduced_velocity": (
+                "crossing",
+                np.array([c.crossing.reduced_velocity for c in result.crossings]),
+            ),
+            "divergence_reduced_velocity": ("mass_ratio", result.divergence_velocities),
+        },
+        coords={"mass_ratio": result.divergence_mass_ratios},
+        attrs={**attrs, "moment_slope": result.moment_slope, "factorisations": result.factorisations},
+    )

@@ -319,42 +319,57 @@ def _reciprocal(values):
     return np.divide(1.0, values, out=np.full_like(values, np.inf), where=values != 0)
 
 
-def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
+def plot_stability_map(
+    curves, divergence, path: Path, title: str = "", turning_points=(), crossings=()
+) -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
     ``curves``: list of ``(kind, mass_ratios, reduced_velocities)`` for the dynamic neutral curves
-    (kind ``flutter`` or ``viv``); ``divergence``: ``(mass_ratios, reduced_velocities)``. The region
-    above the divergence curve is shaded (static instability); dynamic curves are drawn with
-    their kind, the side where a growth rate is positive being above an ``onset`` curve.
+    (kind ``flutter`` or ``viv``), in order of arclength; ``divergence``: ``(mass_ratios,
+    reduced_velocities)``. Shaded: above the divergence curve (static instability, grey), above
+    each flutter curve (closed along the top of the plot, red) and inside each VIV curve (closed
+    by the segment joining its ends, which lie on the bounds of m, blue) — the side where a
+    growth rate is positive for the usual onset curves. ``turning_points`` (▽) and ``crossings``
+    (codimension-two points, ★) are ``(m, U*)`` pairs.
     """
     colours = {"flutter": "tab:red", "viv": "tab:blue"}
     fig, ax = plt.subplots(figsize=(7.5, 5.5))
     m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
     ok = np.isfinite(u_div)
+    all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
+    top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
     if ok.any():
         ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
-        ax.fill_between(m_div[ok], u_div[ok], u_div[ok].max() * 10, color="0.85", zorder=0)
+        ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.85", zorder=0)
     labelled = set()
     for kind, masses, velocities in curves:
-        order = np.argsort(masses) if np.all(np.diff(masses) != 0) else slice(None)
+        masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
+        colour = colours.get(kind, "tab:purple")
         label = kind if kind not in labelled else None
         labelled.add(kind)
-        ax.plot(
-            np.asarray(masses)[order],
-            np.asarray(velocities)[order],
-            "-",
-            color=colours.get(kind, "tab:purple"),
-            lw=1.8,
-            label=label,
-        )
+        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label)
+        if len(masses) < 2:
+            continue
+        if kind == "viv":
+            ax.fill(masses, velocities, color=colour, alpha=0.2, lw=0, zorder=0)
+        else:
+            ax.fill(
+                np.concatenate([masses, [masses[-1], masses[0]]]),
+                np.concatenate([velocities, [top * 10, top * 10]]),
+                color=colour,
+                alpha=0.12,
+                lw=0,
+                zorder=0,
+            )
+    if len(turning_points):
+        m_t, u_t = np.asarray(turning_points, dtype=float).T
+        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point")
+    if len(crossings):
+        m_c, u_c = np.asarray(crossings, dtype=float).T
+        ax.plot(m_c, u_c, "*", color="tab:green", ms=11, label="codimension two")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    all_u = (
-        np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok]])
-        if curves or ok.any()
-        else np.array([1.0])
-    )
-    ax.set_ylim(all_u.min() / 1.5, all_u.max() * 1.5)
+    ax.set_ylim(bottom, top)
     ax.set_xlabel("mass ratio m")
     ax.set_ylabel("reduced velocity U*")
     secondary = ax.secondary_yaxis("right", functions=(_reciprocal, _reciprocal))
@@ -362,6 +377,31 @@ def plot_stability_map(curves, divergence, path: Path, title: str = "") -> Path:
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper left")
     ax.set_title(title or "stability map (grey: static divergence)")
+    return _save(fig, path)
+
+
+def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Path:
+    """Neutral curves in the ``(Re, U*)`` (log Re axis) or ``(α0, U*)`` plane; ``curves`` is a list
+    of ``(kind, parameter_values, reduced_velocities, fold_parameters, fold_velocities)``; turning
+    points in the parameter are marked ▽."""
+    colours = {"flutter": "tab:red", "viv": "tab:blue"}
+    fig, ax = plt.subplots(figsize=(7.0, 5.0))
+    labelled = set()
+    for kind, values, velocities, fold_values, fold_velocities in curves:
+        label = kind if kind not in labelled else None
+        labelled.add(kind)
+        ax.plot(values, velocities, ".-", color=colours.get(kind, "tab:purple"), lw=1.6, ms=4, label=label)
+        if len(fold_values):
+            ax.plot(fold_values, fold_velocities, "v", color="k", mfc="none", ms=8)
+    if parameter == "reynolds":
+        ax.set_xscale("log")
+        ax.set_xlabel("Reynolds number Re")
+    else:
+        ax.set_xlabel("angle of attack α0 [deg]")
+    ax.set_ylabel("reduced velocity U*")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="best")
+    ax.set_title(title or "neutral curves (▽: turning points)")
     return _save(fig, path)
 
 

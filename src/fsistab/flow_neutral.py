@@ -1,0 +1,276 @@
+"""Neutral curves in the flow-parameter planes ``(Re, U*)`` and ``(α0, U*)`` by pseudo-arclength
+continuation (MODEL.md §8), at fixed solid parameters, through turning points.
+
+A dynamic neutral point at flow parameter ``p`` (``log Re`` or ``α0`` in degrees) solves the two
+real equations of the exact transfer (:mod:`fsistab.transfer`, MODEL.md §8)::
+
+    det T(iω; U*, p) / d0 = 0,        T = P(U*) + iω I - C G(iω; p),
+
+in the unknowns ``y = (ω, log U*, p)``; ``d0`` is ``|det T|`` of the in-vacuo part at the start
+(a fixed scale). ``∂/∂ω`` and ``∂/∂ log U*`` are analytic (Jacobi's formula with ``dG/ds`` and the
+solid stiffness derivative, as in :func:`fsistab.transfer.transfer_flutter_point`); ``∂/∂p`` is a
+one-sided finite difference through a second steady state at ``p + δp`` (Newton from the state at
+``p``). It only steers Newton and the tangent: the points themselves solve the equations to the
+tolerance. The generic continuation (:func:`fsistab.continuation.continuation`) measures
+arclength in the plane ``(log U*, p)`` and reports turning points in ``p`` (where the threshold
+folds back, e.g. in α0 near 3° for the plate at Re = 2900, m = 1000).
+
+All steady states lie on one mesh (``spec``, fixed along the curve) and are cached on disk when a
+cache directory is given, so a rerun recomputes no steady state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from fsistab.continuation import CurveProblem, TestFunction, continuation
+from fsistab.critical import stiffness_derivative
+from fsistab.errors import ConvergenceError, InputError
+from fsistab.linalg import FactorCounter
+from fsistab.params import Flow, Solid
+
+PARAMETERS = ("reynolds", "alpha0")
+_FD_STEP = {"reynolds": 1e-3, "alpha0": 1e-2}  # in log Re and in degrees
+
+
+@dataclass(frozen=True)
+class FlowNeutralPoint:
+    """A point of a neutral curve in a flow-parameter plane (``frequency`` in ``U∞/L``)."""
+
+    reynolds: float
+    alpha0_deg: float
+    reduced_velocity: float
+    frequency: float
+
+
+@dataclass(frozen=True)
+class FlowNeutralCurve:
+    """Points in order of arclength, turning points in the flow parameter, why it stopped."""
+
+    parameter: str
+    points: tuple[FlowNeutralPoint, ...]
+    turning_points: tuple[FlowNeutralPoint, ...]
+    stop: str
+    factorisations: int
+
+    def values(self, name: str) -> np.ndarray:
+        return np.array([getattr(p, name) for p in self.points])
+
+
+class _FlowDeterminant:
+    """``det T(iω; U*, p)`` with its derivatives, memoised on the steady states and transfers."""
+
+    def __init__(self, spec, flow: Flow, solid: Solid, parameter: str, cache_dir, counter, initial):
+        self.spec, self.flow0, self.solid, self.parameter = spec, flow, solid, parameter
+        self.cache_dir, self.counter = cache_dir, counter
+        self._states: OrderedDict = OrderedDict()
+        self._transfers: OrderedDict = OrderedDict()
+        self._last_jacobian: np.ndarray | None = None
+        self.scale = 1.0
+        if initial is not None:
+            self._states[self.value_of(flow)] = (initial, None)
+
+    def value_of(self, flow: Flow) -> float:
+        return math.log(flow.reynolds) if self.parameter == "reynolds" else flow.alpha0_deg
+
+    def flow_at(self, p: float) -> Flow:
+        if self.parameter == "reynolds":
+            return replace(self.flow0, reynolds=math.exp(p))
+        return replace(self.flow0, alpha0_deg=p)
+
+    def fluid_at(self, p: float):
+        from fsistab.operators import fluid_operators
+        from fsistab.steady import solve_steady
+
+        if p in self._states and self._states[p][1] is not None:
+            self._states.move_to_end(p)
+            return self._states[p][1]
+        nearest = min(self._states, key=lambda q: abs(q - p)) if self._states else None
+        if p in self._states:
+            steady = self._states[p][0]
+        else:
+            initial = self._states[nearest][0] if nearest is not None else None
+            steady = solve_steady(self.spec, self.flow_at(p), cache_dir=self.cache_dir, initial=initial)
+        fluid = fluid_operators(steady)
+        self._states[p] = (steady, fluid)
+        while len(self._states) > 4:
+            self._states.popitem(last=False)
+        return fluid
+
+    def transfer(self, p: float, omega: float):
+        from fsistab.transfer import exact_transfer
+
+        key = (p, omega)
+        if key not in self._transfers:
+            fluid = self.fluid_at(p)
+            self._transfers[key] = (fluid, *exact_transfer(fluid, 1j * omega, self.counter, derivative=True))
+            while len(self._transfers) > 8:
+                self._transfers.popitem(last=False)
+        return self._transfers[key]
+
+    def determinant(self, y: np.ndarray, derivatives: bool = False):
+        from fsistab.transfer import _solid_parts
+
+        omega, log_u, p = (float(v) for v in y)
+        fluid, value, rate = self.transfer(p, omega)
+        solid = replace(self.solid, reduced_velocity=math.exp(log_u))
+        p0, coupling, a = _solid_parts(solid, fluid.theta0, fluid.loads0)
+        t = p0 + 1j * omega * np.eye(len(a)) - coupling @ value[:, a]
+        det = np.linalg.det(t) / self.scale
+        if not derivatives:
+            return det
+        inverse = np.linalg.inv(t)
+        d_omega = det * np.trace(inverse @ (1j * (np.eye(len(a)) - coupling @ rate[:, a])))
+        d_logu = det * np.trace(inverse @ (math.exp(log_u) * stiffness_derivative(solid)[np.ix_(a, a)]))
+        return det, d_omega, d_logu
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        det = self.determinant(y)
+        return np.array([det.real, det.imag])
+
+    def jacobian(self, y: np.ndarray) -> np.ndarray:
+        det, d_omega, d_logu = self.determinant(y, derivatives=True)
+        step = _FD_STEP[self.parameter]
+        shifted = np.array(y, dtype=float)
+        shifted[2] += step
+        d_p = (self.determinant(shifted) - det) / step
+        return np.array([[d_omega.real, d_logu.real, d_p.real], [d_omega.imag, d_logu.imag, d_p.imag]])
+
+    def solve(self, y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+        # chord Newton: keep the finite-difference Jacobian while the residual falls tenfold
+        if not reuse or self._last_jacobian is None:
+            self._last_jacobian = self.jacobian(y)
+        return np.linalg.solve(np.vstack([self._last_jacobian, border]), rhs)
+
+
+def continue_flow_neutral_curve(
+    spec,
+    flow: Flow,
+    solid: Solid,
+    frequency: float,
+    parameter: str,
+    parameter_range: tuple[float, float],
+    *,
+    direction: float = 1.0,
+    velocity_range: tuple[float, float] = (1e-2, 100.0),
+    step: float = 0.1,
+    max_step: float = 0.4,
+    min_step: float = 1e-3,
+    max_points: int = 40,
+    cache_dir: Path | None = None,
+    initial=None,
+    counter: FactorCounter | None = None,
+    on_point=None,
+) -> FlowNeutralCurve:
+    """Follow the dynamic neutral curve through ``(flow, solid.reduced_velocity, frequency)`` (e.g.
+    a flutter threshold of :func:`fsistab.critical.find_thresholds`, refined here) in the plane of
+    ``parameter`` (``reynolds``: ``log Re`` is the continuation variable; ``alpha0``: degrees)
+    and U*, within ``parameter_range`` (Re or α0 in degrees) and ``velocity_range``.
+
+    ``direction`` ±1 starts towards increasing or decreasing parameter. Steps ``Δs`` are in the
+    plane ``(log U*, p)``. The curve stops at a bound, when the frequency reaches zero (a
+    codimension-two point with divergence) or after ``max_points`` (the corrected start included).
+    ``on_point(point)`` is called for every accepted :class:`FlowNeutralPoint` after the start.
+    """
+    if parameter not in PARAMETERS:
+        raise InputError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
+    low, high = (float(v) for v in parameter_range)
+    if not low < high or (parameter == "reynolds" and low <= 0):
+        raise InputError(
+            f"the {parameter} range must be increasing (and positive for Re), got {low:g} {high:g}"
+        )
+    if frequency <= 0:
+        raise InputError("a dynamic neutral curve needs a positive starting frequency")
+    counter = counter if counter is not None else FactorCounter()
+    first = counter.count
+    problem = _FlowDeterminant(spec, flow, solid, parameter, cache_dir, counter, initial)
+    p_range = (math.log(low), math.log(high)) if parameter == "reynolds" else (low, high)
+    p0 = problem.value_of(flow)
+    if not p_range[0] <= p0 <= p_range[1]:
+        raise InputError(f"the starting flow lies outside the {parameter} range")
+    omega, log_u = float(frequency), math.log(solid.reduced_velocity)
+    # fixed scale: |det| of the in-vacuo part at the start (so that tolerances are relative)
+    from fsistab.transfer import _solid_parts
+
+    fluid = problem.fluid_at(p0)
+    p_solid, _, a = _solid_parts(solid, fluid.theta0, fluid.loads0)
+    problem.scale = abs(np.linalg.det(p_solid + 1j * omega * np.eye(len(a))))
+
+    def point_of(y: np.ndarray) -> FlowNeutralPoint:
+        f = problem.flow_at(float(y[2]))
+        return FlowNeutralPoint(f.reynolds, f.alpha0_deg, math.exp(float(y[1])), float(y[0]))
+
+    turning: list[FlowNeutralPoint] = []
+
+    def accept(y: np.ndarray, iterations: int) -> None:
+        if on_point:
+            on_point(point_of(y))
+
+    def on_event(event) -> None:
+        if event.kind == "fold":
+            turning.append(point_of(event.point))
+
+    try:
+        branch = continuation(
+            CurveProblem(problem.residual, problem.solve, parameter=2, weights=np.array([0.0, 1.0, 1.0])),
+            np.array([omega, log_u, p0]),
+            np.array([0.0, 0.0, float(np.sign(direction) or 1.0)]),
+            step=step,
+            min_step=min_step,
+            max_step=max_step,
+            max_points=max_points,
+            predictor="tangent",
+            bounds={2: p_range, 1: (math.log(velocity_range[0]), math.log(velocity_range[1]))},
+            clip=False,
+            events={
+                "zero_frequency": TestFunction(lambda y: float(y[0]) - 1e-4, terminal=True, localise=False)
+            },
+            tol=1e-9,
+            max_iterations=12,
+            fast_iterations=4,
+            locate_tol=1e-5,
+            max_locate_iterations=8,
+            on_point=accept,
+            on_event=on_event,
+        )
+    except ConvergenceError as exc:
+        raise ConvergenceError(
+            f"the neutral point at {parameter} = {p0:.5g} did not converge from U* = "
+            f"{solid.reduced_velocity:.5g}, ω = {frequency:.5g} ({exc}); start from a threshold of "
+            "an eigenvalue sweep (fsistab critical)"
+        ) from None
+    stop = branch.stop
+    if stop == "bound":
+        stop = f"{parameter}_bound" if branch.stop_event.component == 2 else "velocity_bound"
+    elif stop == "event:zero_frequency":
+        stop = "zero_frequency"
+    points = tuple(point_of(y) for y in branch.points)
+    return FlowNeutralCurve(parameter, points, tuple(turning), stop, counter.count - first)
+
+
+def flow_curve_dataset(curve: FlowNeutralCurve, attrs: dict):
+    """The curve as an xarray Dataset (``point`` and ``fold`` dimensions)."""
+    import xarray as xr
+
+    def columns(points, dim, prefix=""):
+        return {
+            f"{prefix}reynolds": (dim, np.array([p.reynolds for p in points])),
+            f"{prefix}alpha0_deg": (dim, np.array([p.alpha0_deg for p in points])),
+            f"{prefix}reduced_velocity": (dim, np.array([p.reduced_velocity for p in points])),
+            f"{prefix}frequency": (dim, np.array([p.frequency for p in points])),
+        }
+
+    return xr.Dataset(
+        {**columns(curve.points, "point"), **columns(curve.turning_points, "fold", "fold_")},
+        attrs={
+            **attrs,
+            "parameter": curve.parameter,
+            "stop": curve.stop,
+            "factorisations": curve.factorisations,
+        },
+    )
