@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from fsistab.errors import CacheError, InputError
-from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics, preset_sizes
+from fsistab.mesh import (
+    _PRESET_TABLE,
+    build_mesh,
+    high_reynolds_factor,
+    mesh_spec,
+    mesh_statistics,
+    preset_sizes,
+)
 from fsistab.params import Cylinder, Plate
 
 
@@ -14,9 +21,9 @@ def test_unknown_preset_refused():
 
 
 def test_wall_size_scales_with_reynolds():
-    low, high = preset_sizes(Plate(), "medium", 100), preset_sizes(Plate(), "medium", 10000)
+    low, high = preset_sizes(Plate(), "medium", 100), preset_sizes(Plate(), "medium", 2900)
     assert high.wall < low.wall
-    assert high.wall == pytest.approx(0.5 / math.sqrt(10000))
+    assert high.wall == pytest.approx(0.5 / math.sqrt(2900))
 
 
 def test_plate_mesh_symmetric_and_curved():
@@ -59,3 +66,27 @@ def test_mesh_key_depends_on_every_input():
     assert base.key() != mesh_spec(Plate(aspect_ratio=10), "coarse", 2900).key()
     assert base.key() != mesh_spec(Plate(), "coarse", 100).key()
     assert base.key() != mesh_spec(Plate(), "coarse", 2900, far=3.0).key()
+
+
+def test_near_body_sizes_scale_further_above_re_2900_only():
+    for body in (Plate(), Cylinder()):
+        for preset in ("coarse", "medium", "fine"):
+            for reynolds in (10, 100, 1000, 2900):
+                sizes = preset_sizes(body, preset, reynolds)
+                # up to Re 2900 exactly the table (the cache keys of every stored result)
+                assert sizes.near == _PRESET_TABLE[(body.kind, preset)][3]
+                assert sizes.wall == min(
+                    _PRESET_TABLE[(body.kind, preset)][0],
+                    _PRESET_TABLE[(body.kind, preset)][1] / math.sqrt(reynolds),
+                )
+            at_2900 = preset_sizes(body, preset, 2900)
+            for reynolds in (5000, 10000, 40000):
+                sizes, factor = preset_sizes(body, preset, reynolds), math.sqrt(2900 / reynolds)
+                assert sizes.near == pytest.approx(at_2900.near * factor)  # Re^-1/2
+                floor, k = _PRESET_TABLE[(body.kind, preset)][:2]
+                assert sizes.wall == pytest.approx(min(floor, k / math.sqrt(reynolds)) * factor**2)
+    assert high_reynolds_factor(2900) == 1.0
+    assert high_reynolds_factor(10000) == pytest.approx(math.sqrt(0.29))
+    # the plate's corners follow the wall: 0.29 x the tabulated corner size at Re 10^4
+    fine = preset_sizes(Plate(), "fine", 10000)
+    assert fine.corner == pytest.approx(0.0015 * 0.29)

@@ -2,6 +2,13 @@
 
 Sizes are in body lengths. The wall size scales with ``Re^-1/2`` (boundary-layer thickness) down
 to the preset's floor, so a preset gives a mesh fitted to the Reynolds number it is built for.
+Above Re 2900 the near-body sizes shrink faster (:func:`high_reynolds_factor`, ``f = √(2900/Re)``):
+the near box by ``f`` (so it scales with ``Re^-1/2``), the wall and corner sizes by ``f² = 2900/Re``.
+At Re 10⁴ the plate's flow separates at its rounded leading edge (radius 0.005 chord)
+into a thin bubble hugging the wall, whose length and response to α, hence the static slopes, the
+Re 2900 sizes do not resolve; measured (docs/validation.md, plate slopes), the slopes depend mostly
+on the wall and corner sizes, little on the near box. Up to Re 2900 the sizes, and so the mesh cache
+keys and every result computed on them, are those of the table.
 Meshes are mirror-symmetric about ``Y = 0``; elements touching the body are curved
 (``curve_order``).
 """
@@ -61,7 +68,8 @@ class MeshSizes:
 
 
 # (wall floor, wall coefficient k in min(floor, k/sqrt(Re)), corner, near, wake, far, margin, wake
-#  length, wake half-width); plate sizes in chords, cylinder sizes in diameters
+#  length, wake half-width); plate sizes in chords, cylinder sizes in diameters. Above Re 2900 the
+#  near size is multiplied by f = sqrt(2900/Re), the wall and corner sizes by f**2
 _PRESET_TABLE = {
     ("plate", "coarse"): (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
     ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 2.5, 0.25, 8.0, 1.0),
@@ -72,13 +80,28 @@ _PRESET_TABLE = {
 }
 
 
+HIGH_REYNOLDS = 2900.0  # above it the near-body sizes shrink further (high_reynolds_factor)
+
+
+def high_reynolds_factor(reynolds: float) -> float:
+    """``f``: 1 up to Re 2900, ``√(2900/Re)`` above; the near size is multiplied by ``f``, the wall
+    and corner sizes by ``f²``."""
+    if reynolds <= HIGH_REYNOLDS:
+        return 1.0
+    return math.sqrt(HIGH_REYNOLDS / reynolds)
+
+
 def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
-    """Element sizes of a named preset, with the wall size fitted to ``reynolds``."""
+    """Element sizes of a named preset fitted to ``reynolds``: the wall size ``min(floor, k/√Re)``,
+    and above Re 2900 the near size times ``f = √(2900/Re)``, the wall and corner sizes times ``f²``."""
     if preset not in PRESETS:
         raise InputError(f"unknown mesh preset {preset!r}: choose one of {', '.join(PRESETS)}")
     reynolds = _positive("Reynolds number", reynolds)
     floor, k, corner, near, wake, far, margin, wake_length, wake_half = _PRESET_TABLE[(body.kind, preset)]
     wall = min(floor, k / math.sqrt(reynolds))
+    if reynolds > HIGH_REYNOLDS:  # a branch, so that the sizes up to Re 2900 are the table's, bit for bit
+        factor = high_reynolds_factor(reynolds)
+        wall, corner, near = wall * factor**2, corner * factor**2, near * factor
     if isinstance(body, Plate):
         corner = min(corner, wall, body.corner_radius * body.thickness if body.corner_radius else wall)
         corner = max(corner, wall / 8)
