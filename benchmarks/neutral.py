@@ -32,6 +32,7 @@ def main() -> None:
     parser.add_argument("--mass-high", type=float, default=1e4)
     parser.add_argument("--points", type=int, default=24)
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--curve-only", action="store_true", help="stop after the first flutter curve")
     parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
     args = parser.parse_args()
     SetNumThreads(args.threads)
@@ -50,6 +51,17 @@ def main() -> None:
     first = trace_neutral_map(fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=one)
     t_one = time.perf_counter() - t0
 
+    if args.curve_only:
+        print(f"preset                         {args.preset}")
+        print(f"unknowns                       {fluid.n_fluid + 4}")
+        print(f"steady state + operators [s]   {t_steady:.1f}")
+        print(f"flutter curve: points          {[len(c.points) for c in first.curves]} in m {mass_range}")
+        print(f"flutter curve: factorisations  {one.count} (sweep of {args.points} U* included)")
+        print(f"flutter curve: wall time [s]   {t_one:.1f}")
+        print(
+            f"peak memory [MB]               {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f}"
+        )
+        return
     rest = FactorCounter()
     t0 = time.perf_counter()
     wake = wake_mode_near(fluid, args.wake_frequency, counter=rest)

@@ -35,7 +35,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.params import Flow, Solid
 
 PARAMETERS = ("reynolds", "alpha0")
-_FD_STEP = {"reynolds": 1e-3, "alpha0": 1e-2}  # in log Re and in degrees
+_FD_STEP = {"reynolds": 1e-4, "alpha0": 1e-3}  # in log Re and in degrees (steady states to 1e-10)
 
 
 @dataclass(frozen=True)
