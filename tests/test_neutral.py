@@ -214,17 +214,21 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
     seed = Seed(1000.0, tuple(np.geomspace(4.0, 5.0, 3)))
     attrs = {"case": "test"}
     counter = FactorCounter()
-    first = trace_neutral_map(
-        plate_operators,
-        Solid(),
-        [seed],
-        tmp_path,
-        "t",
-        attrs,
-        mass_range=(300, 3000),
-        max_points=3,
-        counter=counter,
-    )
+
+    def trace():
+        return trace_neutral_map(
+            plate_operators,
+            Solid(),
+            [seed],
+            tmp_path,
+            "t",
+            attrs,
+            mass_range=(300, 3000),
+            max_points=3,
+            counter=counter,
+        )
+
+    first = trace()
     assert [c.kind for c in first.curves] == ["flutter"]
     curve = first.curves[0]
     masses = [p.mass_ratio for p in curve.points]
@@ -241,17 +245,7 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
         first.divergence_velocities, divergence_curve(slope, 0.289, first.divergence_mass_ratios)
     )
     used = counter.count
-    again = trace_neutral_map(
-        plate_operators,
-        Solid(),
-        [seed],
-        tmp_path,
-        "t",
-        attrs,
-        mass_range=(300, 3000),
-        max_points=3,
-        counter=counter,
-    )
+    again = trace()
     assert [p.reduced_velocity for p in again.curves[0].points] == [p.reduced_velocity for p in curve.points]
     # only the sweep and the static slope again: no curve point recomputed
     from fsistab.critical import find_thresholds

@@ -535,6 +535,19 @@ def critical(
     console.print(f"{counter.count} factorisations; {points} values of U* tracked")
 
 
+def _curve_attrs(reynolds, alpha0, spec, freq_ratio, zeta_h, zeta_theta, r_theta) -> dict:
+    """What a saved neutral curve depends on besides its own parameters (checked on resume)."""
+    return {
+        "reynolds": reynolds,
+        "alpha0_deg": alpha0,
+        "mesh_key": spec.key(),
+        "freq_ratio": freq_ratio,
+        "zeta_h": zeta_h,
+        "zeta_theta": zeta_theta,
+        "r_theta": r_theta,
+    }
+
+
 @app.command()
 @user_errors
 def neutral(
@@ -617,15 +630,7 @@ def neutral(
     console = _console(as_json)
     counter = FactorCounter()
     tag = _tag(body, reynolds, alpha0)
-    attrs = {
-        "reynolds": reynolds,
-        "alpha0_deg": alpha0,
-        "mesh_key": spec.key(),
-        "freq_ratio": freq_ratio,
-        "zeta_h": zeta_h,
-        "zeta_theta": zeta_theta,
-        "r_theta": r_theta,
-    }
+    attrs = _curve_attrs(reynolds, alpha0, spec, freq_ratio, zeta_h, zeta_theta, r_theta)
     with console.status("steady state and operators") as status:
         fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
         if wake_frequency is not None:
@@ -812,14 +817,8 @@ def flow_neutral(
     counter = FactorCounter()
     tag = _tag(body, reynolds, alpha0)
     attrs = {
-        "reynolds": reynolds,
-        "alpha0_deg": alpha0,
-        "mesh_key": spec.key(),
+        **_curve_attrs(reynolds, alpha0, spec, freq_ratio, zeta_h, zeta_theta, r_theta),
         "mass_ratio": mass,
-        "freq_ratio": freq_ratio,
-        "zeta_h": zeta_h,
-        "zeta_theta": zeta_theta,
-        "r_theta": r_theta,
         "range_low": low,
         "range_high": high,
     }

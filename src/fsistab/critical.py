@@ -154,7 +154,9 @@ def divergence_point(
     factor = fluid_factor or FluidFactor(fluid, 0.0, counter)
     system = CoupledSystem(fluid, solid)
     k = system.state_labels().index("theta")
-    q = ShiftedSolver(system, 0.0, fluid_factor=factor).solve(np.eye(system.size)[k])
+    unit = np.zeros(system.size)
+    unit[k] = 1.0
+    q = ShiftedSolver(system, 0.0, fluid_factor=factor).solve(unit)
     q /= q[k]
     velocity = float(solid.reduced_velocity)
     history: list[float] = []
