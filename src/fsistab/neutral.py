@@ -19,7 +19,9 @@ Each Newton step needs one factorisation of the fluid block at ``iω`` (:mod:`fs
 kept while the residual falls tenfold per iteration (chord), four solves and a 3×3 real border.
 The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static moment independent of
 ``h``). Codimension-two points where two neutral curves cross (flutter meeting divergence, two
-flutter curves) come from :func:`curve_crossings`.
+flutter curves) come from :func:`curve_crossings`. :func:`trace_neutral_map` assembles a whole
+stability map: seed sweeps in U* (flutter at a few m, VIV near the wake frequency), every new
+threshold continued both ways, the divergence curve and all crossings.
 """
 
 from __future__ import annotations
@@ -559,6 +561,7 @@ def trace_neutral_map(
 
     from fsistab.critical import find_thresholds
     from fsistab.slopes import static_slopes
+    from fsistab.store import read_dataset
 
     out_dir = Path(out_dir)
     counter = counter if counter is not None else FactorCounter()
@@ -592,8 +595,6 @@ def trace_neutral_map(
                     max_points=max_points,
                     counter=counter,
                 )
-                from fsistab.store import read_dataset
-
                 ds = read_dataset(path)
                 halves.append(traced)
                 turning.extend(_turning_points_of(ds))
