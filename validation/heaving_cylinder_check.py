@@ -30,6 +30,7 @@ from fsistab.eigen import eigenpairs_near  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.operators import fluid_operators  # noqa: E402
 from fsistab.params import Cylinder, Flow, Solid  # noqa: E402
+from fsistab.plots import save_figure  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402
 from fsistab.store import default_cache_dir, json_attr, write_dataset  # noqa: E402
 
@@ -77,10 +78,7 @@ def figure(branches: xr.Dataset, check: xr.Dataset, path: Path, title: str) -> P
     axes[1].legend(fontsize=8)
     axes[0].set_title(title)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def main() -> None:

@@ -27,6 +27,7 @@ from fsistab.errors import ConvergenceError  # noqa: E402
 from fsistab.linalg import FactorCounter  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.params import Flow, Plate, Solid  # noqa: E402
+from fsistab.plots import save_figure  # noqa: E402
 from fsistab.store import default_cache_dir, write_dataset  # noqa: E402
 
 REYNOLDS = [2900.0, 2400.0, 2000.0, 1600.0, 1300.0, 1000.0, 800.0, 650.0, 500.0, 400.0, 300.0]
@@ -85,9 +86,7 @@ def main() -> None:
         ax.legend()
     fig.suptitle(f"plate, m = {args.mass_ratio:g}, {args.preset} mesh: unstable above the curves")
     fig.tight_layout()
-    figure = args.out / "figures" / f"plate_flow_sweep_{args.preset}.png"
-    figure.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(figure, dpi=150)
+    figure = save_figure(fig, args.out / "figures" / f"plate_flow_sweep_{args.preset}.png")
     for name, (points, factorisations, seconds) in results.items():
         ds = xr.Dataset(
             {

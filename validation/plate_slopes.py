@@ -30,6 +30,7 @@ from ngsolve import SetNumThreads  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.operators import fluid_operators  # noqa: E402
 from fsistab.params import Flow, Plate  # noqa: E402
+from fsistab.plots import save_figure  # noqa: E402
 from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402
 from fsistab.store import default_cache_dir, read_dataset, write_dataset  # noqa: E402
@@ -174,12 +175,7 @@ def plot(results: dict[str, dict[float, dict]], path: Path) -> Path:
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=8)
     fig.suptitle(r"plate, chord/thickness 20, $\alpha_0 = 0$: static slopes (moment about mid-chord)")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.part{path.suffix}")
-    fig.savefig(tmp, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    return save_figure(fig, path)
 
 
 def main() -> None:

@@ -19,7 +19,8 @@ def _triangulation(mesh) -> mtri.Triangulation:
     return mtri.Triangulation(coords[:, 0], coords[:, 1], nodes)
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
+    """Write ``fig`` to ``path`` (PNG, 150 dpi) atomically and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.part{path.suffix}")
@@ -43,7 +44,7 @@ def plot_mesh(mesh, path: Path, title: str = "") -> Path:
         ax.set_ylabel("Y")
     axes[0].set_title(title or f"{mesh.ne} triangles")
     axes[1].set_title("close-up")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_streamwise_velocity(steady, path: Path, window=None) -> Path:
@@ -72,7 +73,7 @@ def plot_streamwise_velocity(steady, path: Path, window=None) -> Path:
         f"{steady.mesh_spec.body.kind}, Re = {steady.flow.reynolds:g}, "
         f"alpha0 = {steady.flow.alpha0_deg:g} deg (black: zero streamwise velocity)"
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 _LABEL_COLOURS = {"fluid": "tab:blue", "heave": "tab:red", "pitch": "tab:green", "coupled": "tab:purple"}
@@ -97,7 +98,7 @@ def plot_spectrum(ds, path: Path, title: str = "") -> Path:
     span = max(np.abs(growth[near]).max() if np.any(near) else 0.05, 1e-3) * 1.3
     axes[1].set_xlim(-span, span)
     axes[1].set_title("close-up near the neutral axis")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Path) -> Path:
@@ -219,7 +220,7 @@ def plot_mode_snapshot(
         f"{kind}, Re = {steady.flow.reynolds:g}: mode σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i "
         f"({pair.label}), pressure at phase {phase:.3g}"
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 class SolidMotion(NamedTuple):
@@ -269,7 +270,7 @@ def plot_solid_motion(pair, path: Path, n: int = 201) -> SolidMotion:
         f"σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i ({pair.label}), T = {period:.4g}; "
         f"|ĥ| = {abs(pair.solid[0]):.3g}, |θ̂| = {abs(pair.solid[1]):.3g}"
     )
-    return SolidMotion(_save(fig, path), t, heave, alpha, period)
+    return SolidMotion(save_figure(fig, path), t, heave, alpha, period)
 
 
 def plot_branches(
@@ -310,7 +311,7 @@ def plot_branches(
         ax.grid(alpha=0.3)
     axes[1].legend(fontsize=8)
     axes[0].set_title(title or "eigenvalue branches (filled: unstable)")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _reciprocal(values):
@@ -377,7 +378,7 @@ def plot_stability_map(
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper left")
     ax.set_title(title or "stability map (grey: static divergence)")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Path:
@@ -402,7 +403,7 @@ def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Pa
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="best")
     ax.set_title(title or "neutral curves (▽: turning points)")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: str = "") -> Path:
@@ -462,7 +463,7 @@ def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: st
         err_ax.set_ylabel("(U*_F Theodorsen - U*_F viscous) / U*_F viscous  [%]")
         err_ax.grid(alpha=0.3, which="both")
         err_ax.set_title("lowest flutter boundary: relative error")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
@@ -495,7 +496,7 @@ def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(title or f"viscous Theodorsen function, Re = {ds.attrs.get('reynolds', float('nan')):g}")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_slopes(ds, path: Path, title: str = "") -> Path:
@@ -518,4 +519,4 @@ def plot_slopes(ds, path: Path, title: str = "") -> Path:
         title or f"static slopes, α0 = {ds.attrs.get('alpha0_deg', 0):g}°, mesh {ds.attrs.get('mesh', '')}"
     )
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
