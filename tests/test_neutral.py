@@ -19,6 +19,17 @@ def plate_operators(plate_2900):
     return fluid_operators(plate_2900)
 
 
+def _assert_neutral(fluid, mass_ratio, reduced_velocity, frequency):
+    """The eigen-solver finds λ = 0 (1e-8) at (m, U*) with ω = ``frequency`` (1e-7 relative)."""
+    system = CoupledSystem(fluid, Solid(mass_ratio=mass_ratio, reduced_velocity=reduced_velocity))
+    nearest = min(
+        eigenpairs_near(system, [0.002 + 1j * frequency], 3),
+        key=lambda p: abs(p.value - 1j * frequency),
+    )
+    assert abs(nearest.growth_rate) < 1e-8
+    assert nearest.frequency == pytest.approx(frequency, rel=1e-7)
+
+
 def test_mass_ratio_derivative_matches_finite_difference(plate_operators):
     """∂(J + iωM)/∂(log m) q, used by the arclength corrector."""
     q = np.random.default_rng(0).standard_normal(CoupledSystem(plate_operators, Solid()).size) + 0j
@@ -49,15 +60,7 @@ def test_flutter_curve_towards_small_mass_ratios(plate_operators):
     assert np.all(np.diff(m) < 0) and np.all(np.diff(u) < 0)  # U*_F falls with m (REFERENCE.md §E trend)
     # every point is neutral: the eigen-solver finds λ = 0 at (m, U*_c) with ω = ω_c
     last = curve.points[-1]
-    system = CoupledSystem(
-        plate_operators, Solid(mass_ratio=last.mass_ratio, reduced_velocity=last.reduced_velocity)
-    )
-    nearest = min(
-        eigenpairs_near(system, [0.002 + 1j * last.frequency], 3),
-        key=lambda p: abs(p.value - 1j * last.frequency),
-    )
-    assert abs(nearest.growth_rate) < 1e-8
-    assert nearest.frequency == pytest.approx(last.frequency, rel=1e-7)
+    _assert_neutral(plate_operators, last.mass_ratio, last.reduced_velocity, last.frequency)
 
 
 def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
@@ -87,15 +90,7 @@ def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
     assert fold.mass_ratio <= m.min()  # the located fold is the smallest m of the curve
     u = curve.reduced_velocities
     assert np.all(np.diff(u) < 0)  # U* keeps falling through the fold: U*_F(m) is double-valued
-    system = CoupledSystem(
-        plate_operators, Solid(mass_ratio=fold.mass_ratio, reduced_velocity=fold.reduced_velocity)
-    )
-    nearest = min(
-        eigenpairs_near(system, [0.002 + 1j * fold.frequency], 3),
-        key=lambda p: abs(p.value - 1j * fold.frequency),
-    )
-    assert abs(nearest.growth_rate) < 1e-8
-    assert nearest.frequency == pytest.approx(fold.frequency, rel=1e-7)
+    _assert_neutral(plate_operators, fold.mass_ratio, fold.reduced_velocity, fold.frequency)
 
 
 def test_divergence_curve_and_bad_input(plate_operators):
@@ -236,9 +231,7 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
     seed_point = curve.points[2]
     assert seed_point.mass_ratio == 1000.0
     # neutral by the eigen-solver: λ = 0 with ω = ω_c at (m, U*_c)
-    system = CoupledSystem(plate_operators, Solid(reduced_velocity=seed_point.reduced_velocity))
-    pair = min(eigenpairs_near(system, [1j * seed_point.frequency], 4), key=lambda p: abs(p.value.real))
-    assert abs(pair.value.real) < 1e-8 and pair.frequency == pytest.approx(seed_point.frequency, rel=1e-7)
+    _assert_neutral(plate_operators, 1000.0, seed_point.reduced_velocity, seed_point.frequency)
     slope = static_slopes(plate_operators).moment
     assert first.moment_slope == pytest.approx(slope, rel=1e-10)
     assert np.allclose(
@@ -249,10 +242,18 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
     assert [p.reduced_velocity for p in again.curves[0].points] == [p.reduced_velocity for p in curve.points]
     # only the sweep and the static slope again: no curve point recomputed
     from fsistab.critical import find_thresholds
+    from fsistab.linalg import FluidFactor
 
     sweep = FactorCounter()
-    find_thresholds(plate_operators, Solid(reduced_velocity=4.0), np.array(seed.velocities), counter=sweep)
-    static_slopes(plate_operators, sweep)
+    static = FluidFactor(plate_operators, 0.0, sweep)  # shared by the map's sweeps and slope
+    find_thresholds(
+        plate_operators,
+        Solid(reduced_velocity=4.0),
+        np.array(seed.velocities),
+        counter=sweep,
+        static_factor=static,
+    )
+    static_slopes(plate_operators, sweep, factor=static)
     assert counter.count - used == sweep.count
     ds = neutral_map_dataset(again, attrs)
     assert ds.attrs["case"] == "test" and ds.sizes["point"] == 5

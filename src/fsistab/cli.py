@@ -824,11 +824,9 @@ def flow_neutral(
     }
     curves = []
     with console.status("steady state and operators") as status:
-        steady = solve_steady(spec, flow, cache_dir=_cache(cache))
+        fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
         status.update(f"sweep in U* at m = {mass:g}")
-        thresholds, _ = find_thresholds(
-            fluid_operators(steady), solid, np.geomspace(lo, hi, points), counter=counter
-        )
+        thresholds, _ = find_thresholds(fluid, solid, np.geomspace(lo, hi, points), counter=counter)
         dynamic = [t for t in thresholds if t.kind != "divergence"]
         for k, threshold in enumerate(dynamic):
             for direction in (-1, 1):
@@ -850,7 +848,7 @@ def flow_neutral(
                     direction=direction,
                     max_points=max_points,
                     cache_dir=_cache(cache),
-                    initial=steady,
+                    fluid=fluid,
                     counter=counter,
                 )
                 ds = write_dataset(flow_curve_dataset(curve, wanted), path)

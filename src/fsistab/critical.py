@@ -241,6 +241,7 @@ def find_thresholds(
     wake_shift: complex | None = None,
     counter: FactorCounter | None = None,
     progress=None,
+    static_factor: FluidFactor | None = None,
 ) -> tuple[list[Threshold], dict]:
     """Every threshold along ``velocities`` (increasing U*) at ``solid.mass_ratio``.
 
@@ -291,7 +292,7 @@ def find_thresholds(
         from fsistab.slopes import static_slopes
 
         # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
-        factor = FluidFactor(fluid, 0.0, counter)
+        factor = static_factor or FluidFactor(fluid, 0.0, counter)
         slope = static_slopes(fluid, factor=factor).moment
         if slope > 0:
             # (a little below it: at the root itself the static system is singular)

@@ -29,7 +29,6 @@ from pathlib import Path
 import numpy as np
 
 from fsistab.continuation import CurveProblem, TestFunction, continuation
-from fsistab.critical import stiffness_derivative
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.params import Flow, Solid
@@ -65,14 +64,18 @@ class FlowNeutralCurve:
 class _FlowDeterminant:
     """``det T(iω; U*, p)`` with its derivatives, memoised on the steady states and transfers."""
 
-    def __init__(self, spec, flow: Flow, solid: Solid, parameter: str, cache_dir, counter, initial):
+    def __init__(
+        self, spec, flow: Flow, solid: Solid, parameter: str, cache_dir, counter, initial, fluid=None
+    ):
         self.spec, self.flow0, self.solid, self.parameter = spec, flow, solid, parameter
         self.cache_dir, self.counter = cache_dir, counter
         self._states: OrderedDict = OrderedDict()
         self._transfers: OrderedDict = OrderedDict()
         self._last_jacobian: np.ndarray | None = None
         self.scale = 1.0
-        if initial is not None:
+        if fluid is not None:
+            self._states[self.value_of(flow)] = (fluid.steady, fluid)
+        elif initial is not None:
             self._states[self.value_of(flow)] = (initial, None)
 
     def value_of(self, flow: Flow) -> float:
@@ -114,20 +117,14 @@ class _FlowDeterminant:
         return self._transfers[key]
 
     def determinant(self, y: np.ndarray, derivatives: bool = False):
-        from fsistab.transfer import _solid_parts
+        from fsistab.transfer import determinant_on_axis
 
         omega, log_u, p = (float(v) for v in y)
         fluid, value, rate = self.transfer(p, omega)
         solid = replace(self.solid, reduced_velocity=math.exp(log_u))
-        p0, coupling, a = _solid_parts(solid, fluid.theta0, fluid.loads0)
-        t = p0 + 1j * omega * np.eye(len(a)) - coupling @ value[:, a]
-        det = np.linalg.det(t) / self.scale
-        if not derivatives:
-            return det
-        inverse = np.linalg.inv(t)
-        d_omega = det * np.trace(inverse @ (1j * (np.eye(len(a)) - coupling @ rate[:, a])))
-        d_logu = det * np.trace(inverse @ (math.exp(log_u) * stiffness_derivative(solid)[np.ix_(a, a)]))
-        return det, d_omega, d_logu
+        _, det, d_omega, d_logu = determinant_on_axis(value, rate, solid, omega, fluid.theta0, fluid.loads0)
+        det, d_omega, d_logu = det / self.scale, d_omega / self.scale, d_logu / self.scale
+        return (det, d_omega, d_logu) if derivatives else det
 
     def residual(self, y: np.ndarray) -> np.ndarray:
         det = self.determinant(y)
@@ -164,6 +161,7 @@ def continue_flow_neutral_curve(
     max_points: int = 40,
     cache_dir: Path | None = None,
     initial=None,
+    fluid=None,
     counter: FactorCounter | None = None,
     on_point=None,
 ) -> FlowNeutralCurve:
@@ -175,6 +173,7 @@ def continue_flow_neutral_curve(
     ``direction`` ±1 starts towards increasing or decreasing parameter. Steps ``Δs`` are in the
     plane ``(log U*, p)``. The curve stops at a bound, when the frequency reaches zero (a
     codimension-two point with divergence) or after ``max_points`` (the corrected start included).
+    ``initial`` (the steady state at ``flow``) or ``fluid`` (its operators) are reused when given.
     ``on_point(point)`` is called for every accepted :class:`FlowNeutralPoint` after the start.
     """
     if parameter not in PARAMETERS:
@@ -188,18 +187,20 @@ def continue_flow_neutral_curve(
         raise InputError("a dynamic neutral curve needs a positive starting frequency")
     counter = counter if counter is not None else FactorCounter()
     first = counter.count
-    problem = _FlowDeterminant(spec, flow, solid, parameter, cache_dir, counter, initial)
+    problem = _FlowDeterminant(spec, flow, solid, parameter, cache_dir, counter, initial, fluid)
     p_range = (math.log(low), math.log(high)) if parameter == "reynolds" else (low, high)
     p0 = problem.value_of(flow)
     if not p_range[0] <= p0 <= p_range[1]:
         raise InputError(f"the starting flow lies outside the {parameter} range")
     omega, log_u = float(frequency), math.log(solid.reduced_velocity)
     # fixed scale: |det| of the in-vacuo part at the start (so that tolerances are relative)
-    from fsistab.transfer import _solid_parts
+    from fsistab.transfer import characteristic_matrix
 
-    fluid = problem.fluid_at(p0)
-    p_solid, _, a = _solid_parts(solid, fluid.theta0, fluid.loads0)
-    problem.scale = abs(np.linalg.det(p_solid + 1j * omega * np.eye(len(a))))
+    start_fluid = problem.fluid_at(p0)
+    in_vacuo = characteristic_matrix(
+        np.zeros((3, 4)), solid, 1j * omega, start_fluid.theta0, start_fluid.loads0
+    )
+    problem.scale = abs(np.linalg.det(in_vacuo))
 
     def point_of(y: np.ndarray) -> FlowNeutralPoint:
         f = problem.flow_at(float(y[2]))

@@ -36,7 +36,7 @@ from fsistab.continuation import CurveProblem, TestFunction, continuation, polyl
 from fsistab.coupled import CoupledSystem, solid_stiffness
 from fsistab.critical import CriticalPoint, _phase_index, velocity_derivative
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import FactorCounter, ShiftedSolver
+from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 
@@ -568,11 +568,17 @@ def trace_neutral_map(
     say = progress or (lambda message: None)
     curves: list[MapCurve] = []
     k = 0
+    static = FluidFactor(fluid, 0.0, counter)  # J_ff: divergence of every sweep and the slope
     for seed in seeds:
         say(f"sweep in U* at m = {seed.mass_ratio:g}")
         solid = replace(template, mass_ratio=seed.mass_ratio, reduced_velocity=seed.velocities[0])
         thresholds, _ = find_thresholds(
-            fluid, solid, np.array(seed.velocities), wake_shift=seed.wake_shift, counter=counter
+            fluid,
+            solid,
+            np.array(seed.velocities),
+            wake_shift=seed.wake_shift,
+            counter=counter,
+            static_factor=static,
         )
         for threshold in thresholds:
             if threshold.kind == "divergence" or _on_traced_curve(
@@ -611,7 +617,7 @@ def trace_neutral_map(
                 )
             )
             k += 1
-    slope = static_slopes(fluid, counter).moment
+    slope = static_slopes(fluid, counter, factor=static).moment
     masses = np.geomspace(mass_range[0], mass_range[1], 200)
     divergence = divergence_curve(slope, template.r_theta, masses)
     crossings = []

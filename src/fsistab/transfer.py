@@ -305,6 +305,22 @@ def characteristic_matrix(
     return p0 + s * np.eye(len(a)) - coupling @ transfer[:, a]
 
 
+def determinant_on_axis(
+    transfer: np.ndarray, rate: np.ndarray, solid: Solid, omega: float, theta0: float, loads0: np.ndarray
+) -> tuple[np.ndarray, complex, complex, complex]:
+    """``T(iω)``, ``det T`` and its derivatives ``∂/∂ω`` and ``∂/∂ log U*`` (MODEL.md §8) from
+    ``G(iω)`` and ``dG/ds`` (``transfer``, ``rate``), by Jacobi's formula
+    ``d det T = det T · tr(T⁻¹ dT)``; ``U*`` enters the in-vacuo rows only."""
+    p0, coupling, a = _solid_parts(solid, theta0, loads0)
+    identity = np.eye(len(a))
+    t = p0 + 1j * omega * identity - coupling @ transfer[:, a]
+    dt_ds = identity - coupling @ rate[:, a]
+    dt_dlogu = solid.reduced_velocity * stiffness_derivative(solid)[np.ix_(a, a)]
+    det = np.linalg.det(t)
+    inverse = np.linalg.inv(t)
+    return t, det, det * np.trace(inverse @ (1j * dt_ds)), det * np.trace(inverse @ dt_dlogu)
+
+
 @dataclass(frozen=True)
 class TransferCriticalPoint:
     """A neutral point ``det T(iω_c; U*_c) = 0`` at fixed ``mass_ratio`` (time unit ``L/U∞``)."""
@@ -341,15 +357,7 @@ def transfer_flutter_point(
         u = float(np.exp(log_u))
         current = replace(solid, reduced_velocity=u)
         value, rate = exact_transfer(fluid, 1j * omega, counter, derivative=True)
-        p0, coupling, a = _solid_parts(current, fluid.theta0, fluid.loads0)
-        t = p0 + 1j * omega * np.eye(len(a)) - coupling @ value[:, a]
-        dt_ds = np.eye(len(a)) - coupling @ rate[:, a]
-        dt_dlogu = u * stiffness_derivative(current)[np.ix_(a, a)]  # U* enters the in-vacuo rows only
-        # det T and its derivatives through Jacobi's formula: d det T = det T · tr(T⁻¹ dT)
-        det = np.linalg.det(t)
-        inverse = np.linalg.inv(t)
-        d_omega = det * np.trace(inverse @ (1j * dt_ds))
-        d_logu = det * np.trace(inverse @ dt_dlogu)
+        t, det, d_omega, d_logu = determinant_on_axis(value, rate, current, omega, fluid.theta0, fluid.loads0)
         residuals.append(float(np.linalg.svd(t, compute_uv=False)[-1] / np.linalg.norm(t, 2)))
         jacobian = np.array([[d_omega.real, d_logu.real], [d_omega.imag, d_logu.imag]])
         step = np.linalg.solve(jacobian, -np.array([det.real, det.imag]))
