@@ -121,9 +121,20 @@ def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec):
     assert again["factorisations"] < payload["factorisations"]
 
 
-def test_neutral_refuses_seed_outside_the_range(tmp_path):
-    result = _run(["neutral", "--mesh", "coarse", "--seed-mass-ratio", "1e5"], tmp_path)
-    assert result.exit_code != 0 and "seed-mass-ratio" in result.output
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["neutral", "--seed-mass-ratio", "1e5"], "seed-mass-ratio"),
+        (["neutral", "--wake-frequency", "-1"], "wake-frequency"),
+        (["flow-neutral", "--parameter", "mach"], "--parameter"),
+        (["flow-neutral", "--parameter", "alpha0", "--range", "1", "5"], "--range"),
+        (["flow-neutral", "--reduced-velocity-range", "5", "2"], "reduced-velocity-range"),
+    ],
+)
+def test_map_commands_refuse_bad_input_before_work(tmp_path, args, message):
+    result = _run([*args, "--mesh", "coarse"], tmp_path)
+    assert result.exit_code != 0 and message in result.output
+    assert not (tmp_path / "cache").exists()  # nothing computed or cached
 
 
 def test_flow_neutral_json(tmp_path, plate_2900, plate_coarse_spec):
