@@ -1,10 +1,17 @@
-"""Benchmark of the neutral-map path (continuation method): plate, Re = 2900, α0 = 0.
+"""Benchmark of the neutral-map paths: plate, Re = 2900, α0 = 0, m in [1, 1e4].
 
-Prints unknowns, factorisations and wall time of (1) the sweep at m = 1000 and the flutter curve
-traced from its threshold over the whole m range, (2) the rest of the map (sweeps at m = 100 and 10,
-the VIV sweep at the lowest m around the wake frequency, their curves), and peak memory. Curves
-are saved in --out, so a rerun resumes (delete the directory for a fresh measurement).
-Usage: python benchmarks/neutral.py [coarse|medium|fine] [--cache DIR] [--out DIR]
+Both methods on the same mesh in one run (``--method both``, the default):
+
+* **transfer** (``fsistab.transfer_map``): ``G(iω)`` sampled and refined until every neutral curve
+  is resolved; one factorisation per frequency, whatever the number of (m, U*) points;
+* **continuation** (``fsistab.neutral``): sweeps in U* at m = 1000, 100, 10 and a VIV sweep at the
+  lowest m, every threshold continued by pseudo-arclength in (m, U*).
+
+Prints unknowns, factorisations, wall time and peak memory of each, their ratios, and the largest
+relative difference in U* between every continuation point and the transfer map at the same m.
+Results are saved in --out (a rerun resumes: delete it for a fresh measurement). With
+``--curve-only`` the continuation stops after the flutter curve from m = 1000.
+Usage: python benchmarks/neutral.py [coarse|medium|fine] [--method both|transfer|continuation]
 """
 
 import argparse
@@ -21,67 +28,121 @@ from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.steady import solve_steady
+from fsistab.transfer_map import nearest_on_map, transfer_neutral_map
+
+
+def _peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("preset", nargs="?", default="medium")
+    parser.add_argument("--method", choices=("both", "transfer", "continuation"), default="both")
     parser.add_argument("--cache", default=None)
     parser.add_argument("--out", default="benchmark-neutral")
+    parser.add_argument("--far", type=float, default=None, help="far-field element size (chords)")
     parser.add_argument("--mass-low", type=float, default=1.0)
     parser.add_argument("--mass-high", type=float, default=1e4)
     parser.add_argument("--points", type=int, default=24)
+    parser.add_argument("--tolerance", type=float, default=1e-2)
     parser.add_argument("--threads", type=int, default=1)
-    parser.add_argument("--curve-only", action="store_true", help="stop after the first flutter curve")
+    parser.add_argument("--curve-only", action="store_true", help="continuation: first flutter curve only")
     parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
     args = parser.parse_args()
     SetNumThreads(args.threads)
-    out = Path(args.out) / args.preset
-    spec = mesh_spec(Plate(), args.preset, 2900)
+    out = Path(args.out) / (args.preset + (f"_far{args.far:g}" if args.far else ""))
+    spec = mesh_spec(Plate(), args.preset, 2900, **({"far": args.far} if args.far else {}))
     t0 = time.perf_counter()
     fluid = fluid_operators(solve_steady(spec, Flow(2900), cache_dir=args.cache))
     t_steady = time.perf_counter() - t0
     template = Solid(mass_ratio=1000, reduced_velocity=2.0)
-    attrs = {"reynolds": 2900.0, "mesh_key": spec.key(), "benchmark": 1}
     mass_range = (args.mass_low, args.mass_high)
-    seeds = map_seeds(1000.0, (2.0, 10.0), args.points)
-
-    one = FactorCounter()
+    wake_counter = FactorCounter()
     t0 = time.perf_counter()
-    first = trace_neutral_map(fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=one)
-    t_one = time.perf_counter() - t0
-
-    if args.curve_only:
-        print(f"preset                         {args.preset}")
-        print(f"unknowns                       {fluid.n_fluid + 4}")
-        print(f"steady state + operators [s]   {t_steady:.1f}")
-        print(f"flutter curve: points          {[len(c.points) for c in first.curves]} in m {mass_range}")
-        print(f"flutter curve: factorisations  {one.count} (sweep of {args.points} U* included)")
-        print(f"flutter curve: wall time [s]   {t_one:.1f}")
-        print(
-            f"peak memory [MB]               {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f}"
-        )
-        return
-    rest = FactorCounter()
-    t0 = time.perf_counter()
-    wake = wake_mode_near(fluid, args.wake_frequency, counter=rest)
-    seeds = map_seeds(1000.0, (2.0, 10.0), args.points, (100.0, 10.0), wake.frequency, args.mass_low)
-    full = trace_neutral_map(fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=rest)
-    t_rest = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"preset                         {args.preset}")
+    wake = wake_mode_near(fluid, args.wake_frequency, counter=wake_counter)
+    t_wake = time.perf_counter() - t0
+    print(f"preset                         {args.preset} (far field {spec.sizes.far:g})")
     print(f"unknowns                       {fluid.n_fluid + 4}")
     print(f"steady state + operators [s]   {t_steady:.1f}")
-    print(f"flutter curve: points          {sum(len(c.points) for c in first.curves)}")
-    print(f"flutter curve: factorisations  {one.count} (sweep of {args.points} U* included)")
-    print(f"flutter curve: wall time [s]   {t_one:.1f}")
-    print(f"wake mode                      {wake.value:.5f}")
-    print(f"whole map: curves              {[(c.kind, len(c.points)) for c in full.curves]}")
-    print(f"whole map: turning points      {sum(len(c.turning_points) for c in full.curves)}")
-    print(f"whole map: crossings           {len(full.crossings)}")
-    print(f"whole map: factorisations      {one.count + rest.count}")
-    print(f"whole map: wall time [s]       {t_one + t_rest:.1f}")
-    print(f"peak memory [MB]               {peak:.0f}")
+    print(
+        f"wake mode                      {wake.value:.5f}",
+        f"({wake_counter.count} factorisations, {t_wake:.1f} s)",
+    )
+    results = {}
+
+    if args.method in ("both", "transfer"):
+        samples = out / "transfer_samples.nc"
+        if samples.exists():
+            print(f"note: reusing saved samples {samples}: the factorisations below are only the new ones")
+        counter = FactorCounter()
+        t0 = time.perf_counter()
+        tmap = transfer_neutral_map(
+            fluid,
+            template,
+            mass_range=mass_range,
+            omega_range=(0.01, max(20.0, 1.5 * wake.frequency)),
+            wake_frequency=wake.frequency,
+            tolerance=args.tolerance,
+            samples_path=samples,
+            counter=counter,
+        )
+        elapsed = time.perf_counter() - t0
+        results["transfer"] = (counter.count, elapsed)
+        turning = [
+            t for c in tmap.curves for t in c.turning_points() if mass_range[0] <= t[0] <= mass_range[1]
+        ]
+        print(
+            f"transfer: frequencies          {len(tmap.frequencies)}",
+            f"({len(tmap.unresolved)} intervals unresolved)",
+        )
+        print(f"transfer: curves               {[(c.kind, len(c.roots)) for c in tmap.curves]}")
+        print(f"transfer: turning points       {len(turning)}")
+        onsets = [round(u, 5) for u, rate, _ in tmap.crossings_at(1000.0) if rate > 0]
+        print(f"transfer: onsets at m = 1000   {onsets}")
+        print(f"transfer: factorisations       {counter.count}")
+        print(f"transfer: wall time [s]        {elapsed:.1f}")
+        print(f"transfer: peak memory [MB]     {_peak_mb():.0f}")
+
+    if args.method in ("both", "continuation"):
+        attrs = {"reynolds": 2900.0, "mesh_key": spec.key(), "benchmark": 1}
+        counter = FactorCounter()
+        t0 = time.perf_counter()
+        masses = () if args.curve_only else (100.0, 10.0)
+        seeds = map_seeds(
+            1000.0,
+            (2.0, 10.0),
+            args.points,
+            masses,
+            None if args.curve_only else wake.frequency,
+            args.mass_low,
+        )
+        cmap = trace_neutral_map(
+            fluid, template, seeds, out, "bench", attrs, mass_range=mass_range, counter=counter
+        )
+        elapsed = time.perf_counter() - t0
+        results["continuation"] = (counter.count, elapsed)
+        print(f"continuation: curves           {[(c.kind, len(c.points)) for c in cmap.curves]}")
+        print(f"continuation: turning points   {sum(len(c.turning_points) for c in cmap.curves)}")
+        print(f"continuation: stops            {[c.stops for c in cmap.curves]}")
+        print(f"continuation: factorisations   {counter.count} (+ {wake_counter.count} for the wake mode)")
+        print(f"continuation: wall time [s]    {elapsed:.1f}")
+        print(f"continuation: peak memory [MB] {_peak_mb():.0f}")
+
+    if len(results) == 2:
+        (n_t, t_t), (n_c, t_c) = results["transfer"], results["continuation"]
+        print(
+            f"ratio continuation/transfer    factorisations {n_c / max(n_t, 1):.2f},",
+            f"wall time {t_c / t_t:.2f}",
+        )
+        worst, compared = 0.0, 0
+        for curve in cmap.curves:
+            for p in curve.points:
+                near = nearest_on_map(tmap, p.mass_ratio, p.reduced_velocity, p.frequency)
+                if near is not None:
+                    worst = max(worst, abs(near[0] / p.reduced_velocity - 1))
+                    compared += 1
+        print(f"agreement in U*                {worst:.2e} (largest relative difference, {compared} points)")
 
 
 if __name__ == "__main__":

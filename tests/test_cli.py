@@ -103,6 +103,7 @@ def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec):
     save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
     args = [
         "neutral", "--body", "plate", "--Re", "2900", "--mesh", "coarse", "--json",
+        "--method", "continuation",
         "--mass-ratio-range", "500", "2000", "--reduced-velocity-range", "4", "5", "--points", "3",
         "--max-points", "2", "--out", str(tmp_path / "out"), "--cache", str(cache),
     ]  # fmt: skip
@@ -121,10 +122,47 @@ def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec):
     assert again["factorisations"] < payload["factorisations"]
 
 
+def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coarse_spec):
+    """``fsistab neutral --method transfer``: the same flutter onset at m = 1000 as the continuation
+    method's Newton (4.39277, docs/transfer.md), the divergence line, the samples file; the rerun
+    factorises only the static matrix of the steady loads (none for G)."""
+    from fsistab.params import Flow
+    from fsistab.steady import save_steady, steady_path
+
+    cache = tmp_path / "cache"
+    save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
+    args = [
+        "neutral", "--body", "plate", "--Re", "2900", "--mesh", "coarse", "--json", "--method", "transfer",
+        "--mass-ratio-range", "500", "2000", "--frequency-range", "0.1", "0.3",
+        "--out", str(tmp_path / "out"), "--cache", str(cache),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert payload["method"] == "transfer" and payload["factorisations"] > 10
+    flutter = [c for c in payload["curves"] if c["kind"] == "flutter"]
+    onsets = [
+        u
+        for c in flutter
+        for m, u in zip(c["mass_ratio"], c["reduced_velocity"], strict=True)
+        if 500 <= m <= 2000
+    ]
+    assert len(onsets) >= 3
+    slope = payload["divergence"]["moment_slope"]
+    assert 0.289 * (1000 / slope) ** 0.5 == pytest.approx(7.31235, rel=1e-5)
+    assert (tmp_path / "out" / "transfer_plate_Re2900_a0_samples.nc").is_file()
+    assert (tmp_path / "out" / "neutral_plate_Re2900_a0.png").stat().st_size > 10_000
+    again = json.loads(runner.invoke(app, args).stdout)
+    assert again["factorisations"] == 0
+    assert again["curves"] == payload["curves"]
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["neutral", "--seed-mass-ratio", "1e5"], "seed-mass-ratio"),
+        (["neutral", "--method", "fast"], "--method"),
+        (["neutral", "--method", "transfer", "--frequency-range", "1", "0.5"], "--frequency-range"),
+        (["neutral", "--method", "continuation", "--seed-mass-ratio", "1e5"], "seed-mass-ratio"),
         (["neutral", "--wake-frequency", "-1"], "wake-frequency"),
         (["flow-neutral", "--parameter", "mach"], "--parameter"),
         (["flow-neutral", "--parameter", "alpha0", "--range", "1", "5"], "--range"),

@@ -589,15 +589,41 @@ def neutral(
     zeta_h: ZetaHOpt = 0.0,
     zeta_theta: ZetaThetaOpt = 0.05,
     r_theta: RThetaOpt = 0.289,
+    method: Annotated[
+        str,
+        typer.Option("--method", help="transfer (G(iω) sweep, default) or continuation (sweeps + arclength)"),
+    ] = "transfer",
+    frequency_range: Annotated[
+        tuple[float, float] | None,
+        typer.Option(
+            "--frequency-range", help="transfer: ω range sampled (default 0.01 to max(20, 1.5 ω_wake))"
+        ),
+    ] = None,
+    tolerance: Annotated[
+        float,
+        typer.Option(
+            "--tolerance",
+            help="transfer: largest error of the tangent predictions between two samples, in (log m, log U*)",
+        ),
+    ] = 1e-2,
+    max_frequencies: Annotated[
+        int, typer.Option("--max-frequencies", help="transfer: at most this many sampled ω (factorisations)")
+    ] = 400,
 ):
-    """Stability map in the (m, U*) plane (MODEL.md §8): flutter and VIV neutral curves by
-    pseudo-arclength continuation from the thresholds of sweeps in U*, the divergence curve, turning
-    points and codimension-two crossings.
+    """Stability map in the (m, U*) plane (MODEL.md §8): flutter and VIV neutral curves, the
+    divergence curve, turning points and codimension-two crossings.
 
-    Sweeps: at --start-mass-ratio over --reduced-velocity-range, at each --seed-mass-ratio over that
-    range scaled by √(m/start), and (with --wake-frequency) at the lowest m around the coincidence of
-    the solid frequencies with the wake mode's. Each curve is saved (NetCDF) after every point; rerunning the
-    same command resumes."""
+    --method transfer (default): the exact transfer function G(iω) sampled over --frequency-range,
+    refined until every neutral curve is resolved to --tolerance; at each ω all neutral (m, U*)
+    follow from a polynomial (fsistab.transfer_map). The samples are saved and reused for other
+    solid parameters.
+
+    --method continuation: sweeps at --start-mass-ratio over --reduced-velocity-range, at each
+    --seed-mass-ratio over that range scaled by √(m/start), and (with --wake-frequency) at the lowest
+    m around the coincidence of the solid frequencies with the wake mode's; every threshold found is
+    continued by pseudo-arclength. Each curve is saved (NetCDF) after every point.
+
+    Rerunning the same command resumes."""
 
     from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
@@ -607,6 +633,7 @@ def neutral(
     from fsistab.plots import plot_stability_map
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
+    from fsistab.transfer_map import as_neutral_map, transfer_neutral_map
 
     if body != "plate":
         raise InputError("neutral maps are implemented for the plate (heave and pitch)")
@@ -625,6 +652,14 @@ def neutral(
         raise InputError(f"every --seed-mass-ratio must lie in the mass-ratio range [{lo_m:g}, {hi_m:g}]")
     if wake_frequency is not None and not (math.isfinite(wake_frequency) and wake_frequency > 0):
         raise InputError(f"--wake-frequency must be positive, got {wake_frequency}")
+    if method not in ("continuation", "transfer"):
+        raise InputError(f"--method must be continuation or transfer, got {method!r}")
+    if frequency_range is not None and not 0 < frequency_range[0] < frequency_range[1]:
+        raise InputError(f"--frequency-range must be 0 < low < high, got {frequency_range}")
+    if not 0 < tolerance < 0.5:
+        raise InputError(f"--tolerance must be in (0, 0.5), got {tolerance}")
+    if max_frequencies < 4:
+        raise InputError(f"--max-frequencies must be at least 4, got {max_frequencies}")
     template = _solid(body, start_mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
     spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
     console = _console(as_json)
@@ -636,20 +671,45 @@ def neutral(
         if wake_frequency is not None:
             status.update("wake mode of the fixed body")
             wake_frequency = wake_mode_near(fluid, wake_frequency, counter=counter).frequency
-        seeds = map_seeds(start_mass, velocity_range, points, seed_masses, wake_frequency, lo_m, freq_ratio)
-        result = trace_neutral_map(
-            fluid,
-            template,
-            seeds,
-            out,
-            tag,
-            attrs,
-            mass_range=mass_range,
-            max_points=max_points,
-            counter=counter,
-            progress=status.update,
-        )
-    map_attrs = {**attrs, "wake_frequency": wake_frequency if wake_frequency is not None else float("nan")}
+        if method == "transfer":
+            highest = max(20.0, 1.5 * wake_frequency) if wake_frequency is not None else 20.0
+            tmap = transfer_neutral_map(
+                fluid,
+                template,
+                mass_range=mass_range,
+                omega_range=frequency_range or (0.01, highest),
+                wake_frequency=wake_frequency,
+                tolerance=tolerance,
+                max_samples=max_frequencies,
+                samples_path=out / f"transfer_{tag}_samples.nc",
+                counter=counter,
+                progress=status.update,
+            )
+            result = as_neutral_map(tmap, template)
+        else:
+            seeds = map_seeds(
+                start_mass, velocity_range, points, seed_masses, wake_frequency, lo_m, freq_ratio
+            )
+            result = trace_neutral_map(
+                fluid,
+                template,
+                seeds,
+                out,
+                tag,
+                attrs,
+                mass_range=mass_range,
+                max_points=max_points,
+                counter=counter,
+                progress=status.update,
+            )
+    map_attrs = {
+        **attrs,
+        "method": method,
+        "wake_frequency": wake_frequency if wake_frequency is not None else float("nan"),
+    }
+    if method == "transfer":
+        map_attrs["frequencies"] = len(tmap.frequencies)
+        map_attrs["unresolved_intervals"] = len(tmap.unresolved)
     data_path = write_dataset(neutral_map_dataset(result, map_attrs), out / f"neutral_{tag}_map.nc")
     import xarray as xr
 
@@ -679,7 +739,7 @@ def neutral(
         "curves": [
             {
                 "kind": c.kind,
-                "seed_mass_ratio": c.seed_mass_ratio,
+                "seed_mass_ratio": c.seed_mass_ratio if math.isfinite(c.seed_mass_ratio) else None,
                 "mass_ratio": [p.mass_ratio for p in c.points],
                 "reduced_velocity": [p.reduced_velocity for p in c.points],
                 "frequency": [p.frequency for p in c.points],
@@ -709,6 +769,7 @@ def neutral(
             for c in result.crossings
         ],
         "wake_frequency": wake_frequency,
+        "method": method,
         "factorisations": counter.count,
         "data": str(data_path),
         "figure": str(figure),
@@ -724,7 +785,7 @@ def neutral(
         u = [p.reduced_velocity for p in c.points]
         table.add_row(
             name,
-            f"{c.seed_mass_ratio:g}",
+            f"{c.seed_mass_ratio:g}" if math.isfinite(c.seed_mass_ratio) else "—",
             str(len(c.points)),
             f"{min(m):.4g}–{max(m):.4g}",
             f"{min(u):.4g}–{max(u):.4g}",
@@ -751,6 +812,11 @@ def neutral(
         console.print(f"wake-mode frequency of the VIV sweep: {wake_frequency:.5g}")
     else:
         console.print("no VIV sweep: give --wake-frequency (a guess of the fixed body's wake-mode frequency)")
+    if method == "transfer":
+        console.print(
+            f"transfer method: {len(tmap.frequencies)} frequencies sampled, "
+            f"{len(tmap.unresolved)} intervals unresolved at the smallest step (ends of curves or the budget)"
+        )
     console.print(f"{counter.count} factorisations; curves and map saved in {out}; figure {figure}")
 
 

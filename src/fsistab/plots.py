@@ -321,7 +321,14 @@ def _reciprocal(values):
 
 
 def plot_stability_map(
-    curves, divergence, path: Path, title: str = "", turning_points=(), crossings=()
+    curves,
+    divergence,
+    path: Path,
+    title: str = "",
+    turning_points=(),
+    crossings=(),
+    unstable=None,
+    reference=(),
 ) -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
@@ -331,7 +338,10 @@ def plot_stability_map(
     each flutter curve (closed along the top of the plot, red) and inside each VIV curve (closed
     by the segment joining its ends, which lie on the bounds of m, blue) — the side where a
     growth rate is positive for the usual onset curves. ``turning_points`` (▽) and ``crossings``
-    (codimension-two points, ★) are ``(m, U*)`` pairs.
+    (codimension-two points, ★) are ``(m, U*)`` pairs. ``unstable = (m, U*, count)`` (1-D, 1-D,
+    len(U*) × len(m)), when known (:func:`fsistab.transfer_map.unstable_counts`), replaces those
+    fills by the exact unstable regions, darker with more unstable modes. ``reference``: ``(m, U*)``
+    points of another method, drawn as open circles.
     """
     colours = {"flutter": "tab:red", "viv": "tab:blue"}
     fig, ax = plt.subplots(figsize=(7.5, 5.5))
@@ -339,9 +349,22 @@ def plot_stability_map(
     ok = np.isfinite(u_div)
     all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
     top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
+    if unstable is not None:
+        m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
+        top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
+        filled = ax.contourf(
+            m_grid,
+            u_grid,
+            counts,
+            levels=[0.5, 1.5, 2.5, 99],
+            colors=["#f4c7c3", "#e8877f", "#c0392b"],
+            zorder=0,
+        )
+        fig.colorbar(filled, ax=ax, pad=0.12, label="unstable modes", ticks=[1, 2, 3])
     if ok.any():
         ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
-        ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.85", zorder=0)
+        if unstable is None:
+            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.85", zorder=0)
     labelled = set()
     for kind, masses, velocities in curves:
         masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
@@ -349,7 +372,7 @@ def plot_stability_map(
         label = kind if kind not in labelled else None
         labelled.add(kind)
         ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label)
-        if len(masses) < 2:
+        if len(masses) < 2 or unstable is not None:
             continue
         if kind == "viv":
             ax.fill(masses, velocities, color=colour, alpha=0.2, lw=0, zorder=0)
@@ -362,6 +385,9 @@ def plot_stability_map(
                 lw=0,
                 zorder=0,
             )
+    if len(reference):
+        m_r, u_r = np.asarray(reference, dtype=float).T
+        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation")
     if len(turning_points):
         m_t, u_t = np.asarray(turning_points, dtype=float).T
         ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point")

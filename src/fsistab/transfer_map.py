@@ -1,0 +1,758 @@
+"""The stability map of the whole ``(m, U*)`` plane from the exact transfer function, one frequency
+at a time (MODEL.md §7-§8; issue 6).
+
+On the imaginary axis ``s = iω`` the solid velocities are eliminated from ``T(s)``
+(:func:`fsistab.transfer.characteristic_matrix`), leaving, for the active dofs among heave and pitch,
+
+    ``X(s; m, u) = m W(s, u) − A(s)``,   ``W = diag(S_h, r_θ² S_θ)``,   ``u = 1/U*``,
+    ``S_h = s² + 2ζ_h Ω u s + Ω² u²``,   ``S_θ = s² + 2ζ_θ u s + u²``,
+
+with ``A(s)`` the 2 × 2 loads ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` of :func:`fsistab.transfer.aerodynamic_loads`
+(``det T = det X / (m² r_θ²)`` for both dofs). At a fixed frequency, ``F = det X`` is a polynomial
+of degree ≤ 2 in ``m`` whose coefficients are polynomials in ``u``: with ``m̂ = m ω²``, ``v = u/ω``
+(both O(1) where the solid frequencies meet ``ω``)
+
+    ``F = P₂(v) m̂² + P₁(v) m̂ + P₀``,   ``P₂ = r_θ² ŝ_h ŝ_θ``,
+    ``P₁ = −(ŝ_h A_θθ + r_θ² ŝ_θ A_hh)``,   ``P₀ = det A``,
+    ``ŝ_h = −1 + 2iζ_h Ω v + Ω² v²``,   ``ŝ_θ = −1 + 2iζ_θ v + v²``.
+
+A real ``m̂`` is a common root of ``Re F`` and ``Im F``: their resultant in ``m̂``, a real polynomial
+of degree 8 in ``v`` (degree 2 for one dof), vanishes. Its positive roots give **every** neutral
+point ``(m, U*)`` with frequency ``ω`` — no search, no starting guess — each polished by Newton on
+``F``. The neutral curves are these points as ``ω`` varies; the fluid enters only through ``G(iω)``
+and ``dG/ds`` at the sampled frequencies (one sparse factorisation each, independent of m and U*),
+so the cost of the map is the number of frequencies, not the number of points.
+
+Frequencies are added where the curves are not yet resolved: between two samples every root is
+predicted at the other sample from its exact tangent ``d(log m, log U*)/dω`` (implicit
+differentiation of ``F``, with ``dG/ds``); the interval is bisected until each root in the mass
+range is matched to one on the other side within ``tolerance`` in ``(log m, log U*)``. Between
+samples the curves are cubic Hermite interpolants in ``ω`` (values and exact tangents), whose
+error is about the square of the matching tolerance. Curves that end (folds in ``ω``, or
+curves too fast in ω, like lock-in boundaries near the wake frequency) are located down to
+``min_step``. A curve can also cross the whole mass range inside one interval (near the wake
+frequency a lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root at either
+end; the real roots of the resultant are tracked with their ``m`` of any sign, and an interval
+where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across the range,
+is bisected down to ``SWEEP_STEP`` until the curve shows up.
+Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
+``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
+
+The side that is unstable follows from the crossing rate ``∂(Re σ)/∂(log U*)`` at fixed ``m``
+(``dσ = −F_u du / F_s``): positive is an onset of instability as U* grows, negative a
+restabilisation. Counting crossings along U* from a U* where the coupled system is stable gives the
+number of unstable modes in every region (:func:`unstable_counts`).
+
+Units: chord-based (plate) or diameter-based (cylinder, via :meth:`fsistab.params.Solid.cylinder`)
+time ``L/U∞`` (MODEL.md §2, §10); ``m``, ``U*`` as in :class:`fsistab.params.Solid`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.polynomial.polynomial as npoly
+import xarray as xr
+
+from fsistab.coupled import active_states
+from fsistab.errors import CacheError, InputError
+from fsistab.linalg import FactorCounter
+from fsistab.operators import FluidOperators
+from fsistab.params import Solid
+from fsistab.store import read_dataset, write_dataset
+from fsistab.transfer import _complex_variable, aerodynamic_loads, exact_transfer, from_parts
+
+VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
+SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
+
+
+@dataclass(frozen=True)
+class AxisSample:
+    """``G(iω)`` and ``dG/ds`` at ``s = iω`` (3 × 4 each, :func:`fsistab.transfer.exact_transfer`)."""
+
+    frequency: float
+    transfer: np.ndarray
+    rate: np.ndarray
+
+
+@dataclass(frozen=True)
+class NeutralRoot:
+    """A neutral point with frequency ``frequency``: ``det T(iω; m, U*) = 0``, its tangent along
+    the neutral curve (``d log m/dω``, ``d log U*/dω``) and the crossing rate
+    ``∂(Re σ)/∂(log U*)`` at fixed m (> 0: onset as U* grows)."""
+
+    frequency: float
+    mass_ratio: float
+    reduced_velocity: float
+    dlog_mass: float
+    dlog_velocity: float
+    crossing_rate: float
+
+    @property
+    def plane(self) -> np.ndarray:
+        return np.array([math.log(self.mass_ratio), math.log(self.reduced_velocity)])
+
+    @property
+    def tangent(self) -> np.ndarray:
+        return np.array([self.dlog_mass, self.dlog_velocity])
+
+
+def second_order_loads(
+    sample: AxisSample, theta0: float, loads0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A(iω)`` and ``dA/ds`` (2 × 2, rows ``C_L, C_M``, columns ``ĥ, θ̂``)."""
+    s = 1j * sample.frequency
+    g, no_loads = sample.transfer, np.zeros(3)
+    value = aerodynamic_loads(g, theta0, loads0, s)
+    # d/ds [rows (G_x + s G_v)] = rows (dG_x + s dG_v) + rows G_v; the rotated steady force is constant
+    velocity_columns = np.hstack([g[:, 2:], np.zeros((3, 2))])
+    rate = aerodynamic_loads(sample.rate, theta0, no_loads, s) + aerodynamic_loads(
+        velocity_columns, theta0, no_loads, 0.0
+    )
+    return value, rate
+
+
+def _dof_indices(solid: Solid) -> list[int]:
+    """Active dofs as indices into ``(h, θ)``."""
+    return [i for i in (0, 1) if i in active_states(solid)]
+
+
+def _weights(solid: Solid, s: complex, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``diag(S_h, r_θ² S_θ)`` and its derivatives in ``u`` and ``s`` (diagonals, 2 each)."""
+    omega_h, r2 = solid.freq_ratio, solid.r_theta**2
+    zh, zt = solid.zeta_h, solid.zeta_theta
+    w = np.array(
+        [s * s + 2 * zh * omega_h * u * s + omega_h**2 * u * u, r2 * (s * s + 2 * zt * u * s + u * u)]
+    )
+    w_u = np.array([2 * zh * omega_h * s + 2 * omega_h**2 * u, r2 * (2 * zt * s + 2 * u)])
+    w_s = np.array([2 * s + 2 * zh * omega_h * u, r2 * (2 * s + 2 * zt * u)])
+    return w, w_u, w_s
+
+
+def _adjugate(x: np.ndarray) -> np.ndarray:
+    if x.shape == (1, 1):
+        return np.ones((1, 1), dtype=x.dtype)
+    return np.array([[x[1, 1], -x[0, 1]], [-x[1, 0], x[0, 0]]])
+
+
+def characteristic_function(
+    loads: np.ndarray, rate: np.ndarray, solid: Solid, s: complex, mass_ratio: float, u: float
+) -> tuple[complex, complex, complex, complex]:
+    """``F = det(m W − A)`` and ``∂F/∂m``, ``∂F/∂u``, ``∂F/∂s`` (``dF = tr(adj X dX)``, valid at a
+    root), on the active dofs; ``loads``/``rate`` are ``A(s)``/``dA/ds``."""
+    a = _dof_indices(solid)
+    w, w_u, w_s = (np.diag(d[a]) for d in _weights(solid, s, u))
+    x = mass_ratio * w - loads[np.ix_(a, a)]
+    adj = _adjugate(x)
+    value = np.linalg.det(x) if len(a) > 1 else x[0, 0]
+    d_mass = np.trace(adj @ w)
+    d_u = np.trace(adj @ (mass_ratio * w_u))
+    d_s = np.trace(adj @ (mass_ratio * w_s - rate[np.ix_(a, a)]))
+    return complex(value), complex(d_mass), complex(d_u), complex(d_s)
+
+
+def _scaled_polynomials(loads: np.ndarray, solid: Solid) -> list[np.ndarray]:
+    """``P₀, P₁[, P₂]`` of the module docstring (complex coefficient arrays in ``v``, ascending)."""
+    omega_h, r2 = solid.freq_ratio, solid.r_theta**2
+    s_h = np.array([-1.0, 2j * solid.zeta_h * omega_h, omega_h**2])
+    s_t = np.array([-1.0, 2j * solid.zeta_theta, 1.0])
+    a = _dof_indices(solid)
+    if a == [0, 1]:
+        p2 = r2 * npoly.polymul(s_h, s_t)
+        p1 = -npoly.polyadd(s_h * loads[1, 1], r2 * s_t * loads[0, 0])
+        p0 = np.array([loads[0, 0] * loads[1, 1] - loads[0, 1] * loads[1, 0]])
+        return [p0, p1, p2]
+    if a == [0]:
+        return [np.array([-loads[0, 0]]), s_h]
+    return [np.array([-loads[1, 1]]), r2 * s_t]
+
+
+def _real_resultant(polys: list[np.ndarray]) -> np.ndarray:
+    """Real polynomial in ``v`` that vanishes where ``Σ P_k(v) m̂^k`` has a real root ``m̂``."""
+    re = [p.real for p in polys]
+    im = [p.imag for p in polys]
+    mul, sub = npoly.polymul, npoly.polysub
+    if len(polys) == 2:  # m̂ = −P₀/P₁ real ⇔ Im(P₀ conj P₁) = 0
+        return sub(mul(im[0], re[1]), mul(re[0], im[1]))
+    (c1, b1, a1), (c2, b2, a2) = re, im
+    ac = sub(mul(a1, c2), mul(a2, c1))
+    ab = sub(mul(a1, b2), mul(a2, b1))
+    bc = sub(mul(b1, c2), mul(b2, c1))
+    return sub(mul(ac, ac), mul(ab, bc))
+
+
+def neutral_roots(
+    sample: AxisSample,
+    solid: Solid,
+    theta0: float,
+    loads0: np.ndarray,
+    mass_range: tuple[float, float],
+) -> list[NeutralRoot]:
+    """Every neutral point ``(m, U*)`` with frequency ``sample.frequency`` > 0 and ``m`` in
+    ``mass_range`` (solid parameters other than ``m``, ``U*`` from ``solid``):
+    :func:`roots_from_loads` of the sample's ``A(iω)``, ``dA/ds``."""
+    if sample.frequency <= 0:
+        raise InputError("neutral_roots is for ω > 0; divergence (ω = 0) is divergence_lines")
+    loads, rate = second_order_loads(sample, theta0, loads0)
+    return roots_from_loads(loads, rate, sample.frequency, solid, mass_range)
+
+
+def roots_from_loads(
+    loads: np.ndarray, rate: np.ndarray, omega: float, solid: Solid, mass_range: tuple[float, float]
+) -> list[NeutralRoot]:
+    """The real roots ``(m, U*)`` of ``det(m W(iω, 1/U*) − A) = 0`` with ``m`` in ``mass_range``,
+    from the real roots of the resultant (module docstring), each polished by Newton on ``F``."""
+    s = 1j * omega
+    polys = _scaled_polynomials(loads, solid)
+    resultant = npoly.polytrim(_real_resultant(polys), tol=0.0)
+    if len(resultant) < 2:
+        return []
+    roots = []
+    for v in npoly.polyroots(resultant):
+        if abs(v.imag) > 1e-6 * max(1.0, abs(v)) or v.real <= 0:
+            continue
+        v = float(v.real)
+        coefficients = [complex(npoly.polyval(v, p)) for p in polys]
+        if len(coefficients) == 3:
+            candidates = np.roots(coefficients[::-1])
+        else:
+            candidates = [-coefficients[0] / coefficients[1]]
+        for m_hat in candidates:
+            if abs(m_hat.imag) > 1e-4 * abs(m_hat) or m_hat.real <= 0:
+                continue
+            root = _polish(loads, rate, solid, s, m_hat.real / omega**2, v * omega)
+            if root is None:
+                continue
+            m, u = root
+            if not mass_range[0] <= m <= mass_range[1]:
+                continue
+            if any(
+                abs(m - r.mass_ratio) < 1e-9 * m and abs(1 / u - r.reduced_velocity) < 1e-9 / u for r in roots
+            ):
+                continue
+            roots.append(_root_with_tangent(loads, rate, solid, omega, m, u))
+    return roots
+
+
+def resultant_tracks(loads: np.ndarray, omega: float, solid: Solid) -> np.ndarray:
+    """Every real positive root ``v`` of the resultant with its real ``m`` (any sign, any size):
+    ``(k, 2)`` rows ``(v, m)``. Between two frequencies a curve can sweep through the whole mass
+    range (``m`` through ``∞`` or 0, a narrow window in ω, e.g. lock-in onsets near the wake
+    frequency) without a root in range at either; its track still changes sign or side there."""
+    polys = _scaled_polynomials(loads, solid)
+    resultant = npoly.polytrim(_real_resultant(polys), tol=0.0)
+    rows = []
+    for v in npoly.polyroots(resultant) if len(resultant) > 1 else []:
+        if abs(v.imag) > 1e-6 * max(1.0, abs(v)) or v.real <= 0:
+            continue
+        coefficients = [complex(npoly.polyval(v.real, p)) for p in polys]
+        if abs(coefficients[-1]) < 1e-9 * np.abs(polys[-1]).max():
+            continue  # the leading coefficient vanishes (ζ_h = 0, v = 1/Ω): the resultant's trivial root
+        if len(coefficients) == 3:
+            candidates = np.roots(coefficients[::-1])
+        else:
+            candidates = np.array([-coefficients[0] / coefficients[1]])
+        if len(candidates):
+            best = candidates[np.argmin(np.abs(candidates.imag) / np.maximum(np.abs(candidates), 1e-300))]
+            rows.append((v.real, best.real / omega**2))
+    return np.array(rows).reshape(-1, 2)
+
+
+def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether a pair of real resultant roots is born or dies between two frequencies, or a root
+    (matched by nearest ``v``) passes from one side of ``band`` to the other, or through
+    ``m = 0``/``∞``, without being in the band at either frequency."""
+
+    def side(m: float) -> int:
+        return -1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2
+
+    if len(left) != len(right):  # a pair of real roots is born or dies in between
+        return True
+    for v, m in left:
+        if not len(right):
+            return False
+        k = int(np.argmin(np.abs(right[:, 0] - v)))
+        if abs(right[k, 0] - v) > 0.25 * v:
+            continue
+        a, b = side(m), side(right[k, 1])
+        if a != b and 1 not in (a, b):
+            return True
+    return False
+
+
+def _polish(loads, rate, solid, s, mass_ratio, u, iterations: int = 8):
+    """Newton on ``Re F = Im F = 0`` in ``(log m, log u)``; None if it does not converge."""
+    x = np.array([math.log(mass_ratio), math.log(u)])
+    for _ in range(iterations):
+        m, uu = math.exp(x[0]), math.exp(x[1])
+        f, f_m, f_u, _ = characteristic_function(loads, rate, solid, s, m, uu)
+        jac = np.array([[(f_m * m).real, (f_u * uu).real], [(f_m * m).imag, (f_u * uu).imag]])
+        try:
+            step = np.linalg.solve(jac, -np.array([f.real, f.imag]))
+        except np.linalg.LinAlgError:
+            return None
+        x = x + step
+        if not np.all(np.abs(x) < 200):  # diverged (exp would overflow)
+            return None
+        if np.max(np.abs(step)) < 1e-12:
+            return math.exp(x[0]), math.exp(x[1])
+    return (math.exp(x[0]), math.exp(x[1])) if np.max(np.abs(step)) < 1e-9 else None
+
+
+def _root_with_tangent(loads, rate, solid, omega, m, u) -> NeutralRoot:
+    s = 1j * omega
+    _, f_m, f_u, f_s = characteristic_function(loads, rate, solid, s, m, u)
+    # F(log m, log U*, ω) = 0: [F_m m, −F_u u] d(log m, log U*) = −i F_s dω
+    rhs = -1j * f_s
+    jac = np.array([[(f_m * m).real, (-f_u * u).real], [(f_m * m).imag, (-f_u * u).imag]])
+    dlog_mass, dlog_velocity = np.linalg.solve(jac, np.array([rhs.real, rhs.imag]))
+    # fixed m: F_s dσ + F_u du = 0, du = −u d(log U*)
+    crossing = (f_u * u / f_s).real
+    return NeutralRoot(omega, m, 1.0 / u, float(dlog_mass), float(dlog_velocity), float(crossing))
+
+
+def divergence_lines(
+    static: AxisSample, solid: Solid, theta0: float, loads0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Static neutral curves ``U*_D = √(m/λ)`` (MODEL.md §8): ``λ`` the positive eigenvalues of
+    ``W₀⁻¹ A(0)``, ``W₀ = diag(Ω², r_θ²)`` on the active dofs (``det(m u² W₀ − A(0)) = 0``), and
+    the crossing rate ``∂σ/∂(log U*)`` of the real eigenvalue on each (> 0: divergence as U* grows)."""
+    if static.frequency != 0:
+        raise InputError("divergence_lines needs the sample at ω = 0")
+    a = _dof_indices(solid)
+    loads, rate = second_order_loads(static, theta0, loads0)
+    w0 = np.array([solid.freq_ratio**2, solid.r_theta**2])[a]
+    values = np.linalg.eigvals(loads.real[np.ix_(a, a)] / w0[:, None])
+    lambdas = np.sort([v.real for v in values if abs(v.imag) < 1e-12 * abs(v) and v.real > 0])
+    rates = []
+    for lam in lambdas:  # any m: the rate does not depend on where on the line
+        m = 1.0
+        u = math.sqrt(lam / m)
+        _, _, f_u, f_s = characteristic_function(loads, rate, solid, 0.0, m, u)
+        rates.append((f_u * u / f_s).real)
+    return np.array(lambdas), np.array(rates)
+
+
+def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: float) -> np.ndarray:
+    """Cubic Hermite coefficients in ``τ ∈ [0, 1]`` (ascending, one column per component)."""
+    d = x1 - x0
+    return np.array([x0, h * t0, 3 * d - h * (2 * t0 + t1), -2 * d + h * (t0 + t1)])
+
+
+@dataclass(frozen=True)
+class TransferCurve:
+    """A neutral curve: exact neutral points at the sampled frequencies, in order along the curve,
+    joined by cubic Hermite interpolants in ``ω``; ``kind`` is ``flutter`` or ``viv``."""
+
+    kind: str
+    roots: tuple[NeutralRoot, ...]
+
+    def _segments(self):
+        """Per interval: the roots, the cubic Hermite of ``(log m, log U*)`` in ``τ ∈ [0, 1]``
+        (values and exact tangents) and ``ω`` along it (linear)."""
+        for r0, r1 in zip(self.roots[:-1], self.roots[1:], strict=True):
+            h = r1.frequency - r0.frequency
+            plane = _hermite(r0.plane, r0.tangent, r1.plane, r1.tangent, h)
+            yield r0, r1, plane, np.array([r0.frequency, h, 0.0, 0.0])
+
+    def velocities_at(self, mass_ratio: float) -> list[tuple[float, float]]:
+        """``(U*, ω)`` of every point of the curve at ``mass_ratio`` (Hermite interpolation)."""
+        return [(u, w) for u, w, _ in self.crossings_at(mass_ratio)]
+
+    def crossings_at(self, mass_ratio: float) -> list[tuple[float, float, float]]:
+        """``(U*, ω, crossing rate)`` of every point of the curve at ``mass_ratio``. The rate is
+        exact at the sampled roots; in between, ``rate/(d log m/dω)`` — smooth through turning
+        points, where both vanish, since the unstable side keeps its place relative to the curve —
+        is interpolated linearly and multiplied by the interpolant's ``d log m/dω``."""
+        target = math.log(mass_ratio)
+        found = []
+        for r0, r1, coef, omega in self._segments():
+            poly = coef[:, 0].copy()
+            poly[0] -= target
+            for tau in npoly.polyroots(npoly.polytrim(poly, tol=0.0)) if np.any(poly[1:]) else []:
+                if abs(tau.imag) < 1e-9 and -1e-12 <= tau.real <= 1 + 1e-12:
+                    tau = float(np.clip(tau.real, 0, 1))
+                    log_u = npoly.polyval(tau, coef[:, 1])
+                    slope = npoly.polyval(tau, npoly.polyder(coef[:, 0])) / npoly.polyval(
+                        tau, npoly.polyder(omega)
+                    )
+                    q0, q1 = (r.crossing_rate / r.dlog_mass if r.dlog_mass else 0.0 for r in (r0, r1))
+                    rate = (q0 + tau * (q1 - q0)) * slope
+                    found.append((math.exp(log_u), float(npoly.polyval(tau, omega)), rate))
+        unique = []
+        for u, w, rate in found:  # a root at a shared sample is found from both sides
+            if all(abs(u - v) > 1e-10 * u for v, _, _ in unique):
+                unique.append((u, w, rate))
+        return unique
+
+    def turning_points(self) -> list[tuple[float, float, float]]:
+        """``(m, U*, ω)`` where ``m`` is extremal along the curve (turning points of MODEL.md §8)."""
+        points = []
+        for _, _, coef, omega_coef in self._segments():
+            slope = npoly.polyder(coef[:, 0])
+            for tau in npoly.polyroots(npoly.polytrim(slope, tol=0.0)) if np.any(slope[1:]) else []:
+                if abs(tau.imag) < 1e-12 and 0 < tau.real < 1:
+                    tau = float(tau.real)
+                    before = npoly.polyval(tau - 1e-6, slope)
+                    after = npoly.polyval(tau + 1e-6, slope)
+                    if before * after < 0:
+                        x = npoly.polyval(tau, coef)
+                        omega = float(npoly.polyval(tau, omega_coef))
+                        points.append((math.exp(x[0]), math.exp(x[1]), omega))
+        return points
+
+    def polyline(self, per_segment: int = 8) -> np.ndarray:
+        """``(m, U*, ω)`` along the curve, ``per_segment`` points per interval (for figures)."""
+        rows = []
+        for _, _, coef, omega in self._segments():
+            for tau in np.linspace(0, 1, per_segment, endpoint=False):
+                x = npoly.polyval(tau, coef)
+                rows.append((math.exp(x[0]), math.exp(x[1]), float(npoly.polyval(tau, omega))))
+        last = self.roots[-1]
+        rows.append((last.mass_ratio, last.reduced_velocity, last.frequency))
+        return np.array(rows)
+
+
+@dataclass(frozen=True)
+class TransferMap:
+    """The neutral curves of the ``(m, U*)`` plane from ``G(iω)`` at ``frequencies`` (+ ω = 0):
+    dynamic curves, divergence lines ``U*_D = √(m/λ)`` with their crossing rates, and the cost."""
+
+    curves: tuple[TransferCurve, ...]
+    divergence_lambdas: np.ndarray
+    divergence_rates: np.ndarray
+    frequencies: np.ndarray
+    mass_range: tuple[float, float]
+    factorisations: int
+    unresolved: tuple[tuple[float, float], ...]
+
+    def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
+        return np.sqrt(mass_ratio / self.divergence_lambdas)
+
+    def crossings_at(self, mass_ratio: float) -> list[tuple[float, float, str]]:
+        """All neutral points at ``mass_ratio``, sorted by U*: ``(U*, crossing rate, kind)``."""
+        points = [
+            (u, rate, "divergence")
+            for u, rate in zip(self.divergence_velocities(mass_ratio), self.divergence_rates, strict=True)
+        ]
+        for curve in self.curves:
+            points += [(u, rate, curve.kind) for u, _, rate in curve.crossings_at(mass_ratio)]
+        return sorted(points)
+
+
+def unstable_counts(
+    tmap: TransferMap, mass_ratio: float, velocities: Sequence[float], base: int = 0
+) -> np.ndarray:
+    """Number of unstable coupled modes at ``(mass_ratio, U*)`` for each U* in ``velocities``:
+    ``base`` (the count below the lowest neutral point, e.g. from the eigen-solver) plus the signed
+    crossings (``+1`` onset, ``-1`` restabilisation) below each U*."""
+    crossings = tmap.crossings_at(mass_ratio)
+    return np.array(
+        [base + sum(1 if rate > 0 else -1 for u, rate, _ in crossings if u < v) for v in velocities]
+    )
+
+
+def _identity(fluid: FluidOperators) -> dict:
+    steady = fluid.steady
+    return {
+        "reynolds": steady.flow.reynolds,
+        "alpha0_deg": steady.flow.alpha0_deg,
+        "mesh_key": steady.mesh_spec.key(),
+    }
+
+
+def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
+    """``G(iω)`` and ``dG/ds`` at the sampled frequencies (complex as a ``part`` dimension): the
+    fluid's whole contribution to the map, reusable for any solid parameters."""
+    samples = sorted(samples, key=lambda s: s.frequency)
+    dims = ("frequency", "load", "state")
+    return xr.Dataset(
+        {
+            "transfer": _complex_variable(dims, np.array([s.transfer for s in samples])),
+            "transfer_rate": _complex_variable(dims, np.array([s.rate for s in samples])),
+        },
+        coords={
+            "frequency": [s.frequency for s in samples],
+            "load": ["force_x", "force_y", "moment"],
+            "state": ["h", "theta", "hdot", "thetadot"],
+            "part": ["real", "imag"],
+        },
+        attrs={
+            **attrs,
+            "conventions": "G(s) body-axis loads (F_x, F_y, M) [rho U^2 L] per unit (h, theta, hdot, "
+            "thetadot) ~ e^{st}, s = i*frequency, time unit L/U; transfer_rate = dG/ds",
+        },
+    )
+
+
+def read_samples(path: Path, fluid: FluidOperators) -> dict[float, AxisSample]:
+    """Samples saved by :func:`transfer_neutral_map` for the same mesh and flow (else CacheError)."""
+    ds = read_dataset(path, expect=_identity(fluid))
+    try:
+        values, rates = from_parts(ds.transfer), from_parts(ds.transfer_rate)
+    except (AttributeError, KeyError) as exc:
+        raise CacheError(f"{path} is not a transfer-sample file ({exc}); delete it to recompute") from None
+    return {
+        float(w): AxisSample(float(w), g, dg)
+        for w, g, dg in zip(ds.frequency.values, values, rates, strict=True)
+    }
+
+
+def _match(
+    left: list[NeutralRoot], right: list[NeutralRoot], h: float, limit: float
+) -> list[tuple[int, int, float]]:
+    """Pairs ``(i, j, d)`` of roots at two adjacent frequencies ``h`` apart, ``d`` the larger of
+    the two tangent predictions' errors (∞-norm in ``(log m, log U*)``), greedy by ``d`` below
+    ``limit``."""
+    pairs = []
+    for i, a in enumerate(left):
+        for j, b in enumerate(right):
+            forward = np.abs(a.plane + h * a.tangent - b.plane).max()
+            backward = np.abs(b.plane - h * b.tangent - a.plane).max()
+            pairs.append((max(forward, backward), i, j))
+    used_left, used_right, matches = set(), set(), []
+    for d, i, j in sorted(pairs):
+        if d < limit and i not in used_left and j not in used_right:
+            used_left.add(i)
+            used_right.add(j)
+            matches.append((i, j, d))
+    return matches
+
+
+def _resolved(left, right, h, tolerance, inner) -> bool:
+    """Every root inside ``inner`` (a mass range) on either side is matched within ``tolerance``."""
+    matches = _match(left, right, h, tolerance)
+    done_left = {i for i, _, _ in matches}
+    done_right = {j for _, j, _ in matches}
+    need = lambda roots, done: all(  # noqa: E731
+        k in done or not inner[0] <= r.mass_ratio <= inner[1] for k, r in enumerate(roots)
+    )
+    return need(left, done_left) and need(right, done_right)
+
+
+def initial_frequencies(
+    omega_range: tuple[float, float], count: int, wake_frequency: float | None
+) -> np.ndarray:
+    """Log-spaced frequencies over ``omega_range``, and 24 more within ±10 % of the wake frequency
+    (VIV windows are narrow in ω)."""
+    grid = np.geomspace(*omega_range, count)
+    if wake_frequency is not None:
+        grid = np.concatenate([grid, np.linspace(0.9, 1.1, 24) * wake_frequency])
+    return np.unique(grid[(grid >= omega_range[0]) & (grid <= omega_range[1])])
+
+
+def transfer_neutral_map(
+    fluid: FluidOperators,
+    template: Solid,
+    *,
+    mass_range: tuple[float, float] = (1.0, 1e4),
+    omega_range: tuple[float, float] = (0.01, 20.0),
+    wake_frequency: float | None = None,
+    initial: int = 48,
+    tolerance: float = 1e-2,
+    min_step: float = 1e-3,
+    max_samples: int = 400,
+    samples_path: Path | None = None,
+    counter: FactorCounter | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> TransferMap:
+    """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
+    ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
+    and ``U*``; divergence from ``G(0)``.
+
+    Starts from :func:`initial_frequencies` and bisects every interval whose roots are not matched
+    within ``tolerance`` (in ``log m``, ``log U*``) by their tangents, down to a relative step
+    ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
+    listed in ``unresolved``), at most ``max_samples`` frequencies. One factorisation per sample;
+    with ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of
+    the same mesh and flow are reused, for any solid parameters.
+    """
+    low, high = mass_range
+    if not (0 < low < high and math.isfinite(high)):
+        raise InputError(f"the mass-ratio range must satisfy 0 < low < high, got {mass_range}")
+    if not (0 < omega_range[0] < omega_range[1] and math.isfinite(omega_range[1])):
+        raise InputError(f"the frequency range must satisfy 0 < low < high, got {omega_range}")
+    if not 0 < tolerance < 0.5 or not 0 < min_step < 0.5:
+        raise InputError(f"tolerance and min_step must be in (0, 0.5), got {tolerance}, {min_step}")
+    counter = counter if counter is not None else FactorCounter()
+    say = progress or (lambda message: None)
+    start = counter.count
+    stored = read_samples(samples_path, fluid) if samples_path and Path(samples_path).is_file() else {}
+    identity = _identity(fluid)
+    wide = (low / 4, high * 4)  # roots followed; those in mass_range must be matched
+    inner = (low, high)
+    theta0, loads0 = fluid.theta0, fluid.loads0
+
+    def sample(omega: float) -> AxisSample:
+        if omega not in stored:
+            g, dg = exact_transfer(fluid, 1j * omega if omega > 0 else 0.0, counter, derivative=True)
+            stored[omega] = AxisSample(omega, g, dg)
+            if samples_path is not None:
+                write_dataset(samples_dataset(list(stored.values()), identity), Path(samples_path))
+        return stored[omega]
+
+    roots: dict[float, list[NeutralRoot]] = {}
+    tracks: dict[float, np.ndarray] = {}
+
+    def add(omega: float) -> None:
+        if any(abs(omega - w) <= 1e-9 * omega for w in roots):
+            return  # the same frequency up to rounding (saved grids, bisections)
+        near = [w for w in stored if abs(omega - w) <= 1e-9 * omega]
+        omega = near[0] if near else omega
+        loads, rate = second_order_loads(sample(omega), theta0, loads0)
+        roots[omega] = roots_from_loads(loads, rate, omega, template, wide)
+        tracks[omega] = resultant_tracks(loads, omega, template)
+
+    static = sample(0.0)
+    saved = [w for w in stored if omega_range[0] <= w <= omega_range[1]]  # free: use them all
+    for omega in sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved}):
+        add(float(omega))
+    unresolved = set()
+    while True:
+        grid = sorted(roots)
+        todo = []
+        for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
+            if (w0, w1) in unresolved:
+                continue
+            if not _resolved(roots[w0], roots[w1], w1 - w0, tolerance, inner):
+                smallest = min_step
+            elif _swept(tracks[w0], tracks[w1], wide):
+                smallest = SWEEP_STEP  # a curve may cross the whole range in between: find it
+            else:
+                continue
+            if w1 - w0 < smallest * w1:
+                unresolved.add((w0, w1))
+            else:
+                todo.append((w1 - w0, w0, w1))
+        if not todo:
+            break
+        if len(roots) >= max_samples:
+            unresolved.update((w0, w1) for _, w0, w1 in todo)
+            say(f"stopped at {max_samples} frequencies with {len(todo)} intervals unresolved")
+            break
+        for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]:
+            add(0.5 * (w0 + w1))
+        say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
+    curves = _assemble(roots, wake_frequency, mass_range)
+    lambdas, rates = divergence_lines(static, template, theta0, loads0)
+    return TransferMap(
+        tuple(curves),
+        lambdas,
+        rates,
+        np.array(sorted(stored)),
+        (float(low), float(high)),
+        counter.count - start,
+        tuple(sorted(unresolved)),
+    )
+
+
+def _assemble(
+    roots: dict[float, list[NeutralRoot]], wake_frequency: float | None, mass_range: tuple[float, float]
+) -> list[TransferCurve]:
+    """Chain matched roots of adjacent frequencies into curves; keep those that enter ``mass_range``."""
+    grid = sorted(roots)
+    successor: dict[tuple[float, int], tuple[float, int]] = {}
+    has_predecessor = set()
+    for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
+        for i, j, _ in _match(roots[w0], roots[w1], w1 - w0, 0.25):
+            successor[(w0, i)] = (w1, j)
+            has_predecessor.add((w1, j))
+    curves = []
+    for w in grid:
+        for i in range(len(roots[w])):
+            if (w, i) in has_predecessor:
+                continue
+            chain, key = [], (w, i)
+            while key is not None:
+                chain.append(roots[key[0]][key[1]])
+                key = successor.get(key)
+            inside = [mass_range[0] <= r.mass_ratio <= mass_range[1] for r in chain]
+            if len(chain) < 2 or not any(inside):
+                continue
+            mean_frequency = float(np.mean([r.frequency for r in chain]))
+            viv = (
+                wake_frequency is not None
+                and abs(mean_frequency - wake_frequency) < VIV_BAND * wake_frequency
+            )
+            curves.append(TransferCurve("viv" if viv else "flutter", tuple(chain)))
+    return curves
+
+
+def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
+    """The transfer map in the form of :class:`fsistab.neutral.NeutralMap` (same dataset, figure and
+    JSON as the continuation method): each curve's exact roots inside the mass range (and the next
+    one outside, so that lines reach the edges), turning points from the Hermite interpolants,
+    the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope = λ r_θ²``: the
+    torsional formula's slope), crossings of all curves."""
+    from fsistab.neutral import (
+        MapCrossing,
+        MapCurve,
+        NeutralMap,
+        NeutralPoint,
+        TurningPoint,
+        curve_crossings,
+        divergence_curve,
+    )
+
+    low, high = tmap.mass_range
+    curves = []
+    for curve in tmap.curves:
+        inside = [low <= r.mass_ratio <= high for r in curve.roots]
+        keep = [
+            r
+            for k, r in enumerate(curve.roots)
+            if inside[k] or (k > 0 and inside[k - 1]) or (k + 1 < len(inside) and inside[k + 1])
+        ]
+        neutral = tuple(
+            NeutralPoint(r.mass_ratio, r.reduced_velocity, r.frequency, np.zeros(0), 0) for r in keep
+        )
+        folds = tuple(
+            TurningPoint(m, u, w, -1, True) for m, u, w in curve.turning_points() if low <= m <= high
+        )
+        onset = np.mean([r.crossing_rate > 0 for r in keep]) >= 0.5
+        curves.append(
+            MapCurve(
+                curve.kind, float("nan"), "onset" if onset else "restabilisation", neutral, folds, ("", "")
+            )
+        )
+    masses = np.geomspace(low, high, points)
+    slope = (
+        float(tmap.divergence_lambdas.max() * template.r_theta**2) if len(tmap.divergence_lambdas) else 0.0
+    )
+    divergence = divergence_curve(slope, template.r_theta, masses)
+    crossings = []
+    planes = [c.plane_points for c in curves]
+    if np.isfinite(divergence).sum() > 1:
+        line = np.column_stack([np.log(masses), divergence])
+        for i, plane in enumerate(planes):
+            crossings += [MapCrossing(i, -1, c) for c in curve_crossings(plane, line)]
+    for i in range(len(planes)):
+        for j in range(i + 1, len(planes)):
+            crossings += [MapCrossing(i, j, c) for c in curve_crossings(planes[i], planes[j])]
+    return NeutralMap(tuple(curves), masses, divergence, slope, tuple(crossings), tmap.factorisations)
+
+
+def nearest_on_map(
+    tmap: TransferMap, mass_ratio: float, reduced_velocity: float, frequency: float
+) -> tuple[float, float] | None:
+    """The point ``(U*, ω)`` of the map's dynamic curves at ``mass_ratio`` nearest to a given
+    neutral point (in ``|log U*|`` plus relative ``ω``): how a point of another method (e.g. the
+    continuation's) is compared with this one. None if no curve reaches that m."""
+    candidates = [p for curve in tmap.curves for p in curve.velocities_at(mass_ratio)]
+    if not candidates:
+        return None
+    return min(
+        candidates,
+        key=lambda p: abs(math.log(p[0] / reduced_velocity)) + abs(p[1] - frequency) / frequency,
+    )
+
+
+def unstable_grid(
+    tmap: TransferMap, masses: Sequence[float], velocities: Sequence[float], base: int = 0
+) -> np.ndarray:
+    """:func:`unstable_counts` on a grid: ``len(velocities) × len(masses)`` (for shading a map)."""
+    return np.column_stack([unstable_counts(tmap, m, velocities, base) for m in masses])

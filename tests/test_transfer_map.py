@@ -1,0 +1,215 @@
+"""Neutral curves from the exact transfer function, one frequency at a time (fsistab.transfer_map).
+
+Plate, Re = 2900, α0 = 0, coarse mesh. Every neutral point the polynomial gives is checked by the
+full eigen-solver, the tangents by finite differences, completeness against a brute-force scan,
+and a small map against the Newton thresholds of the continuation method.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fsistab.coupled import CoupledSystem
+from fsistab.critical import divergence_point, flutter_point
+from fsistab.eigen import eigenpairs_near
+from fsistab.errors import CacheError, InputError
+from fsistab.linalg import FactorCounter
+from fsistab.operators import fluid_operators
+from fsistab.params import Solid
+from fsistab.transfer import characteristic_matrix, exact_transfer
+from fsistab.transfer_map import (
+    AxisSample,
+    _swept,
+    characteristic_function,
+    neutral_roots,
+    roots_from_loads,
+    second_order_loads,
+    transfer_neutral_map,
+    unstable_counts,
+)
+
+
+@pytest.fixture(scope="module")
+def fluid(plate_2900):
+    return fluid_operators(plate_2900)
+
+
+def _sample(fluid, omega):
+    g, dg = exact_transfer(fluid, 1j * omega if omega else 0.0, derivative=True)
+    return AxisSample(omega, g, dg)
+
+
+@pytest.fixture(scope="module")
+def sample_03(fluid):
+    return _sample(fluid, 0.3)
+
+
+@pytest.mark.parametrize("dofs", [("heave", "pitch"), ("heave",), ("pitch",)])
+def test_characteristic_function_is_det_t_and_its_derivatives_match_differences(fluid, sample_03, dofs):
+    """F = det(m W − A) is det T(s) times m^n r_θ^(2·pitch) (T of fsistab.transfer, MODEL.md §7);
+    ∂F/∂m, ∂F/∂u and ∂F/∂s (with dA/ds from dG/ds) against centred differences."""
+    solid = Solid(mass_ratio=37.0, reduced_velocity=2.3, zeta_h=0.02, dofs=dofs)
+    s, m, u = 0.3j, solid.mass_ratio, 1 / solid.reduced_velocity
+    loads, rate = second_order_loads(sample_03, fluid.theta0, fluid.loads0)
+    f, f_m, f_u, f_s = characteristic_function(loads, rate, solid, s, m, u)
+    scale = m ** len(dofs) * (solid.r_theta**2 if "pitch" in dofs else 1.0)
+    det_t = np.linalg.det(characteristic_matrix(sample_03.transfer, solid, s, fluid.theta0, fluid.loads0))
+    assert abs(f / scale - det_t) < 1e-12 * abs(det_t)
+    h = 1e-6
+    value = lambda **k: characteristic_function(loads, rate, solid, s, k.get("m", m), k.get("u", u))[0]  # noqa: E731
+    assert abs((value(m=m + h * m) - value(m=m - h * m)) / (2 * h * m) - f_m) < 1e-7 * abs(f_m)
+    assert abs((value(u=u + h) - value(u=u - h)) / (2 * h) - f_u) < 1e-7 * abs(f_u)
+    d = 1e-5  # through the fluid: A(s) at s ± i d
+    plus, minus = (
+        second_order_loads(_sample(fluid, 0.3 + e), fluid.theta0, fluid.loads0)[0] for e in (d, -d)
+    )
+    f_plus = characteristic_function(plus, rate, solid, s + 1j * d, m, u)[0]
+    f_minus = characteristic_function(minus, rate, solid, s - 1j * d, m, u)[0]
+    assert abs((f_plus - f_minus) / (2j * d) - f_s) < 1e-6 * abs(f_s)
+
+
+def test_every_root_is_a_neutral_eigenvalue_of_the_full_problem(fluid, sample_03):
+    """At ω = 0.3 all neutral (m, U*) with 1 ≤ m ≤ 1e4 come from the resultant; the eigen-solver of
+    the whole coupled problem finds λ = 0, ω = 0.3 at each, and the crossing rate has the sign of
+    the growth-rate change of that eigenvalue between U*(1 ∓ 1e-3)."""
+    roots = neutral_roots(sample_03, Solid(), fluid.theta0, fluid.loads0, (1.0, 1e4))
+    assert len(roots) >= 1
+    for root in roots:
+        solid = Solid(mass_ratio=root.mass_ratio, reduced_velocity=root.reduced_velocity)
+        pair = min(eigenpairs_near(CoupledSystem(fluid, solid), [0.3j], 3), key=lambda p: abs(p.value - 0.3j))
+        assert abs(pair.value - 0.3j) < 1e-8
+        rates = []
+        for factor in (1 - 1e-3, 1 + 1e-3):
+            moved = replace(solid, reduced_velocity=root.reduced_velocity * factor)
+            near = eigenpairs_near(CoupledSystem(fluid, moved), [0.3j], 3)
+            rates.append(min(near, key=lambda p: abs(p.value - 0.3j)).growth_rate)
+        assert np.sign(rates[1] - rates[0]) == np.sign(root.crossing_rate)
+        assert (rates[1] - rates[0]) / 2e-3 == pytest.approx(root.crossing_rate, rel=1e-2)
+
+
+def test_root_tangents_match_roots_at_neighbouring_frequencies(fluid, sample_03):
+    d = 1e-5
+    roots = neutral_roots(sample_03, Solid(), fluid.theta0, fluid.loads0, (1.0, 1e4))
+    sides = [
+        neutral_roots(_sample(fluid, 0.3 + e), Solid(), fluid.theta0, fluid.loads0, (0.5, 2e4))
+        for e in (d, -d)
+    ]
+    for root in roots:
+        ends = [min(side, key=lambda r: np.abs(r.plane - root.plane).max()) for side in sides]
+        difference = (ends[0].plane - ends[1].plane) / (2 * d)
+        assert np.allclose(difference, root.tangent, rtol=1e-4, atol=1e-4 * np.abs(root.tangent).max())
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_roots_are_complete_against_a_brute_force_scan(seed):
+    """Random loads A, frequency and pitch damping (generic: integer-like loads can make the real
+    and imaginary parts share whole lines or double roots): following the two complex roots m(u)
+    of the quadratic det(m W − A) = 0 along a fine grid of u, their imaginary part changes sign
+    (with m in range) as many times as there are roots from the resultant, and each of those
+    satisfies F = 0."""
+    rng = np.random.default_rng(seed)
+    entries, omega, zeta = rng.uniform(-30, 30, 8), rng.uniform(0.05, 5.0), rng.uniform(0, 0.2)
+    loads = (np.array(entries[:4]) + 1j * np.array(entries[4:])).reshape(2, 2)
+    solid = Solid(zeta_theta=zeta)
+    s, mass_range, u_range = 1j * omega, (1e-2, 1e2), (1e-2 * omega, 1e2 * omega)
+    roots = [
+        r
+        for r in roots_from_loads(loads, np.zeros((2, 2)), omega, solid, mass_range)
+        if u_range[0] < 1 / r.reduced_velocity < u_range[1]
+    ]
+    for r in roots:
+        f = characteristic_function(loads, np.zeros((2, 2)), solid, s, r.mass_ratio, 1 / r.reduced_velocity)[
+            0
+        ]
+        scale = (
+            (r.mass_ratio * omega**2) ** 2
+            + r.mass_ratio * omega**2 * np.abs(loads).max()
+            + np.abs(loads).max() ** 2
+        )
+        assert abs(f) < 1e-8 * scale
+    u = np.geomspace(*u_range, 20001)
+    w_h = s**2 + (0.8 * u) ** 2
+    w_t = solid.r_theta**2 * (s**2 + 2 * zeta * u * s + u**2)
+    a, b, c = w_h * w_t, -(w_h * loads[1, 1] + w_t * loads[0, 0]), np.linalg.det(loads)
+    root = np.sqrt(b * b - 4 * a * c)
+    branches = np.stack([(-b + root) / (2 * a), (-b - root) / (2 * a)], axis=1)
+    for k in range(1, len(u)):  # follow each root continuously through the branch cut of sqrt
+        now, before = branches[k], branches[k - 1]
+        if abs(now[0] - before[0]) + abs(now[1] - before[1]) > abs(now[0] - before[1]) + abs(
+            now[1] - before[0]
+        ):
+            branches[k] = now[::-1]
+    crossed = np.sign(branches[1:].imag) != np.sign(branches[:-1].imag)
+    inside = (branches[1:].real > mass_range[0]) & (branches[1:].real < mass_range[1])
+    inside &= np.abs(branches[1:] - branches[:-1]) < 0.1 * np.abs(branches[1:])  # not through ∞ (S_h = 0)
+    count = int(np.sum(crossed & inside))
+    assert len(roots) == count
+
+
+def test_map_thresholds_agree_with_newton_and_counts_with_the_eigen_solver(fluid, tmp_path):
+    """A map over m ∈ [300, 3000], ω ∈ [0.05, 0.5]: U*_F(1000) equal to the augmented Newton's
+    (continuation method) to 1e-6, U*_D to the static Newton's, the number of unstable modes between
+    and beyond them equal to the eigen-solver's; a second run from the saved samples factorises
+    nothing."""
+    path = tmp_path / "samples.nc"
+    counter = FactorCounter()
+    settings_ = dict(mass_range=(300.0, 3000.0), omega_range=(0.05, 0.5), initial=16, samples_path=path)
+    tmap = transfer_neutral_map(fluid, Solid(), counter=counter, **settings_)
+    assert counter.count == tmap.factorisations == len(tmap.frequencies)  # ω = 0 included
+    start = Solid(mass_ratio=1000, reduced_velocity=4.7)
+    pairs = eigenpairs_near(CoupledSystem(fluid, start), [0.003 + 0.17j], 4)
+    guess = max((p for p in pairs if p.label != "fluid"), key=lambda p: p.growth_rate)
+    flutter = flutter_point(fluid, replace(start, reduced_velocity=4.56), guess.frequency, guess.vector)
+    divergence = divergence_point(fluid, Solid(mass_ratio=1000, reduced_velocity=7.2))
+    onsets = [(u, kind) for u, rate, kind in tmap.crossings_at(1000.0) if rate > 0]
+    assert onsets[0][1] == "flutter"
+    assert onsets[0][0] == pytest.approx(flutter.reduced_velocity, rel=1e-6)
+    assert onsets[1][1] == "divergence"
+    assert onsets[1][0] == pytest.approx(divergence.reduced_velocity, rel=1e-8)
+    velocities = [4.0, 5.5, 8.0]
+    counts = unstable_counts(tmap, 1000.0, velocities)
+    for u, expected in zip(velocities, counts, strict=True):
+        pairs = eigenpairs_near(
+            CoupledSystem(fluid, Solid(mass_ratio=1000, reduced_velocity=u)),
+            [0.02, 0.01 + 0.8j / u, 0.01 + 1j / u],  # near the static and the solid modes
+            8,
+        )
+        unstable = {round(p.value.real, 6) for p in pairs if p.growth_rate > 1e-7 and p.frequency >= 0}
+        assert len(unstable) == expected
+    again = FactorCounter()
+    repeat = transfer_neutral_map(fluid, Solid(), counter=again, **settings_)
+    assert again.count == 0 and len(repeat.curves) == len(tmap.curves)
+
+
+def test_bad_input_is_refused_before_any_factorisation(fluid, tmp_path):
+    counter = FactorCounter()
+    for kwargs in (
+        {"mass_range": (10.0, 1.0)},
+        {"mass_range": (0.0, 1.0)},
+        {"omega_range": (0.0, 1.0)},
+        {"tolerance": 0.0},
+        {"min_step": 1.0},
+    ):
+        with pytest.raises(InputError):
+            transfer_neutral_map(fluid, Solid(), counter=counter, **kwargs)
+    bad = tmp_path / "samples.nc"
+    bad.write_bytes(b"not netcdf")
+    with pytest.raises(CacheError):
+        transfer_neutral_map(fluid, Solid(), samples_path=bad, counter=counter)
+    assert counter.count == 0
+    with pytest.raises(InputError):
+        neutral_roots(AxisSample(0.0, np.zeros((3, 4)), np.zeros((3, 4))), Solid(), 0.0, np.zeros(3), (1, 2))
+
+
+def test_a_curve_crossing_the_whole_mass_range_between_two_frequencies_is_flagged():
+    """Resultant tracks (v, m): a root going from m < 0 to m > 4e4 (through ∞), or from below to
+    above the band, or a pair born in between, flags the interval; staying on one side or being in
+    the band at one end (the tangent matching's business) does not."""
+    band = (0.25, 4e4)
+    assert _swept(np.array([[1.5, -3.0]]), np.array([[1.52, 1e6]]), band)
+    assert _swept(np.array([[1.5, 0.01]]), np.array([[1.49, 1e6]]), band)
+    assert _swept(np.array([[1.5, -3.0]]), np.array([[0.4, -1.0], [1.5, -2.0], [2.0, 5.0]]), band)
+    assert not _swept(np.array([[1.5, -3.0]]), np.array([[1.51, -1e3]]), band)
+    assert not _swept(np.array([[1.5, 10.0]]), np.array([[1.51, 1e6]]), band)
+    assert not _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 1e6]]), band)  # not the same root
