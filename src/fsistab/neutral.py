@@ -620,6 +620,15 @@ def trace_neutral_map(
     slope = static_slopes(fluid, counter, factor=static).moment
     masses = np.geomspace(mass_range[0], mass_range[1], 200)
     divergence = divergence_curve(slope, template.r_theta, masses)
+    crossings = map_crossings(curves, masses, divergence)
+    return NeutralMap(tuple(curves), masses, divergence, slope, crossings, counter.count)
+
+
+def map_crossings(
+    curves: Sequence[MapCurve], masses: np.ndarray, divergence: np.ndarray
+) -> tuple[MapCrossing, ...]:
+    """Codimension-two points of a map: crossings of every pair of dynamic curves and of each
+    with the divergence curve ``divergence(masses)`` (index ``-1``)."""
     crossings = []
     planes = [c.plane_points for c in curves]
     ok = np.isfinite(divergence)
@@ -630,7 +639,7 @@ def trace_neutral_map(
     for i in range(len(planes)):
         for j in range(i + 1, len(planes)):
             crossings += [MapCrossing(i, j, c) for c in curve_crossings(planes[i], planes[j])]
-    return NeutralMap(tuple(curves), masses, divergence, slope, tuple(crossings), counter.count)
+    return tuple(crossings)
 
 
 def neutral_map_dataset(result: NeutralMap, attrs: dict):

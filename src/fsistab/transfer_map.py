@@ -204,37 +204,24 @@ def neutral_roots(
 def roots_from_loads(
     loads: np.ndarray, rate: np.ndarray, omega: float, solid: Solid, mass_range: tuple[float, float]
 ) -> list[NeutralRoot]:
-    """The real roots ``(m, U*)`` of ``det(m W(iω, 1/U*) − A) = 0`` with ``m`` in ``mass_range``,
-    from the real roots of the resultant (module docstring), each polished by Newton on ``F``."""
-    s = 1j * omega
-    polys = _scaled_polynomials(loads, solid)
-    resultant = npoly.polytrim(_real_resultant(polys), tol=0.0)
-    if len(resultant) < 2:
-        return []
+    """The real roots ``(m, U*)`` of ``det(m W(iω, 1/U*) − A) = 0`` with ``m`` in ``mass_range``:
+    the positive-``m`` roots of the resultant (:func:`resultant_tracks`), each polished by Newton
+    on ``F``."""
     roots = []
-    for v in npoly.polyroots(resultant):
-        if abs(v.imag) > 1e-6 * max(1.0, abs(v)) or v.real <= 0:
+    for v, mass_ratio in resultant_tracks(loads, omega, solid):
+        if mass_ratio <= 0:
             continue
-        v = float(v.real)
-        coefficients = [complex(npoly.polyval(v, p)) for p in polys]
-        if len(coefficients) == 3:
-            candidates = np.roots(coefficients[::-1])
-        else:
-            candidates = [-coefficients[0] / coefficients[1]]
-        for m_hat in candidates:
-            if abs(m_hat.imag) > 1e-4 * abs(m_hat) or m_hat.real <= 0:
-                continue
-            root = _polish(loads, rate, solid, s, m_hat.real / omega**2, v * omega)
-            if root is None:
-                continue
-            m, u = root
-            if not mass_range[0] <= m <= mass_range[1]:
-                continue
-            if any(
-                abs(m - r.mass_ratio) < 1e-9 * m and abs(1 / u - r.reduced_velocity) < 1e-9 / u for r in roots
-            ):
-                continue
-            roots.append(_root_with_tangent(loads, rate, solid, omega, m, u))
+        root = _polish(loads, rate, solid, 1j * omega, mass_ratio, v * omega)
+        if root is None:
+            continue
+        m, u = root
+        if not mass_range[0] <= m <= mass_range[1]:
+            continue
+        if any(
+            abs(m - r.mass_ratio) < 1e-9 * m and abs(1 / u - r.reduced_velocity) < 1e-9 / u for r in roots
+        ):
+            continue
+        roots.append(_root_with_tangent(loads, rate, solid, omega, m, u))
     return roots
 
 
@@ -404,17 +391,6 @@ class TransferCurve:
                         omega = float(npoly.polyval(tau, omega_coef))
                         points.append((math.exp(x[0]), math.exp(x[1]), omega))
         return points
-
-    def polyline(self, per_segment: int = 8) -> np.ndarray:
-        """``(m, U*, ω)`` along the curve, ``per_segment`` points per interval (for figures)."""
-        rows = []
-        for _, _, coef, omega in self._segments():
-            for tau in np.linspace(0, 1, per_segment, endpoint=False):
-                x = npoly.polyval(tau, coef)
-                rows.append((math.exp(x[0]), math.exp(x[1]), float(npoly.polyval(tau, omega))))
-        last = self.roots[-1]
-        rows.append((last.mass_ratio, last.reduced_velocity, last.frequency))
-        return np.array(rows)
 
 
 @dataclass(frozen=True)
@@ -689,13 +665,12 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
     the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope = λ r_θ²``: the
     torsional formula's slope), crossings of all curves."""
     from fsistab.neutral import (
-        MapCrossing,
         MapCurve,
         NeutralMap,
         NeutralPoint,
         TurningPoint,
-        curve_crossings,
         divergence_curve,
+        map_crossings,
     )
 
     low, high = tmap.mass_range
@@ -724,16 +699,8 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
         float(tmap.divergence_lambdas.max() * template.r_theta**2) if len(tmap.divergence_lambdas) else 0.0
     )
     divergence = divergence_curve(slope, template.r_theta, masses)
-    crossings = []
-    planes = [c.plane_points for c in curves]
-    if np.isfinite(divergence).sum() > 1:
-        line = np.column_stack([np.log(masses), divergence])
-        for i, plane in enumerate(planes):
-            crossings += [MapCrossing(i, -1, c) for c in curve_crossings(plane, line)]
-    for i in range(len(planes)):
-        for j in range(i + 1, len(planes)):
-            crossings += [MapCrossing(i, j, c) for c in curve_crossings(planes[i], planes[j])]
-    return NeutralMap(tuple(curves), masses, divergence, slope, tuple(crossings), tmap.factorisations)
+    crossings = map_crossings(curves, masses, divergence)
+    return NeutralMap(tuple(curves), masses, divergence, slope, crossings, tmap.factorisations)
 
 
 def nearest_on_map(
