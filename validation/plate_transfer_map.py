@@ -146,7 +146,13 @@ def main() -> None:
 
     masses = np.geomspace(1, 1e4, 160)
     velocities = np.geomspace(0.03, 100, 240)
-    counts = unstable_grid(tmap, masses, velocities)
+    counts, incomplete = unstable_grid(tmap, masses, velocities)
+    for kind, flags in incomplete.items():
+        if flags.any():
+            print(
+                f"{kind}: a curve is missing (count below zero) for m in {masses[flags].min():.3g}-"
+                f"{masses[flags].max():.3g} ({flags.sum()} of {len(masses)} columns); left out of the shading"
+            )
     out = Path(args.out)
     write_dataset(
         __import__("xarray").Dataset(

@@ -421,15 +421,17 @@ class TransferMap:
 
 
 def unstable_counts(
-    tmap: TransferMap, mass_ratio: float, velocities: Sequence[float], base: int = 0
+    tmap: TransferMap,
+    mass_ratio: float,
+    velocities: Sequence[float],
+    base: int = 0,
+    kinds: Sequence[str] = ("divergence", "flutter", "viv"),
 ) -> np.ndarray:
     """Number of unstable coupled modes at ``(mass_ratio, U*)`` for each U* in ``velocities``:
     ``base`` (the count below the lowest neutral point, e.g. from the eigen-solver) plus the signed
-    crossings (``+1`` onset, ``-1`` restabilisation) below each U*."""
-    crossings = tmap.crossings_at(mass_ratio)
-    return np.array(
-        [base + sum(1 if rate > 0 else -1 for u, rate, _ in crossings if u < v) for v in velocities]
-    )
+    crossings (``+1`` onset, ``-1`` restabilisation) below each U*, of the curves of ``kinds``."""
+    crossings = [(u, rate) for u, rate, kind in tmap.crossings_at(mass_ratio) if kind in kinds]
+    return np.array([base + sum(1 if rate > 0 else -1 for u, rate in crossings if u < v) for v in velocities])
 
 
 def _identity(fluid: FluidOperators) -> dict:
@@ -719,7 +721,17 @@ def nearest_on_map(
 
 
 def unstable_grid(
-    tmap: TransferMap, masses: Sequence[float], velocities: Sequence[float], base: int = 0
-) -> np.ndarray:
-    """:func:`unstable_counts` on a grid: ``len(velocities) × len(masses)`` (for shading a map)."""
-    return np.column_stack([unstable_counts(tmap, m, velocities, base) for m in masses])
+    tmap: TransferMap, masses: Sequence[float], velocities: Sequence[float]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """:func:`unstable_counts` on a grid (``len(velocities) × len(masses)``, for shading a map),
+    counted separately for divergence, flutter and VIV curves (different modes: static, solid
+    frequencies, wake frequency): a family whose count falls below zero at some m has a curve
+    missing there (:func:`transfer_neutral_map` did not resolve it), so it is left out of that
+    column and the column is flagged in ``incomplete[kind]``."""
+    total = np.zeros((len(velocities), len(masses)), dtype=int)
+    incomplete = {}
+    for kind in ("divergence", "flutter", "viv"):
+        counts = np.column_stack([unstable_counts(tmap, m, velocities, kinds=(kind,)) for m in masses])
+        incomplete[kind] = counts.min(axis=0) < 0
+        total += np.where(incomplete[kind][None, :], 0, counts)
+    return total, incomplete
