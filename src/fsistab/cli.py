@@ -639,8 +639,11 @@ def neutral(
         raise InputError("neutral maps are implemented for the plate (heave and pitch)")
     flow = Flow(reynolds, alpha0)
     lo_m, hi_m = mass_range
-    if not (0 < lo_m < hi_m and math.isfinite(hi_m)) or not lo_m <= start_mass <= hi_m:
-        raise InputError("--mass-ratio-range must be 0 < low < high and contain --start-mass-ratio")
+    if not (0 < lo_m < hi_m and math.isfinite(hi_m)):
+        raise InputError(f"--mass-ratio-range must be 0 < low < high, got {lo_m:g} {hi_m:g}")
+    if method == "continuation" and not lo_m <= start_mass <= hi_m:
+        raise InputError("--mass-ratio-range must contain --start-mass-ratio (the first sweep)")
+    start_mass = min(max(start_mass, lo_m), hi_m)  # transfer: only the template's m, any value works
     lo, hi = velocity_range
     if not 0 < lo < hi:
         raise InputError(f"--reduced-velocity-range must be 0 < low < high, got {lo:g} {hi:g}")
@@ -648,7 +651,7 @@ def neutral(
         raise InputError(f"--points must be at least 2, got {points}")
     if seed_masses is None:
         seed_masses = [m for m in (start_mass / 10, start_mass / 100) if m >= lo_m]
-    if any(not lo_m <= m <= hi_m for m in seed_masses):
+    if method == "continuation" and any(not lo_m <= m <= hi_m for m in seed_masses):
         raise InputError(f"every --seed-mass-ratio must lie in the mass-ratio range [{lo_m:g}, {hi_m:g}]")
     if wake_frequency is not None and not (math.isfinite(wake_frequency) and wake_frequency > 0):
         raise InputError(f"--wake-frequency must be positive, got {wake_frequency}")

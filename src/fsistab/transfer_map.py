@@ -545,7 +545,9 @@ def transfer_neutral_map(
     Starts from :func:`initial_frequencies` and bisects every interval whose roots are not matched
     within ``tolerance`` (in ``log m``, ``log U*``) by their tangents, down to a relative step
     ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
-    listed in ``unresolved``), at most ``max_samples`` frequencies. One factorisation per sample;
+    listed in ``unresolved``); intervals where a curve may cross the whole mass range between the
+    samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
+    ``max_samples`` frequencies. One factorisation per sample;
     with ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of
     the same mesh and flow are reused, for any solid parameters.
     """
