@@ -633,7 +633,7 @@ def neutral(
     from fsistab.plots import plot_stability_map
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
-    from fsistab.transfer_map import as_neutral_map, transfer_neutral_map
+    from fsistab.transfer_map import as_neutral_map, transfer_neutral_map, unstable_grid
 
     if body != "plate":
         raise InputError("neutral maps are implemented for the plate (heave and pitch)")
@@ -722,6 +722,14 @@ def neutral(
         attrs={**attrs, "moment_slope": result.moment_slope},
     )
     write_dataset(divergence, out / f"neutral_{tag}_divergence.nc")
+    import numpy as np
+
+    unstable = None
+    if method == "transfer":  # exact unstable regions from the signed crossings
+        grid_m = np.geomspace(lo_m, hi_m, 100)
+        all_u = [p.reduced_velocity for c in result.curves for p in c.points] + [1.0]
+        grid_u = np.geomspace(min(all_u) / 1.5, max(all_u) * 1.5, 150)
+        unstable = (grid_m, grid_u, unstable_grid(tmap, grid_m, grid_u)[0])
     figure = plot_stability_map(
         [
             (c.kind, [p.mass_ratio for p in c.points], [p.reduced_velocity for p in c.points])
@@ -732,6 +740,7 @@ def neutral(
         title=f"plate, Re = {reynolds:g}, alpha0 = {alpha0:g} deg",
         turning_points=[(t.mass_ratio, t.reduced_velocity) for c in result.curves for t in c.turning_points],
         crossings=[(c.crossing.mass_ratio, c.crossing.reduced_velocity) for c in result.crossings],
+        unstable=unstable,
     )
     names = [f"{c.kind} {i}" for i, c in enumerate(result.curves)]
 

@@ -339,7 +339,7 @@ def plot_stability_map(
     by the segment joining its ends, which lie on the bounds of m, blue) — the side where a
     growth rate is positive for the usual onset curves. ``turning_points`` (▽) and ``crossings``
     (codimension-two points, ★) are ``(m, U*)`` pairs. ``unstable = (m, U*, count)`` (1-D, 1-D,
-    len(U*) × len(m)), when known (:func:`fsistab.transfer_map.unstable_counts`), replaces those
+    len(U*) × len(m)), when known (:func:`fsistab.transfer_map.unstable_grid`), replaces those
     fills by the exact unstable regions, darker with more unstable modes. ``reference``: ``(m, U*)``
     points of another method, drawn as open circles.
     """
