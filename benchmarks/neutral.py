@@ -28,7 +28,7 @@ from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.steady import solve_steady
-from fsistab.transfer_map import nearest_on_map, transfer_neutral_map
+from fsistab.transfer_map import default_frequency_range, nearest_on_map, transfer_neutral_map
 
 
 def _peak_mb() -> float:
@@ -81,7 +81,7 @@ def main() -> None:
             fluid,
             template,
             mass_range=mass_range,
-            omega_range=(0.01, max(20.0, 1.5 * wake.frequency)),
+            omega_range=default_frequency_range(wake.frequency),
             wake_frequency=wake.frequency,
             tolerance=args.tolerance,
             samples_path=samples,

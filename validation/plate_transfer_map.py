@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import wake_mode_near
@@ -155,7 +156,7 @@ def main() -> None:
             )
     out = Path(args.out)
     write_dataset(
-        __import__("xarray").Dataset(
+        xr.Dataset(
             {
                 "unstable_modes": (("reduced_velocity", "mass_ratio"), counts),
                 "continuation_mass_ratio": ("point", rows[:, 1]),

@@ -633,7 +633,12 @@ def neutral(
     from fsistab.plots import plot_stability_map
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
-    from fsistab.transfer_map import as_neutral_map, transfer_neutral_map, unstable_grid
+    from fsistab.transfer_map import (
+        as_neutral_map,
+        default_frequency_range,
+        transfer_neutral_map,
+        unstable_grid,
+    )
 
     if body != "plate":
         raise InputError("neutral maps are implemented for the plate (heave and pitch)")
@@ -675,12 +680,11 @@ def neutral(
             status.update("wake mode of the fixed body")
             wake_frequency = wake_mode_near(fluid, wake_frequency, counter=counter).frequency
         if method == "transfer":
-            highest = max(20.0, 1.5 * wake_frequency) if wake_frequency is not None else 20.0
             tmap = transfer_neutral_map(
                 fluid,
                 template,
                 mass_range=mass_range,
-                omega_range=frequency_range or (0.01, highest),
+                omega_range=frequency_range or default_frequency_range(wake_frequency),
                 wake_frequency=wake_frequency,
                 tolerance=tolerance,
                 max_samples=max_frequencies,

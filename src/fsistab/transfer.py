@@ -268,11 +268,8 @@ def sample_transfer(
         if len(errors) >= 2 and max(errors[-2:]) < tolerance:
             converged = True
             break
-    steady = fluid.steady
     attrs = {
-        "reynolds": steady.flow.reynolds,
-        "alpha0_deg": steady.flow.alpha0_deg,
-        "mesh_key": steady.mesh_spec.key(),
+        **flow_identity(fluid),
         "ndof_fluid": fluid.n_fluid,
         "tolerance": tolerance,
         "omega_max": float(omega_max),
@@ -434,6 +431,16 @@ def from_parts(array: xr.DataArray) -> np.ndarray:
     return array.sel(part="real").values + 1j * array.sel(part="imag").values
 
 
+def flow_identity(fluid: FluidOperators) -> dict:
+    """What saved samples of ``G`` depend on (Re, α0, mesh key): checked when they are reused."""
+    steady = fluid.steady
+    return {
+        "reynolds": steady.flow.reynolds,
+        "alpha0_deg": steady.flow.alpha0_deg,
+        "mesh_key": steady.mesh_spec.key(),
+    }
+
+
 def viscous_theodorsen_dataset(
     fluid: FluidOperators,
     frequencies: Sequence[float],
@@ -457,12 +464,7 @@ def viscous_theodorsen_dataset(
     if omega.ndim != 1 or len(omega) == 0 or np.any(~np.isfinite(omega)) or np.any(omega <= 0):
         raise InputError("the frequencies must be positive finite numbers")
     counter = counter if counter is not None else FactorCounter()
-    steady = fluid.steady
-    identity = {
-        "reynolds": steady.flow.reynolds,
-        "alpha0_deg": steady.flow.alpha0_deg,
-        "mesh_key": steady.mesh_spec.key(),
-    }
+    identity = flow_identity(fluid)
     stored: dict[float, np.ndarray] = {}
     if samples_path is not None and Path(samples_path).is_file():
         done = read_dataset(samples_path, expect=identity)
@@ -522,9 +524,7 @@ def viscous_theodorsen_dataset(
             "part": ["real", "imag"],
         },
         attrs={
-            "reynolds": steady.flow.reynolds,
-            "alpha0_deg": steady.flow.alpha0_deg,
-            "mesh_key": steady.mesh_spec.key(),
+            **identity,
             "ndof_fluid": fluid.n_fluid,
             "factorisations": counter.count,
             "lift_slope_alpha": static.lift_slope_alpha,

@@ -64,7 +64,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.store import read_dataset, write_dataset
-from fsistab.transfer import _complex_variable, aerodynamic_loads, exact_transfer, from_parts
+from fsistab.transfer import _complex_variable, aerodynamic_loads, exact_transfer, flow_identity, from_parts
 
 VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
@@ -207,8 +207,13 @@ def roots_from_loads(
     """The real roots ``(m, U*)`` of ``det(m W(iω, 1/U*) − A) = 0`` with ``m`` in ``mass_range``:
     the positive-``m`` roots of the resultant (:func:`resultant_tracks`), each polished by Newton
     on ``F``."""
+    return _roots_on_tracks(resultant_tracks(loads, omega, solid), loads, rate, omega, solid, mass_range)
+
+
+def _roots_on_tracks(tracks, loads, rate, omega, solid, mass_range) -> list[NeutralRoot]:
+    """:func:`roots_from_loads` from the resultant's roots already computed (``tracks``)."""
     roots = []
-    for v, mass_ratio in resultant_tracks(loads, omega, solid):
+    for v, mass_ratio in tracks:
         if mass_ratio <= 0:
             continue
         root = _polish(loads, rate, solid, 1j * omega, mass_ratio, v * omega)
@@ -434,15 +439,6 @@ def unstable_counts(
     return np.array([base + sum(1 if rate > 0 else -1 for u, rate in crossings if u < v) for v in velocities])
 
 
-def _identity(fluid: FluidOperators) -> dict:
-    steady = fluid.steady
-    return {
-        "reynolds": steady.flow.reynolds,
-        "alpha0_deg": steady.flow.alpha0_deg,
-        "mesh_key": steady.mesh_spec.key(),
-    }
-
-
 def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
     """``G(iω)`` and ``dG/ds`` at the sampled frequencies (complex as a ``part`` dimension): the
     fluid's whole contribution to the map, reusable for any solid parameters."""
@@ -469,7 +465,7 @@ def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
 
 def read_samples(path: Path, fluid: FluidOperators) -> dict[float, AxisSample]:
     """Samples saved by :func:`transfer_neutral_map` for the same mesh and flow (else CacheError)."""
-    ds = read_dataset(path, expect=_identity(fluid))
+    ds = read_dataset(path, expect=flow_identity(fluid))
     try:
         values, rates = from_parts(ds.transfer), from_parts(ds.transfer_rate)
     except (AttributeError, KeyError) as exc:
@@ -510,6 +506,11 @@ def _resolved(left, right, h, tolerance, inner) -> bool:
         k in done or not inner[0] <= r.mass_ratio <= inner[1] for k, r in enumerate(roots)
     )
     return need(left, done_left) and need(right, done_right)
+
+
+def default_frequency_range(wake_frequency: float | None) -> tuple[float, float]:
+    """``ω`` from 0.01 to ``max(20, 1.5 ω_wake)``: flutter below ω ≈ 2 and VIV around the wake."""
+    return (0.01, 20.0 if wake_frequency is None else max(20.0, 1.5 * wake_frequency))
 
 
 def initial_frequencies(
@@ -562,7 +563,7 @@ def transfer_neutral_map(
     say = progress or (lambda message: None)
     start = counter.count
     stored = read_samples(samples_path, fluid) if samples_path and Path(samples_path).is_file() else {}
-    identity = _identity(fluid)
+    identity = flow_identity(fluid)
     wide = (low / 4, high * 4)  # roots followed; those in mass_range must be matched
     inner = (low, high)
     theta0, loads0 = fluid.theta0, fluid.loads0
@@ -584,8 +585,8 @@ def transfer_neutral_map(
         near = [w for w in stored if abs(omega - w) <= 1e-9 * omega]
         omega = near[0] if near else omega
         loads, rate = second_order_loads(sample(omega), theta0, loads0)
-        roots[omega] = roots_from_loads(loads, rate, omega, template, wide)
         tracks[omega] = resultant_tracks(loads, omega, template)
+        roots[omega] = _roots_on_tracks(tracks[omega], loads, rate, omega, template, wide)
 
     static = sample(0.0)
     saved = [w for w in stored if omega_range[0] <= w <= omega_range[1]]  # free: use them all
