@@ -10,6 +10,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import pytest  # noqa: E402
 
 from fsistab.mesh import mesh_spec  # noqa: E402
+from fsistab.operators import fluid_operators  # noqa: E402
 from fsistab.params import Cylinder, Flow, Plate  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402
 
@@ -28,6 +29,12 @@ def plate_coarse_spec():
 def plate_2900(plate_coarse_spec):
     """Plate at Re = 2900, α0 = 0, coarse mesh (reached by continuation from rest)."""
     return solve_steady(plate_coarse_spec, Flow(2900, 0.0))
+
+
+@pytest.fixture(scope="session")
+def plate_operators(plate_2900):
+    """Fluid operators of ``plate_2900``, assembled once for every module that needs them."""
+    return fluid_operators(plate_2900)
 
 
 @pytest.fixture(scope="session")

@@ -15,11 +15,6 @@ from fsistab.params import Solid
 from fsistab.slopes import static_slopes
 
 
-@pytest.fixture(scope="module")
-def plate_operators(plate_2900):
-    return fluid_operators(plate_2900)
-
-
 def _quadratic(history):
     """Converged, and the last step squares the residual (up to a bounded constant)."""
     r = np.array(history)

@@ -10,13 +10,7 @@ from fsistab.critical import flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
 from fsistab.neutral import _aero_rows, continue_neutral_curve, divergence_curve
-from fsistab.operators import fluid_operators
 from fsistab.params import Solid
-
-
-@pytest.fixture(scope="module")
-def plate_operators(plate_2900):
-    return fluid_operators(plate_2900)
 
 
 def _assert_neutral(fluid, mass_ratio, reduced_velocity, frequency):

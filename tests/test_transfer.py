@@ -32,11 +32,6 @@ from fsistab.transfer import (
 
 
 @pytest.fixture(scope="module")
-def plate_fluid(plate_2900):
-    return fluid_operators(plate_2900)
-
-
-@pytest.fixture(scope="module")
 def plate_fluid_alpha5(plate_2900_alpha5):
     return fluid_operators(plate_2900_alpha5)
 
@@ -53,7 +48,7 @@ def test_transfer_derivative_matches_finite_difference(plate_fluid_alpha5):
     assert np.abs(rate - centred).max() < 1e-5 * np.abs(rate).max()
 
 
-@pytest.mark.parametrize("fixture", ["plate_fluid", "plate_fluid_alpha5"])
+@pytest.mark.parametrize("fixture", ["plate_operators", "plate_fluid_alpha5"])
 def test_zero_frequency_loads_are_the_static_slopes(fixture, request):
     """G(0) is the quasi-static response: the pitch column of the loads gives MODEL.md §9's slopes."""
     fluid = request.getfixturevalue(fixture)
@@ -68,10 +63,10 @@ def test_zero_frequency_loads_are_the_static_slopes(fixture, request):
 @pytest.mark.parametrize(
     ("fixture", "solid", "shift"),
     [
-        ("plate_fluid", Solid(1000.0, 4.7), 0.002 + 0.17j),
+        ("plate_operators", Solid(1000.0, 4.7), 0.002 + 0.17j),
         ("plate_fluid_alpha5", Solid(1000.0, 4.7), 0.002 + 0.17j),
-        ("plate_fluid", Solid(5.0, 1.0), 0.8j),
-        ("plate_fluid", Solid(50.0, 2.0, dofs=("heave",)), 0.4j),
+        ("plate_operators", Solid(5.0, 1.0), 0.8j),
+        ("plate_operators", Solid(50.0, 2.0, dofs=("heave",)), 0.4j),
     ],
 )
 def test_characteristic_matrix_is_singular_at_coupled_eigenvalues(fixture, solid, shift, request):
@@ -87,11 +82,11 @@ def test_characteristic_matrix_is_singular_at_coupled_eigenvalues(fixture, solid
     assert _smallest_singular_ratio(t_away) > 1e-4
 
 
-def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_fluid):
+def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_operators):
     """Newton on det T(iω; U*) = 0 (4 × 4) and on the augmented sparse system (MODEL.md §8) find the
     same neutral point, and the former converges quadratically."""
     solid = Solid(1000.0, 4.5)
-    point = transfer_flutter_point(plate_fluid, solid, 0.18)
+    point = transfer_flutter_point(plate_operators, solid, 0.18)
     residuals = np.array(point.residuals)
     assert residuals[-1] < 1e-12
     pairs = [
@@ -99,10 +94,10 @@ def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_fluid):
     ]
     assert pairs and all(b < 1e3 * a * a for a, b in pairs)  # quadratic convergence
     velocity = point.reduced_velocity
-    system = CoupledSystem(plate_fluid, Solid(1000.0, velocity))
+    system = CoupledSystem(plate_operators, Solid(1000.0, velocity))
     mode = min(eigenpairs_near(system, [1j * point.frequency], 3), key=lambda p: abs(p.value.real))
     assert abs(mode.value - 1j * point.frequency) < 1e-8
-    reference = flutter_point(plate_fluid, Solid(1000.0, velocity * 1.001), point.frequency, mode.vector)
+    reference = flutter_point(plate_operators, Solid(1000.0, velocity * 1.001), point.frequency, mode.vector)
     assert point.reduced_velocity == pytest.approx(reference.reduced_velocity, rel=1e-8)
     assert point.frequency == pytest.approx(reference.frequency, rel=1e-8)
     assert point.factorisations == point.iterations
@@ -156,19 +151,19 @@ def test_rational_model_eigenvalues_match_a_state_space_realisation():
     assert np.abs(found - expected).max() < 1e-7
 
 
-def test_sampled_transfer_reports_its_prediction_errors(plate_fluid):
+def test_sampled_transfer_reports_its_prediction_errors(plate_operators):
     """Adaptive sampling stops at max_samples and records a measured error for every added sample."""
-    tf = sample_transfer(plate_fluid, omega_max=2.0, tolerance=1e-6, max_samples=12)
+    tf = sample_transfer(plate_operators, omega_max=2.0, tolerance=1e-6, max_samples=12)
     assert len(tf.frequencies) == 12
     assert len(tf.attrs["prediction_errors"]) == 12 - 10
     assert tf.attrs["factorisations"] == 12
-    exact = exact_transfer(plate_fluid, 1j * tf.frequencies[3])
+    exact = exact_transfer(plate_operators, 1j * tf.frequencies[3])
     assert np.abs(tf(1j * tf.frequencies[3]) - exact).max() < 1e-8 * np.abs(exact).max()
 
 
-def test_bad_input_is_refused_before_any_factorisation(plate_fluid):
+def test_bad_input_is_refused_before_any_factorisation(plate_operators):
     with pytest.raises(InputError, match="tolerance"):
-        sample_transfer(plate_fluid, tolerance=2.0)
+        sample_transfer(plate_operators, tolerance=2.0)
     with pytest.raises(InputError, match="largest frequency"):
         default_frequencies(-1.0)
 

@@ -15,7 +15,6 @@ from fsistab.critical import divergence_point, flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
-from fsistab.operators import fluid_operators
 from fsistab.params import Solid
 from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
@@ -31,8 +30,8 @@ from fsistab.transfer_map import (
 
 
 @pytest.fixture(scope="module")
-def fluid(plate_2900):
-    return fluid_operators(plate_2900)
+def fluid(plate_operators):
+    return plate_operators  # the session's operators (conftest), under a short name
 
 
 def _sample(fluid, omega):
