@@ -3,7 +3,10 @@
 Both methods on the same mesh in one run (``--method both``, the default):
 
 * **transfer** (``fsistab.transfer_map``): ``G(iω)`` sampled and refined until every neutral curve
-  is resolved; one factorisation per frequency, whatever the number of (m, U*) points;
+  is resolved, whatever the number of (m, U*) points; where the sampling is refined ``G`` comes from
+  reduced fluid models (``fsistab.reduced_model``, one factorisation each, ``--reduced-blocks``
+  Krylov blocks), elsewhere from exact samples (one factorisation each; ``--reduced-blocks 0``:
+  exact samples only);
 * **continuation** (``fsistab.neutral``): sweeps in U* at m = 1000, 100, 10 and a VIV sweep at the
   lowest m, every threshold continued by pseudo-arclength in (m, U*).
 
@@ -27,6 +30,7 @@ from fsistab.mesh import mesh_spec
 from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
+from fsistab.reduced_model import ReducedModels
 from fsistab.steady import solve_steady
 from fsistab.transfer_map import default_frequency_range, nearest_on_map, transfer_neutral_map
 
@@ -46,6 +50,8 @@ def main() -> None:
     parser.add_argument("--mass-high", type=float, default=1e4)
     parser.add_argument("--points", type=int, default=24)
     parser.add_argument("--tolerance", type=float, default=1e-2)
+    parser.add_argument("--reduced-blocks", type=int, default=60, help="0: exact samples only")
+    parser.add_argument("--reduced-tolerance", type=float, default=1e-7)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--curve-only", action="store_true", help="continuation: first flutter curve only")
     parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
@@ -77,6 +83,15 @@ def main() -> None:
             print(f"note: reusing saved samples {samples}: the factorisations below are only the new ones")
         counter = FactorCounter()
         t0 = time.perf_counter()
+        reduced = None
+        if args.reduced_blocks:
+            reduced = ReducedModels(
+                fluid,
+                tolerance=args.reduced_tolerance,
+                blocks=args.reduced_blocks,
+                path=out / "reduced_models.nc",
+                counter=counter,
+            )
         tmap = transfer_neutral_map(
             fluid,
             template,
@@ -84,7 +99,10 @@ def main() -> None:
             omega_range=default_frequency_range(wake.frequency),
             wake_frequency=wake.frequency,
             tolerance=args.tolerance,
+            min_step=1e-5 if reduced else 1e-3,
+            max_samples=4000 if reduced else 400,
             samples_path=samples,
+            reduced=reduced,
             counter=counter,
         )
         elapsed = time.perf_counter() - t0
@@ -100,7 +118,10 @@ def main() -> None:
         print(f"transfer: turning points       {len(turning)}")
         onsets = [round(u, 5) for u, rate, _ in tmap.crossings_at(1000.0) if rate > 0]
         print(f"transfer: onsets at m = 1000   {onsets}")
-        print(f"transfer: factorisations       {counter.count}")
+        models = len(reduced.models) if reduced else 0
+        print(f"transfer: factorisations       {counter.count} ({models} reduced models, rest exact)")
+        if reduced:
+            print(f"transfer: reduced model sizes  {sorted({m.size for m in reduced.models})}")
         print(f"transfer: wall time [s]        {elapsed:.1f}")
         print(f"transfer: peak memory [MB]     {_peak_mb():.0f}")
 

@@ -1,5 +1,6 @@
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -124,8 +125,9 @@ def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec):
 
 def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coarse_spec):
     """``fsistab neutral --method transfer``: the same flutter onset at m = 1000 as the continuation
-    method's Newton (4.39277, docs/transfer.md), the divergence line, the samples file; the rerun
-    factorises only the static matrix of the steady loads (none for G)."""
+    method's Newton (4.39277, docs/transfer.md), the divergence line, the samples and reduced-model
+    files; the rerun factorises nothing. With exact samples only (``--reduced-blocks 0``) the same
+    curves to 1e-6 from more factorisations."""
     from fsistab.params import Flow
     from fsistab.steady import save_steady, steady_path
 
@@ -139,7 +141,7 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
     payload = json.loads(result.stdout)
-    assert payload["method"] == "transfer" and payload["factorisations"] > 10
+    assert payload["method"] == "transfer" and 0 < payload["reduced_models"] <= payload["factorisations"]
     flutter = [c for c in payload["curves"] if c["kind"] == "flutter"]
     onsets = [
         u
@@ -150,11 +152,34 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     assert len(onsets) >= 3
     slope = payload["divergence"]["moment_slope"]
     assert 0.289 * (1000 / slope) ** 0.5 == pytest.approx(7.31235, rel=1e-5)
-    assert (tmp_path / "out" / "transfer_plate_Re2900_a0_samples.nc").is_file()
+    assert (tmp_path / "out" / "reduced_plate_Re2900_a0_models.nc").is_file()
     assert (tmp_path / "out" / "neutral_plate_Re2900_a0.png").stat().st_size > 10_000
     again = json.loads(runner.invoke(app, args).stdout)
     assert again["factorisations"] == 0
     assert again["curves"] == payload["curves"]
+    exact_args = [
+        *args[:-4],
+        "--out",
+        str(tmp_path / "exact"),
+        "--cache",
+        str(cache),
+        "--reduced-blocks",
+        "0",
+    ]
+    exact = json.loads(runner.invoke(app, exact_args).stdout)
+    assert exact["reduced_models"] == 0 and exact["factorisations"] > payload["factorisations"]
+    assert (tmp_path / "exact" / "transfer_plate_Re2900_a0_samples.nc").is_file()
+    # the same curves (accuracy against Newton: tests/test_reduced_model.py); points at other ω
+    assert [c["kind"] for c in exact["curves"]] == [c["kind"] for c in payload["curves"]]
+
+    def points(p):
+        pairs = [
+            (m, u) for c in p["curves"] for m, u in zip(c["mass_ratio"], c["reduced_velocity"], strict=True)
+        ]
+        return np.log(pairs)
+
+    reference = points(exact)
+    assert max(np.abs(reference - x).sum(axis=1).min() for x in points(payload)) < 0.05
 
 
 @pytest.mark.parametrize(
@@ -162,6 +187,8 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     [
         (["neutral", "--method", "fast"], "--method"),
         (["neutral", "--method", "transfer", "--frequency-range", "1", "0.5"], "--frequency-range"),
+        (["neutral", "--reduced-blocks", "2"], "--reduced-blocks"),
+        (["neutral", "--reduced-tolerance", "0.5"], "--reduced-tolerance"),
         (["neutral", "--method", "continuation", "--seed-mass-ratio", "1e5"], "seed-mass-ratio"),
         (["neutral", "--wake-frequency", "-1"], "wake-frequency"),
         (["flow-neutral", "--parameter", "mach"], "--parameter"),

@@ -33,6 +33,7 @@ from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.plots import plot_stability_map
+from fsistab.reduced_model import ReducedModels
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir, read_dataset, write_dataset
 from fsistab.transfer_map import (
@@ -67,7 +68,14 @@ def main() -> None:
     parser.add_argument("--figure", default="docs/figures/transfer_map_Re2900_coarse.png")
     parser.add_argument("--tolerance", type=float, default=1e-2)
     parser.add_argument("--cache", default=None)
-    parser.add_argument("--max-frequencies", type=int, default=400)
+    parser.add_argument("--max-frequencies", type=int, default=None, help="default 400, reduced 4000")
+    parser.add_argument(
+        "--reduced-blocks",
+        type=int,
+        default=60,
+        help="Krylov blocks of the reduced models (0: exact samples only)",
+    )
+    parser.add_argument("--reduced-tolerance", type=float, default=1e-7)
     parser.add_argument(
         "--count-masses",
         type=float,
@@ -83,13 +91,25 @@ def main() -> None:
     counter = FactorCounter()
     wake = wake_mode_near(fluid, 11.0, counter=counter)
     t0 = time.perf_counter()
+    reduced = None
+    if args.reduced_blocks:
+        reduced = ReducedModels(
+            fluid,
+            tolerance=args.reduced_tolerance,
+            blocks=args.reduced_blocks,
+            path=Path(args.out) / "reduced_models.nc",
+            counter=counter,
+            progress=print,
+        )
     tmap = transfer_neutral_map(
         fluid,
         Solid(),
         wake_frequency=wake.frequency,
         tolerance=args.tolerance,
-        max_samples=args.max_frequencies,
+        max_samples=args.max_frequencies or (4000 if reduced else 400),
+        min_step=1e-5 if reduced else 1e-3,
         samples_path=Path(args.out) / "transfer_samples.nc",
+        reduced=reduced,
         counter=counter,
         progress=print,
     )
@@ -140,10 +160,18 @@ def main() -> None:
         counts = unstable_counts(tmap, m, probes)
         for u, c in zip(probes, counts, strict=True):
             found = eigen_count(fluid, m, float(u), wake.frequency)
-            checks.append((m, float(u), int(c), found))
-            print(f"m = {m:g}, U* = {u:.5g}: crossings give {c} unstable, eigen-solver {found}")
-    agree = sum(c == f for _, _, c, f in checks)
+            solid = Solid(mass_ratio=m, reduced_velocity=float(u))
+            certified = len(reduced.unstable_eigenvalues(solid)) if reduced else -1
+            checks.append((m, float(u), int(c), found, certified))
+            print(
+                f"m = {m:g}, U* = {u:.5g}: crossings give {c} unstable, eigen-solver {found}, "
+                f"reduced models {certified if reduced else '-'} (certified, covered frequencies only)"
+            )
+    agree = sum(c == f for _, _, c, f, _ in checks)
     print(f"unstable counts: {agree}/{len(checks)} agree with the eigen-solver")
+    if reduced:
+        agree = sum(c == r for _, _, c, _, r in checks)
+        print(f"unstable counts: {agree}/{len(checks)} agree with the reduced models' eigenvalues")
 
     masses = np.geomspace(1, 1e4, 160)
     velocities = np.geomspace(0.03, 100, 240)
@@ -169,6 +197,7 @@ def main() -> None:
                 "ndof_fluid": fluid.n_fluid,
                 "frequencies": len(tmap.frequencies),
                 "factorisations": tmap.factorisations,
+                "reduced_models": len(reduced.models) if reduced else 0,
                 "wall_time_s": elapsed,
                 "largest_relative_difference": float(np.nanmax(difference)),
                 "count_checks": json.dumps(checks),
@@ -196,7 +225,8 @@ def main() -> None:
     ]
     print(
         f"unknowns {fluid.n_fluid}, frequencies {len(tmap.frequencies)}, "
-        f"factorisations {tmap.factorisations} (+{counter.count - tmap.factorisations} wake mode), "
+        f"factorisations {tmap.factorisations} ({len(reduced.models) if reduced else 0} reduced models, "
+        f"+{counter.count - tmap.factorisations} wake mode), "
         f"{elapsed:.0f} s; unresolved {len(tmap.unresolved)}"
     )
     print(f"curves {[(c.kind, len(c.points)) for c in result.curves]}")

@@ -607,16 +607,31 @@ def neutral(
         ),
     ] = 1e-2,
     max_frequencies: Annotated[
-        int, typer.Option("--max-frequencies", help="transfer: at most this many sampled ω (factorisations)")
-    ] = 400,
+        int | None,
+        typer.Option(
+            "--max-frequencies", help="transfer: at most this many sampled ω (default 4000; exact: 400)"
+        ),
+    ] = None,
+    reduced_blocks: Annotated[
+        int,
+        typer.Option(
+            "--reduced-blocks",
+            help="transfer: Krylov blocks of the reduced fluid models (0: exact samples only)",
+        ),
+    ] = 60,
+    reduced_tolerance: Annotated[
+        float, typer.Option("--reduced-tolerance", help="transfer: certified error of the reduced models' G")
+    ] = 1e-7,
 ):
     """Stability map in the (m, U*) plane (MODEL.md §8): flutter and VIV neutral curves, the
     divergence curve, turning points and codimension-two crossings.
 
     --method transfer (default): the exact transfer function G(iω) sampled over --frequency-range,
     refined until every neutral curve is resolved to --tolerance; at each ω all neutral (m, U*)
-    follow from a polynomial (fsistab.transfer_map). The samples are saved and reused for other
-    solid parameters.
+    follow from a polynomial (fsistab.transfer_map). Where the sampling is refined, G comes from
+    reduced (rational Krylov) models of the fluid with a certified error, one factorisation each
+    (fsistab.reduced_model; --reduced-blocks 0 samples G exactly instead). Samples and models are
+    saved and reused for other solid parameters.
 
     --method continuation: sweeps at --start-mass-ratio over --reduced-velocity-range, at each
     --seed-mass-ratio over that range scaled by √(m/start), and (with --wake-frequency) at the lowest
@@ -631,6 +646,7 @@ def neutral(
     from fsistab.operators import fluid_operators
     from fsistab.params import Flow
     from fsistab.plots import plot_stability_map
+    from fsistab.reduced_model import ReducedModels
     from fsistab.steady import solve_steady
     from fsistab.store import write_dataset
     from fsistab.transfer_map import (
@@ -666,20 +682,34 @@ def neutral(
         raise InputError(f"--frequency-range must be 0 < low < high, got {frequency_range}")
     if not 0 < tolerance < 0.5:
         raise InputError(f"--tolerance must be in (0, 0.5), got {tolerance}")
-    if max_frequencies < 4:
+    if max_frequencies is not None and max_frequencies < 4:
         raise InputError(f"--max-frequencies must be at least 4, got {max_frequencies}")
+    if reduced_blocks < 0 or 0 < reduced_blocks < 3:
+        raise InputError(f"--reduced-blocks must be 0 (exact samples) or at least 3, got {reduced_blocks}")
+    if not 0 < reduced_tolerance < 1e-2:
+        raise InputError(f"--reduced-tolerance must be in (0, 1e-2), got {reduced_tolerance}")
     template = _solid(body, start_mass, lo, freq_ratio, zeta_h, zeta_theta, r_theta, "heave,pitch")
     spec = _spec(body, reynolds, preset, aspect_ratio, corner_radius, domain)
     console = _console(as_json)
     counter = FactorCounter()
     tag = _tag(body, reynolds, alpha0)
     attrs = _curve_attrs(reynolds, alpha0, spec, freq_ratio, zeta_h, zeta_theta, r_theta)
+    reduced = None
     with console.status("steady state and operators") as status:
         fluid = fluid_operators(solve_steady(spec, flow, cache_dir=_cache(cache)))
         if wake_frequency is not None:
             status.update("wake mode of the fixed body")
             wake_frequency = wake_mode_near(fluid, wake_frequency, counter=counter).frequency
         if method == "transfer":
+            if reduced_blocks:
+                reduced = ReducedModels(
+                    fluid,
+                    tolerance=reduced_tolerance,
+                    blocks=reduced_blocks,
+                    path=out / f"reduced_{tag}_models.nc",
+                    counter=counter,
+                    progress=status.update,
+                )
             tmap = transfer_neutral_map(
                 fluid,
                 template,
@@ -687,8 +717,10 @@ def neutral(
                 omega_range=frequency_range or default_frequency_range(wake_frequency),
                 wake_frequency=wake_frequency,
                 tolerance=tolerance,
-                max_samples=max_frequencies,
+                min_step=1e-5 if reduced else 1e-3,
+                max_samples=max_frequencies or (4000 if reduced else 400),
                 samples_path=out / f"transfer_{tag}_samples.nc",
+                reduced=reduced,
                 counter=counter,
                 progress=status.update,
             )
@@ -717,6 +749,7 @@ def neutral(
     if method == "transfer":
         map_attrs["frequencies"] = len(tmap.frequencies)
         map_attrs["unresolved_intervals"] = len(tmap.unresolved)
+        map_attrs["reduced_models"] = len(reduced.models) if reduced else 0
     data_path = write_dataset(neutral_map_dataset(result, map_attrs), out / f"neutral_{tag}_map.nc")
     import xarray as xr
 
@@ -787,6 +820,7 @@ def neutral(
         "wake_frequency": wake_frequency,
         "method": method,
         "factorisations": counter.count,
+        "reduced_models": len(reduced.models) if reduced else 0,
         "data": str(data_path),
         "figure": str(figure),
     }
@@ -830,7 +864,8 @@ def neutral(
         console.print("no VIV sweep: give --wake-frequency (a guess of the fixed body's wake-mode frequency)")
     if method == "transfer":
         console.print(
-            f"transfer method: {len(tmap.frequencies)} frequencies sampled, "
+            f"transfer method: {len(tmap.frequencies)} frequencies sampled "
+            f"({len(reduced.models) if reduced else 0} reduced fluid models), "
             f"{len(tmap.unresolved)} intervals unresolved at the smallest step (ends of curves or the budget)"
         )
     console.print(f"{counter.count} factorisations; curves and map saved in {out}; figure {figure}")

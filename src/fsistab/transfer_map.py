@@ -63,20 +63,24 @@ from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.reduced_model import ReducedModels
 from fsistab.store import read_dataset, write_dataset
 from fsistab.transfer import _complex_variable, aerodynamic_loads, exact_transfer, flow_identity, from_parts
 
 VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
+REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
 
 
 @dataclass(frozen=True)
 class AxisSample:
-    """``G(iω)`` and ``dG/ds`` at ``s = iω`` (3 × 4 each, :func:`fsistab.transfer.exact_transfer`)."""
+    """``G(iω)`` and ``dG/ds`` at ``s = iω`` (3 × 4 each, :func:`fsistab.transfer.exact_transfer`);
+    ``reduced`` if they come from a certified reduced model (:mod:`fsistab.reduced_model`)."""
 
     frequency: float
     transfer: np.ndarray
     rate: np.ndarray
+    reduced: bool = False
 
 
 @dataclass(frozen=True)
@@ -448,6 +452,7 @@ def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
         {
             "transfer": _complex_variable(dims, np.array([s.transfer for s in samples])),
             "transfer_rate": _complex_variable(dims, np.array([s.rate for s in samples])),
+            "reduced": ("frequency", np.array([s.reduced for s in samples], dtype=np.int8)),
         },
         coords={
             "frequency": [s.frequency for s in samples],
@@ -458,7 +463,8 @@ def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
         attrs={
             **attrs,
             "conventions": "G(s) body-axis loads (F_x, F_y, M) [rho U^2 L] per unit (h, theta, hdot, "
-            "thetadot) ~ e^{st}, s = i*frequency, time unit L/U; transfer_rate = dG/ds",
+            "thetadot) ~ e^{st}, s = i*frequency, time unit L/U; transfer_rate = dG/ds; reduced = 1 "
+            "where G comes from a certified reduced model (fsistab.reduced_model)",
         },
     )
 
@@ -470,9 +476,10 @@ def read_samples(path: Path, fluid: FluidOperators) -> dict[float, AxisSample]:
         values, rates = from_parts(ds.transfer), from_parts(ds.transfer_rate)
     except (AttributeError, KeyError) as exc:
         raise CacheError(f"{path} is not a transfer-sample file ({exc}); delete it to recompute") from None
+    reduced = ds["reduced"].values.astype(bool) if "reduced" in ds else np.zeros(ds.sizes["frequency"], bool)
     return {
-        float(w): AxisSample(float(w), g, dg)
-        for w, g, dg in zip(ds.frequency.values, values, rates, strict=True)
+        float(w): AxisSample(float(w), g, dg, bool(r))
+        for w, g, dg, r in zip(ds.frequency.values, values, rates, reduced, strict=True)
     }
 
 
@@ -536,6 +543,7 @@ def transfer_neutral_map(
     min_step: float = 1e-3,
     max_samples: int = 400,
     samples_path: Path | None = None,
+    reduced: ReducedModels | None = None,
     counter: FactorCounter | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> TransferMap:
@@ -551,6 +559,12 @@ def transfer_neutral_map(
     ``max_samples`` frequencies. One factorisation per sample;
     with ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of
     the same mesh and flow are reused, for any solid parameters.
+
+    With ``reduced`` (:class:`fsistab.reduced_model.ReducedModels`), a frequency inside the
+    certified interval of a reduced model is evaluated from it (no factorisation); a frequency
+    closer than two model half-widths to an exact sample (a region being refined) gets a new
+    model, built there; an isolated one is sampled exactly. Factorisations then stop growing with
+    the refinement, and ``max_samples`` and ``min_step`` can be set far finer.
     """
     low, high = mass_range
     if not (0 < low < high and math.isfinite(high)):
@@ -568,12 +582,27 @@ def transfer_neutral_map(
     inner = (low, high)
     theta0, loads0 = fluid.theta0, fluid.loads0
 
+    def refined(omega: float) -> bool:
+        """Whether ``omega`` is close to an exact sample: a model there will serve the refinement."""
+        radius = 2 * (reduced.half_width() or REFINEMENT_RADIUS)
+        return any(0 < w and abs(w - omega) <= radius for w, x in stored.items() if not x.reduced)
+
+    def save() -> None:
+        if samples_path is not None:
+            write_dataset(samples_dataset(list(stored.values()), identity), Path(samples_path))
+
     def sample(omega: float) -> AxisSample:
+        if omega not in stored and reduced is not None:
+            model = reduced.covering(omega)
+            if model is None and omega > 0 and refined(omega):
+                model = reduced.build(omega)
+            if model is not None:  # saved with the next exact sample or at the end of the round
+                g, dg = model.transfer(1j * omega if omega > 0 else 0.0, derivative=True)
+                stored[omega] = AxisSample(omega, g, dg, reduced=True)
         if omega not in stored:
             g, dg = exact_transfer(fluid, 1j * omega if omega > 0 else 0.0, counter, derivative=True)
             stored[omega] = AxisSample(omega, g, dg)
-            if samples_path is not None:
-                write_dataset(samples_dataset(list(stored.values()), identity), Path(samples_path))
+            save()
         return stored[omega]
 
     roots: dict[float, list[NeutralRoot]] = {}
@@ -617,14 +646,17 @@ def transfer_neutral_map(
             break
         for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]:
             add(0.5 * (w0 + w1))
+        save()  # the round's reduced samples: a rerun samples the same frequencies
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
+    if any(x.reduced for x in stored.values()):
+        save()
     curves = _assemble(roots, wake_frequency, mass_range)
     lambdas, rates = divergence_lines(static, template, theta0, loads0)
     return TransferMap(
         tuple(curves),
         lambdas,
         rates,
-        np.array(sorted(stored)),
+        np.array(sorted({0.0, *roots})),
         (float(low), float(high)),
         counter.count - start,
         tuple(sorted(unresolved)),
