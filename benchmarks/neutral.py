@@ -99,8 +99,6 @@ def main() -> None:
             omega_range=default_frequency_range(wake.frequency),
             wake_frequency=wake.frequency,
             tolerance=args.tolerance,
-            min_step=1e-5 if reduced else 1e-3,
-            max_samples=4000 if reduced else 400,
             samples_path=samples,
             reduced=reduced,
             counter=counter,

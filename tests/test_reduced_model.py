@@ -114,7 +114,7 @@ def test_map_from_reduced_models_agrees_with_newton_with_fewer_factorisations(fl
     counter = FactorCounter()
     reduced = ReducedModels(fluid, tolerance=TOLERANCE, blocks=40, counter=counter)
     tmap = transfer_neutral_map(
-        fluid, Solid(), reduced=reduced, counter=counter, min_step=1e-5, max_samples=2000, **settings_
+        fluid, Solid(), reduced=reduced, counter=counter, **settings_
     )
     assert tmap.factorisations == counter.count < exact.count / 2
     start = Solid(mass_ratio=1000, reduced_velocity=4.7)

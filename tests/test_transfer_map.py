@@ -5,6 +5,7 @@ full eigen-solver, the tangents by finite differences, completeness against a br
 and a small map against the Newton thresholds of the continuation method.
 """
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -212,3 +213,24 @@ def test_a_curve_crossing_the_whole_mass_range_between_two_frequencies_is_flagge
     assert not _swept(np.array([[1.5, -3.0]]), np.array([[1.51, -1e3]]), band)
     assert not _swept(np.array([[1.5, 10.0]]), np.array([[1.51, 1e6]]), band)
     assert not _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 1e6]]), band)  # not the same root
+
+
+def test_the_two_branches_of_a_fold_in_frequency_are_joined():
+    """A curve log U* = 0.1 log m with ω = 1 + (log m)²: a pair of roots born between the samples
+    ω = 0.99 and 1.01 (the resultant gains two real roots). The two branches become one curve
+    through the fold, and at m = 1 — between the branches' first roots — its crossing is U* = 1."""
+    from fsistab.transfer_map import NeutralRoot, _assemble
+
+    def root(p):
+        omega = 1 + p * p
+        return NeutralRoot(omega, math.exp(p), math.exp(0.1 * p), 1 / (2 * p), 0.1 / (2 * p), 1.0)
+
+    grid = [0.99, 1.01, 1.02, 1.04]
+    roots = {w: [root(s * math.sqrt(w - 1)) for s in (-1, 1)] if w > 1 else [] for w in grid}
+    tracks = {w: np.ones((len(roots[w]), 2)) for w in grid}
+    (curve,) = _assemble(roots, tracks, None, (0.5, 2.0))
+    assert len(curve.roots) == 6 and len(curve.folds) == 1
+    (crossing,) = curve.crossings_at(1.0)
+    assert crossing[0] == pytest.approx(1.0, abs=1e-12) and crossing[2] > 0
+    separate = _assemble(roots, {w: np.ones((2, 2)) for w in grid}, None, (0.5, 2.0))
+    assert len(separate) == 2 and not separate[0].crossings_at(1.0)  # no birth seen: no join

@@ -20,8 +20,10 @@ A real ``m̂`` is a common root of ``Re F`` and ``Im F``: their resultant in ``m
 of degree 8 in ``v`` (degree 2 for one dof), vanishes. Its positive roots give **every** neutral
 point ``(m, U*)`` with frequency ``ω`` — no search, no starting guess — each polished by Newton on
 ``F``. The neutral curves are these points as ``ω`` varies; the fluid enters only through ``G(iω)``
-and ``dG/ds`` at the sampled frequencies (one sparse factorisation each, independent of m and U*),
-so the cost of the map is the number of frequencies, not the number of points.
+and ``dG/ds`` at the sampled frequencies, independent of m and U*: exact samples (one sparse
+factorisation each) or, where the sampling is refined, reduced fluid models certified on whole
+frequency intervals (:mod:`fsistab.reduced_model`, one factorisation per model), so the cost of the
+map is neither the number of points nor, with reduced models, the number of frequencies.
 
 Frequencies are added where the curves are not yet resolved: between two samples every root is
 predicted at the other sample from its exact tangent ``d(log m, log U*)/dω`` (implicit
@@ -30,9 +32,11 @@ range is matched to one on the other side within ``tolerance`` in ``(log m, log 
 samples the curves are cubic Hermite interpolants in ``ω`` (values and exact tangents), whose
 error is about the square of the matching tolerance. Curves that end (folds in ``ω``, or
 curves too fast in ω, like lock-in boundaries near the wake frequency) are located down to
-``min_step``. A curve can also cross the whole mass range inside one interval (near the wake
-frequency a lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root at either
-end; the real roots of the resultant are tracked with their ``m`` of any sign, and an interval
+``min_step``; two branches born (or dying) together at a fold in ``ω`` are joined into one curve
+through it, by a Hermite cubic in a chord parameter (the curve is smooth in the ``(m, U*)`` plane
+there; only its parametrisation by ``ω`` turns). A curve can also cross the whole mass range
+inside one interval (near the wake frequency a lock-in onset spans m from 0.07 to 95 within
+Δω = 0.02) and leave no root at either end; the real roots of the resultant are tracked with their ``m`` of any sign, and an interval
 where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across the range,
 is bisected down to ``SWEEP_STEP`` until the curve shows up.
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
@@ -342,18 +346,37 @@ def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: 
 @dataclass(frozen=True)
 class TransferCurve:
     """A neutral curve: exact neutral points at the sampled frequencies, in order along the curve,
-    joined by cubic Hermite interpolants in ``ω``; ``kind`` is ``flutter`` or ``viv``."""
+    joined by cubic Hermite interpolants in ``ω``; ``kind`` is ``flutter`` or ``viv``.
+
+    ``folds`` lists ``(k, s)`` for segments ``k`` that pass through a fold in ``ω`` (two roots at
+    the same sampled frequency, a pair born or dying just beyond it): there the Hermite runs in a
+    chord parameter, with end directions ``s t_k`` and ``-s t_{k+1}`` (``s = -1`` if the fold lies
+    below the frequency of the pair, ``+1`` above)."""
 
     kind: str
     roots: tuple[NeutralRoot, ...]
+    folds: tuple[tuple[int, int], ...] = ()
 
     def _segments(self):
         """Per interval: the roots, the cubic Hermite of ``(log m, log U*)`` in ``τ ∈ [0, 1]``
-        (values and exact tangents) and ``ω`` along it (linear)."""
-        for r0, r1 in zip(self.roots[:-1], self.roots[1:], strict=True):
+        (values and exact tangents), ``ω`` along it (linear; constant across a fold) and
+        ``rate/(d log m/dτ)`` at both ends."""
+        folds = dict(self.folds)
+        for k, (r0, r1) in enumerate(zip(self.roots[:-1], self.roots[1:], strict=True)):
             h = r1.frequency - r0.frequency
-            plane = _hermite(r0.plane, r0.tangent, r1.plane, r1.tangent, h)
-            yield r0, r1, plane, np.array([r0.frequency, h, 0.0, 0.0])
+            if k in folds:
+                chord = float(np.linalg.norm(r1.plane - r0.plane))
+                unit = lambda t: t / max(float(np.linalg.norm(t)), 1e-300)  # noqa: E731
+                start, end = folds[k] * chord * unit(r0.tangent), -folds[k] * chord * unit(r1.tangent)
+                plane = _hermite(r0.plane, start, r1.plane, end, 1.0)
+                omega = np.array([r0.frequency, 0.0, 0.0, 0.0])
+            else:
+                plane = _hermite(r0.plane, r0.tangent, r1.plane, r1.tangent, h)
+                omega = np.array([r0.frequency, h, 0.0, 0.0])
+            slope = npoly.polyder(plane[:, 0])
+            ends = (npoly.polyval(0.0, slope), npoly.polyval(1.0, slope))
+            q = tuple(r.crossing_rate / d if d else 0.0 for r, d in zip((r0, r1), ends, strict=True))
+            yield r0, r1, plane, omega, q
 
     def velocities_at(self, mass_ratio: float) -> list[tuple[float, float]]:
         """``(U*, ω)`` of every point of the curve at ``mass_ratio`` (Hermite interpolation)."""
@@ -363,21 +386,18 @@ class TransferCurve:
         """``(U*, ω, crossing rate)`` of every point of the curve at ``mass_ratio``. The rate is
         exact at the sampled roots; in between, ``rate/(d log m/dω)`` — smooth through turning
         points, where both vanish, since the unstable side keeps its place relative to the curve —
-        is interpolated linearly and multiplied by the interpolant's ``d log m/dω``."""
+        is interpolated linearly and multiplied by the interpolant's ``d log m/dω`` (in the chord
+        parameter across a fold)."""
         target = math.log(mass_ratio)
         found = []
-        for r0, r1, coef, omega in self._segments():
+        for _, _, coef, omega, (q0, q1) in self._segments():
             poly = coef[:, 0].copy()
             poly[0] -= target
             for tau in npoly.polyroots(npoly.polytrim(poly, tol=0.0)) if np.any(poly[1:]) else []:
                 if abs(tau.imag) < 1e-9 and -1e-12 <= tau.real <= 1 + 1e-12:
                     tau = float(np.clip(tau.real, 0, 1))
                     log_u = npoly.polyval(tau, coef[:, 1])
-                    slope = npoly.polyval(tau, npoly.polyder(coef[:, 0])) / npoly.polyval(
-                        tau, npoly.polyder(omega)
-                    )
-                    q0, q1 = (r.crossing_rate / r.dlog_mass if r.dlog_mass else 0.0 for r in (r0, r1))
-                    rate = (q0 + tau * (q1 - q0)) * slope
+                    rate = (q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0]))
                     found.append((math.exp(log_u), float(npoly.polyval(tau, omega)), rate))
         unique = []
         for u, w, rate in found:  # a root at a shared sample is found from both sides
@@ -388,7 +408,7 @@ class TransferCurve:
     def turning_points(self) -> list[tuple[float, float, float]]:
         """``(m, U*, ω)`` where ``m`` is extremal along the curve (turning points of MODEL.md §8)."""
         points = []
-        for _, _, coef, omega_coef in self._segments():
+        for _, _, coef, omega_coef, _ in self._segments():
             slope = npoly.polyder(coef[:, 0])
             for tau in npoly.polyroots(npoly.polytrim(slope, tol=0.0)) if np.any(slope[1:]) else []:
                 if abs(tau.imag) < 1e-12 and 0 < tau.real < 1:
@@ -540,8 +560,8 @@ def transfer_neutral_map(
     wake_frequency: float | None = None,
     initial: int = 48,
     tolerance: float = 1e-2,
-    min_step: float = 1e-3,
-    max_samples: int = 400,
+    min_step: float | None = None,
+    max_samples: int | None = None,
     samples_path: Path | None = None,
     reduced: ReducedModels | None = None,
     counter: FactorCounter | None = None,
@@ -554,18 +574,21 @@ def transfer_neutral_map(
     Starts from :func:`initial_frequencies` and bisects every interval whose roots are not matched
     within ``tolerance`` (in ``log m``, ``log U*``) by their tangents, down to a relative step
     ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
-    listed in ``unresolved``); intervals where a curve may cross the whole mass range between the
-    samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
-    ``max_samples`` frequencies. One factorisation per sample;
-    with ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of
-    the same mesh and flow are reused, for any solid parameters.
+    listed in ``unresolved``; two branches born or dying together at a fold are joined); intervals
+    where a curve may cross the whole mass range between the samples (:func:`resultant_tracks`) are
+    bisected down to ``SWEEP_STEP``; at most ``max_samples`` frequencies. With exact samples only
+    (one factorisation each) ``min_step`` is 1e-3 and ``max_samples`` 400 by default; with
+    ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of the
+    same mesh and flow are reused, for any solid parameters.
 
     With ``reduced`` (:class:`fsistab.reduced_model.ReducedModels`), a frequency inside the
     certified interval of a reduced model is evaluated from it (no factorisation); a frequency
     closer than two model half-widths to an exact sample (a region being refined) gets a new
     model, built there; an isolated one is sampled exactly. Factorisations then stop growing with
-    the refinement, and ``max_samples`` and ``min_step`` can be set far finer.
+    the refinement, and the defaults are finer: ``min_step`` 1e-7, ``max_samples`` 4000.
     """
+    min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
+    max_samples = max_samples if max_samples is not None else (4000 if reduced is not None else 400)
     low, high = mass_range
     if not (0 < low < high and math.isfinite(high)):
         raise InputError(f"the mass-ratio range must satisfy 0 < low < high, got {mass_range}")
@@ -650,7 +673,7 @@ def transfer_neutral_map(
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):
         save()
-    curves = _assemble(roots, wake_frequency, mass_range)
+    curves = _assemble(roots, tracks, wake_frequency, mass_range)
     lambdas, rates = divergence_lines(static, template, theta0, loads0)
     return TransferMap(
         tuple(curves),
@@ -664,9 +687,13 @@ def transfer_neutral_map(
 
 
 def _assemble(
-    roots: dict[float, list[NeutralRoot]], wake_frequency: float | None, mass_range: tuple[float, float]
+    roots: dict[float, list[NeutralRoot]],
+    tracks: dict[float, np.ndarray],
+    wake_frequency: float | None,
+    mass_range: tuple[float, float],
 ) -> list[TransferCurve]:
-    """Chain matched roots of adjacent frequencies into curves; keep those that enter ``mass_range``."""
+    """Chain matched roots of adjacent frequencies into curves, join the two branches of a fold in
+    ``ω`` (:func:`_fold_links`), keep the curves that enter ``mass_range``."""
     grid = sorted(roots)
     successor: dict[tuple[float, int], tuple[float, int]] = {}
     has_predecessor = set()
@@ -674,7 +701,7 @@ def _assemble(
         for i, j, _ in _match(roots[w0], roots[w1], w1 - w0, 0.25):
             successor[(w0, i)] = (w1, j)
             has_predecessor.add((w1, j))
-    curves = []
+    chains = []
     for w in grid:
         for i in range(len(roots[w])):
             if (w, i) in has_predecessor:
@@ -683,16 +710,65 @@ def _assemble(
             while key is not None:
                 chain.append(roots[key[0]][key[1]])
                 key = successor.get(key)
-            inside = [mass_range[0] <= r.mass_ratio <= mass_range[1] for r in chain]
-            if len(chain) < 2 or not any(inside):
-                continue
-            mean_frequency = float(np.mean([r.frequency for r in chain]))
-            viv = (
-                wake_frequency is not None
-                and abs(mean_frequency - wake_frequency) < VIV_BAND * wake_frequency
-            )
-            curves.append(TransferCurve("viv" if viv else "flutter", tuple(chain)))
+            chains.append(chain)
+    curves = []
+    for chain, folds in _join_folds(chains, _fold_links(chains, grid, tracks)):
+        inside = [mass_range[0] <= r.mass_ratio <= mass_range[1] for r in chain]
+        if len(chain) < 2 or not any(inside):
+            continue
+        mean_frequency = float(np.mean([r.frequency for r in chain]))
+        viv = wake_frequency is not None and abs(mean_frequency - wake_frequency) < VIV_BAND * wake_frequency
+        curves.append(TransferCurve("viv" if viv else "flutter", tuple(chain), tuple(folds)))
     return curves
+
+
+def _fold_links(
+    chains: list[list[NeutralRoot]], grid: list[float], tracks: dict[float, np.ndarray]
+) -> dict[tuple[int, int], tuple[tuple[int, int], int]]:
+    """Ends of chains that meet at a fold in ``ω``: exactly two chains start (end) at the same
+    sampled frequency, not the first (last) one, while the resultant gains (loses) at least two
+    real roots in the interval before (after) it — a pair born (dying) there. Returns, for each
+    linked end ``(chain, 0 | -1)``, the other end and the side of the fold (``-1`` below, ``+1``
+    above the pair's frequency)."""
+    index = {w: k for k, w in enumerate(grid)}
+    links = {}
+    for end, step, side in ((0, -1, -1), (-1, +1, +1)):
+        at: dict[float, list[int]] = {}
+        for c, chain in enumerate(chains):
+            at.setdefault(chain[end].frequency, []).append(c)
+        for w, members in at.items():
+            k = index[w] + step
+            if len(members) != 2 or not 0 <= k < len(grid):
+                continue
+            if len(tracks[w]) - len(tracks[grid[k]]) >= 2:
+                a, b = members
+                links[(a, end)] = ((b, end), side)
+                links[(b, end)] = ((a, end), side)
+    return links
+
+
+def _join_folds(chains: list[list[NeutralRoot]], links: dict) -> list[tuple[list[NeutralRoot], list]]:
+    """Chains joined through their linked ends: ``(roots in order, [(segment, side), ...])``."""
+    used = set()
+    joined = []
+    free = [c for c in range(len(chains)) if (c, 0) not in links or (c, -1) not in links]
+    for c in [*free, *range(len(chains))]:  # free ends first; what remains are closed loops
+        if c in used:
+            continue
+        end = 0 if (c, 0) not in links else -1 if (c, -1) not in links else 0
+        roots, folds = [], []
+        while c not in used:
+            used.add(c)
+            piece = chains[c] if end == 0 else chains[c][::-1]
+            roots.extend(piece)
+            other = -1 - end  # the end where this piece leaves
+            if (c, other) not in links:
+                break
+            (c, end), side = links[(c, other)]
+            if c not in used:
+                folds.append((len(roots) - 1, side))
+        joined.append((roots, folds))
+    return joined
 
 
 def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
