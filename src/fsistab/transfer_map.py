@@ -29,16 +29,16 @@ Frequencies are added where the curves are not yet resolved: between two samples
 predicted at the other sample from its exact tangent ``d(log m, log U*)/dω`` (implicit
 differentiation of ``F``, with ``dG/ds``); the interval is bisected until each root in the mass
 range is matched to one on the other side within ``tolerance`` in ``(log m, log U*)``. Between
-samples the curves are cubic Hermite interpolants in ``ω`` (values and exact tangents), whose
-error is about the square of the matching tolerance. Curves that end (folds in ``ω``, or
-curves too fast in ω, like lock-in boundaries near the wake frequency) are located down to
-``min_step``; two branches born (or dying) together at a fold in ``ω`` are joined into one curve
-through it, by a Hermite cubic in a chord parameter (the curve is smooth in the ``(m, U*)`` plane
-there; only its parametrisation by ``ω`` turns). A curve can also cross the whole mass range
-inside one interval (near the wake frequency a lock-in onset spans m from 0.07 to 95 within
-Δω = 0.02) and leave no root at either end; the real roots of the resultant are tracked with their ``m`` of any sign, and an interval
-where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across the range,
-is bisected down to ``SWEEP_STEP`` until the curve shows up.
+samples the curves are cubic Hermite interpolants in ``ω`` (values and exact tangents), whose error
+is about the square of the matching tolerance. Curves that end (folds in ``ω``, or curves too fast
+in ω, like lock-in boundaries near the wake frequency) are located down to ``min_step``; two
+branches born (or dying) together at a fold in ``ω`` are joined into one curve through it, by a
+Hermite cubic in a chord parameter (the curve is smooth in the ``(m, U*)`` plane there; only its
+parametrisation by ``ω`` turns). A curve can also cross the whole mass range inside one interval
+(near the wake frequency a lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root
+at either end; the real roots of the resultant are tracked with their ``m`` of any sign, and an
+interval where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across
+the range, is bisected down to ``SWEEP_STEP`` until the curve shows up.
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 ``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
