@@ -49,7 +49,7 @@ def main() -> None:
     parser.add_argument("--mass-low", type=float, default=1.0)
     parser.add_argument("--mass-high", type=float, default=1e4)
     parser.add_argument("--points", type=int, default=24)
-    parser.add_argument("--tolerance", type=float, default=1e-2)
+    parser.add_argument("--tolerance", type=float, default=None, help="default 3e-3, exact samples 1e-2")
     parser.add_argument("--reduced-blocks", type=int, default=60, help="0: exact samples only")
     parser.add_argument("--reduced-tolerance", type=float, default=1e-7)
     parser.add_argument("--threads", type=int, default=1)

@@ -600,12 +600,13 @@ def neutral(
         ),
     ] = None,
     tolerance: Annotated[
-        float,
+        float | None,
         typer.Option(
             "--tolerance",
-            help="transfer: largest error of the tangent predictions between two samples, in (log m, log U*)",
+            help="transfer: largest error of the tangent predictions between two samples, in (log m, log U*) "
+            "(default 3e-3; exact samples only: 1e-2)",
         ),
-    ] = 1e-2,
+    ] = None,
     max_frequencies: Annotated[
         int | None,
         typer.Option(
@@ -680,7 +681,7 @@ def neutral(
         raise InputError(f"--method must be continuation or transfer, got {method!r}")
     if frequency_range is not None and not 0 < frequency_range[0] < frequency_range[1]:
         raise InputError(f"--frequency-range must be 0 < low < high, got {frequency_range}")
-    if not 0 < tolerance < 0.5:
+    if tolerance is not None and not 0 < tolerance < 0.5:
         raise InputError(f"--tolerance must be in (0, 0.5), got {tolerance}")
     if max_frequencies is not None and max_frequencies < 4:
         raise InputError(f"--max-frequencies must be at least 4, got {max_frequencies}")

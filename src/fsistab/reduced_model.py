@@ -272,16 +272,19 @@ class ReducedModels:
         )
         return model
 
-    def unstable_eigenvalues(self, solid: Solid) -> np.ndarray:
+    def unstable_eigenvalues(self, solid: Solid, tolerance: float | None = None) -> np.ndarray:
         """Eigenvalues with ``Re σ > 0``, ``Im σ ≥ 0`` of the coupled problem for ``solid``
         (:func:`coupled_eigenvalues`) that the models certify: ``Im σ`` in the interval of the model
         that computed it (the model of :meth:`covering`) and the error estimate at ``σ`` itself below
-        the tolerance. Unstable modes at frequencies no model covers are not seen."""
+        ``tolerance`` (default: the models' tolerance; a larger one gives approximate eigenvalues,
+        e.g. shifts for the full eigen-solver). Unstable modes at frequencies no model covers are
+        not seen."""
+        tolerance = self.tolerance if tolerance is None else tolerance
         found = []
         for model in self.models:
             for value in coupled_eigenvalues(model, solid, self.fluid.theta0, self.fluid.loads0):
                 if value.real > 0 and value.imag >= 0 and self.covering(value.imag) is model:
-                    if model.error_estimate(value) <= self.tolerance:
+                    if model.error_estimate(value) <= tolerance:
                         found.append(value)
         return np.array(sorted(found, key=lambda v: v.imag))
 

@@ -559,7 +559,7 @@ def transfer_neutral_map(
     omega_range: tuple[float, float] = (0.01, 20.0),
     wake_frequency: float | None = None,
     initial: int = 48,
-    tolerance: float = 1e-2,
+    tolerance: float | None = None,
     min_step: float | None = None,
     max_samples: int | None = None,
     samples_path: Path | None = None,
@@ -577,7 +577,8 @@ def transfer_neutral_map(
     listed in ``unresolved``; two branches born or dying together at a fold are joined); intervals
     where a curve may cross the whole mass range between the samples (:func:`resultant_tracks`) are
     bisected down to ``SWEEP_STEP``; at most ``max_samples`` frequencies. With exact samples only
-    (one factorisation each) ``min_step`` is 1e-3 and ``max_samples`` 400 by default; with
+    (one factorisation each) ``tolerance`` is 1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by
+    default; with
     ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of the
     same mesh and flow are reused, for any solid parameters.
 
@@ -585,8 +586,10 @@ def transfer_neutral_map(
     certified interval of a reduced model is evaluated from it (no factorisation); a frequency
     closer than two model half-widths to an exact sample (a region being refined) gets a new
     model, built there; an isolated one is sampled exactly. Factorisations then stop growing with
-    the refinement, and the defaults are finer: ``min_step`` 1e-7, ``max_samples`` 4000.
+    the refinement, and the defaults are finer: ``tolerance`` 3e-3 (Hermite error ~1e-5),
+    ``min_step`` 1e-7, ``max_samples`` 4000.
     """
+    tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else 1e-2)
     min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
     max_samples = max_samples if max_samples is not None else (4000 if reduced is not None else 400)
     low, high = mass_range
