@@ -113,9 +113,7 @@ def test_map_from_reduced_models_agrees_with_newton_with_fewer_factorisations(fl
     transfer_neutral_map(fluid, Solid(), counter=exact, **settings_)
     counter = FactorCounter()
     reduced = ReducedModels(fluid, tolerance=TOLERANCE, blocks=40, counter=counter)
-    tmap = transfer_neutral_map(
-        fluid, Solid(), reduced=reduced, counter=counter, **settings_
-    )
+    tmap = transfer_neutral_map(fluid, Solid(), reduced=reduced, counter=counter, **settings_)
     assert tmap.factorisations == counter.count < exact.count / 2
     start = Solid(mass_ratio=1000, reduced_velocity=4.7)
     pairs = eigenpairs_near(CoupledSystem(fluid, start), [0.003 + 0.17j], 4)

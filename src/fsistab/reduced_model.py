@@ -73,7 +73,7 @@ class KrylovModel:
     """The Galerkin-projected fluid around one shift (module docstring): ``K_r(s) = jr + s mr``,
     inputs ``br0 + s br1`` (k × 4), output rows ``lf + s lm`` (3 × k); ``ends`` are the basis sizes
     after each Krylov block (nested models for the error estimate); ``interval`` the certified
-    frequencies ``[ω_lo, ω_hi]`` (set by :func:`reduced_cover`)."""
+    frequencies ``[ω_lo, ω_hi]`` (set by :meth:`ReducedModels.build`)."""
 
     shift: complex
     jr: np.ndarray
@@ -169,7 +169,7 @@ def certified_edge(model: KrylovModel, direction: int, tolerance: float, limit: 
     """The frequency, going from the shift in ``direction`` (±1) but not past ``limit``, up to which
     the model's error estimate stays below ``tolerance``: steps doubling from ``first``, then
     bisection to 2 %, then a check on a grid of ``SCAN_POINTS`` (a narrow spike between the steps
-    moves the edge back)."""
+    moves the edge back to the last good grid point)."""
     center = model.shift.imag
     span = abs(limit - center)
     if span == 0:
@@ -189,11 +189,12 @@ def certified_edge(model: KrylovModel, direction: int, tolerance: float, limit: 
             break
         middle = 0.5 * (inside + outside)
         inside, outside = (middle, outside) if good(middle) else (inside, middle)
+    checked = 0.0
     for distance in np.linspace(0.0, inside, SCAN_POINTS + 1)[1:]:
         if not good(distance):
-            inside = distance * (1 - 1 / SCAN_POINTS)
             break
-    return center + direction * inside
+        checked = distance
+    return center + direction * checked
 
 
 class ReducedModels:

@@ -63,7 +63,7 @@ import numpy.polynomial.polynomial as npoly
 import xarray as xr
 
 from fsistab.coupled import active_states
-from fsistab.errors import CacheError, InputError
+from fsistab.errors import CacheError, ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
@@ -621,7 +621,10 @@ def transfer_neutral_map(
         if omega not in stored and reduced is not None:
             model = reduced.covering(omega)
             if model is None and omega > 0 and refined(omega):
-                model = reduced.build(omega)
+                try:
+                    model = reduced.build(omega)
+                except ConvergenceError as error:  # no certified interval here: sample exactly
+                    say(str(error))
             if model is not None:  # saved with the next exact sample or at the end of the round
                 g, dg = model.transfer(1j * omega if omega > 0 else 0.0, derivative=True)
                 stored[omega] = AxisSample(omega, g, dg, reduced=True)
