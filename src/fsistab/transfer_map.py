@@ -578,9 +578,8 @@ def transfer_neutral_map(
     where a curve may cross the whole mass range between the samples (:func:`resultant_tracks`) are
     bisected down to ``SWEEP_STEP``; at most ``max_samples`` frequencies. With exact samples only
     (one factorisation each) ``tolerance`` is 1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by
-    default; with
-    ``samples_path`` each sample is saved as it is computed (atomically) and saved samples of the
-    same mesh and flow are reused, for any solid parameters.
+    default. With ``samples_path`` each sample is saved as it is computed (atomically) and saved
+    samples of the same mesh and flow are reused, for any solid parameters.
 
     With ``reduced`` (:class:`fsistab.reduced_model.ReducedModels`), a frequency inside the
     certified interval of a reduced model is evaluated from it (no factorisation); a frequency
