@@ -79,8 +79,8 @@ def main() -> None:
 
     if args.method in ("both", "transfer"):
         samples = out / "transfer_samples.nc"
-        if samples.exists():
-            print(f"note: reusing saved samples {samples}: the factorisations below are only the new ones")
+        if samples.exists() or (out / "reduced_models.nc").exists():
+            print(f"note: reusing saved samples and models in {out}: only new factorisations are counted")
         counter = FactorCounter()
         t0 = time.perf_counter()
         reduced = None

@@ -128,7 +128,7 @@ def _orthonormal_block(block: np.ndarray, basis: np.ndarray, scale: float) -> np
 
 
 def krylov_model(
-    fluid: FluidOperators, shift: complex, blocks: int = 30, counter: FactorCounter | None = None
+    fluid: FluidOperators, shift: complex, blocks: int = 60, counter: FactorCounter | None = None
 ) -> KrylovModel:
     """The reduced model at ``shift`` (module docstring) from one factorisation of ``K(shift)`` and
     ``blocks + 1`` block back-substitutions (block size ≤ 8, the independent columns of
