@@ -1,0 +1,338 @@
+"""Size of a mesh and memory of a solve, estimated from the mesh specification without meshing.
+
+Used to refuse, before any work, a mesh that cannot be computed (issue #13: ``--Re 1e6`` on a mesh
+command ran away in memory).
+
+Element count. Netgen fills the domain with triangles of the local size ``h(x)``: the region's
+``maxh`` (near box, wake box, far field), lowered near every smaller size by the grading, which lets
+the size grow at most linearly with distance, ``h ≤ h₀ + s·d``. So, with ``d_R`` the distance to
+``R`` (the body with the wall size, its short sides and corners with the corner size, the near and
+wake boxes of :func:`fsistab.geometry.fluid_half_geometry` with their sizes)::
+
+    h(x) = min(far, wake + s d_wake, near + s d_near, wall + s d_body, corner + s d_corner)
+    triangles ≈ C ∫_fluid dA / h(x)²,           s = K · grading
+
+integrated by an adaptive quadtree (:func:`_area_over_h2`) over the upper half and doubled (the
+mesh is mirrored). ``C = DENSITY`` and ``K = GRADING_SLOPE`` are fitted to the meshes below. The
+Taylor–Hood P2–P1 unknowns follow exactly from the triangle count ``T`` and the number ``B`` of
+boundary edges (Euler's formula for a domain with one hole): ``ndof = 3V + 2E = 4.5 T + 2.5 B``,
+``B`` estimated as the body's and outer boundary's lengths over their sizes.
+
+Calibration: unknowns measured by ``mesh_statistics`` on real meshes (Netgen/NGSolve 6.2.2608;
+domain = upstream, downstream, lateral; ratio = estimated/measured). ``fit`` rows fixed ``C`` and
+``K``, ``check`` rows were meshed afterwards to test them::
+
+    set    body     mesh   Re      domain         other                 measured estimated ratio
+    fit    plate    coarse ≤ 1000  default        -                       15 274    14 922  0.98
+    fit    plate    coarse 2900    default        -                       15 335    15 876  1.04
+    fit    plate    coarse 10000   default        -                       46 448    45 854  0.99
+    fit    plate    coarse 30000   default        -                      171 183   177 435  1.04
+    fit    plate    coarse 2900    40, 80, 40     -                       21 319    20 571  0.96
+    fit    plate    coarse 2900    10, 20, 10     -                       13 998    14 660  1.05
+    fit    plate    coarse 2900    20, 80, 20     -                       17 883    16 941  0.95
+    fit    plate    coarse 2900    default        far 1.0                 37 985    37 888  1.00
+    fit    plate    medium 2900    default        -                      111 585   113 055  1.01
+    fit    cylinder coarse 40      default        -                       21 073    20 841  0.99
+    fit    cylinder coarse 100     default        -                       21 662    21 389  0.99
+    fit    cylinder coarse 1000    default        -                       25 634    25 389  0.99
+    fit    cylinder coarse 40      25, 50, 25     -                       13 640    13 544  0.99
+    fit    cylinder coarse 40      10, 20, 10     -                       10 455    11 420  1.09
+    check  plate    coarse 5000    default        -                       22 068    22 794  1.03
+    check  plate    coarse 1000    default        chord/thickness 10      14 746    14 723  1.00
+    check  plate    coarse 2900    default        chord/thickness 50      16 543    16 454  0.99
+    check  plate    coarse 2900    default        wake_length 20          28 079    30 963  1.10
+    check  plate    coarse 100     default        grading 0.4             13 746    10 835  0.79
+    check  cylinder coarse 300     30, 60, 30     -                       16 317    16 496  1.01
+    check  cylinder coarse 40      default        far 1.0                165 256   162 495  0.98
+    check  cylinder coarse 40      default        grading 0.15            25 546    26 422  1.03
+
+and against the unknowns quoted in ``docs/validation.md`` (earlier versions of the meshing code):
+plate fine Re 2900 314 955 (estimated 313 960, 1.00), medium Re 10⁴ 199 184 (193 054, 0.97),
+fine Re 10⁴ 567 075 (557 901, 0.98); cylinder medium Re 40 115 935 (116 485, 1.00). The presets
+are within 10 %; a grading far from the presets' 0.25 is the weakest case (0.79 at 0.4). Stated
+accuracy: a factor 1.25 on the unknowns (the tests check 1.25 on the coarse meshes).
+
+Memory. Peak resident memory ``MEMORY_BASE + MEMORY_PER_UNKNOWN · n`` of one process that builds
+the mesh, solves the steady state by Newton (real LU) and factorises ``J + sM`` once in complex
+arithmetic (UMFPACK), single-threaded; measured with ``resource.getrusage`` (``ru_maxrss``)::
+
+    mesh (steady flow)                         unknowns  measured  estimated  ratio
+    plate coarse (Re 100)                        15 274   0.37 GB    0.38 GB   1.05
+    cylinder coarse (Re 40)                      21 073   0.44 GB    0.45 GB   1.04
+    plate coarse, far 1.0 (Re 100)               37 985   0.60 GB    0.66 GB   1.09
+    plate coarse at Re 10⁴ (flow Re 100)         46 448   0.67 GB    0.76 GB   1.13
+    plate coarse at Re 3·10⁴ (flow Re 100)      171 183   1.63 GB    2.25 GB   1.38
+
+The slope is that of the larger runs of ``docs/validation.md``, whose fill grows a little faster than
+linearly: steady states at Re 10⁴ of 567 075 and 871 620 unknowns peaked at 6.6 and 10.3 GB
+(estimated 7.0 and 10.7), the eigenvalue benchmark (complex LU and Arnoldi) at 1.64 and 4.51 GB
+for 110 379 and 314 959 unknowns (estimated 1.5 and 4.0); ``NGSOLVE-NOTES.md``: a complex LU of
+162 k unknowns, about 2.0 GB (estimated 2.1). Workflows that keep several factorisations (stability
+maps, continuation) need more: 2.9 GB for a flutter curve on the medium plate (estimated 1.5).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from fsistab.errors import InputError
+from fsistab.mesh import MeshSpec
+from fsistab.params import Plate
+
+# fitted constants (see the module docstring)
+# triangles per h² of area: above the 2.31 of equilateral triangles of side h, as each quadtree
+# leaf is counted with the largest h it may contain
+DENSITY = 2.85
+GRADING_SLOPE = 1.4  # s = GRADING_SLOPE · grading: growth of h per unit distance
+MEMORY_BASE = 200e6  # bytes: Python with NGSolve, SciPy and the mesh loaded
+MEMORY_PER_UNKNOWN = 12e3  # bytes per unknown: matrices, the real LU of Newton, the complex LU
+
+MAX_UNKNOWNS = 5_000_000  # refused whatever the memory: days of computing per factorisation
+SAFETY = 0.8  # fraction of the physical memory a run may plan to use
+REFINE = 0.5  # a quadtree cell is split while wider than REFINE · h at its centre
+_MAX_LEAVES = 2_000_000  # quadtree budget (about 1 s), reached beyond 3-7 M unknowns: lower bound
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Estimated size of a mesh and the peak memory of a steady solve plus a complex LU."""
+
+    triangles: int
+    unknowns: int
+    memory_bytes: int
+    lower_bound: bool = False  # the integration ran out of budget: the mesh is at least this large
+
+    def describe(self) -> str:
+        about = "at least" if self.lower_bound else "about"
+        return (
+            f"{about} {_thousands(self.unknowns)} unknowns ({_thousands(self.triangles)} triangles), "
+            f"peak memory {about} {_gigabytes(self.memory_bytes)}"
+        )
+
+
+def _thousands(n: int) -> str:
+    return f"{n:,}".replace(",", " ")
+
+
+def _gigabytes(n: float) -> str:
+    return f"{n / 1e9:.1f} GB" if n < 1e12 else f"{n / 1e12:.1f} TB"
+
+
+def _rectangle_distance(x, y, x0, x1, y0, y1):
+    """Distance from ``(x, y)`` to the rectangle ``[x0, x1] × [y0, y1]`` (0 inside)."""
+    dx = np.maximum(np.maximum(x0 - x, x - x1), 0.0)
+    dy = np.maximum(np.maximum(y0 - y, y - y1), 0.0)
+    return np.hypot(dx, dy)
+
+
+class _SizeField:
+    """``h(x, y)`` on the upper half ``y ≥ 0`` of the domain of ``spec`` (the mesh is its mirror)."""
+
+    def __init__(self, spec: MeshSpec):
+        body, domain, sizes = spec.body, spec.domain, spec.sizes
+        self.sizes = sizes
+        self.slope = GRADING_SLOPE * sizes.grading
+        self.is_plate = isinstance(body, Plate)
+        self.half_height = body.thickness / 2 if self.is_plate else 0.5
+        # the refinement boxes of fsistab.geometry.fluid_half_geometry
+        margin = sizes.near_margin
+        self.near = (
+            -0.5 - margin,
+            0.5 + 2 * margin,
+            0.0,
+            min(margin + self.half_height, 0.9 * domain.lateral),
+        )
+        wake_end = min(sizes.wake_length, domain.downstream - 1.0)
+        self.wake = (
+            -0.5 - 2 * margin,
+            max(wake_end, 0.5 + 3 * margin),
+            0.0,
+            min(sizes.wake_half_width, 0.9 * domain.lateral),
+        )
+
+    def body_distance(self, x, y):
+        if self.is_plate:
+            return _rectangle_distance(x, y, -0.5, 0.5, -self.half_height, self.half_height)
+        return np.maximum(np.hypot(x, y) - 0.5, 0.0)
+
+    def __call__(self, x, y):
+        s, sizes = self.slope, self.sizes
+        h = np.full_like(x, sizes.far)
+        h = np.minimum(h, sizes.wake + s * _rectangle_distance(x, y, *self.wake))
+        h = np.minimum(h, sizes.near + s * _rectangle_distance(x, y, *self.near))
+        h = np.minimum(h, sizes.wall + s * self.body_distance(x, y))
+        if self.is_plate:
+            # the leading and trailing edges (short sides and rounded corners) carry the corner size
+            e = self.half_height
+            ends = np.minimum(
+                _rectangle_distance(x, y, -0.5, -0.5, -e, e), _rectangle_distance(x, y, 0.5, 0.5, -e, e)
+            )
+            h = np.minimum(h, sizes.corner + s * ends)
+        return h
+
+
+def _overlap(a0, a1, b0, b1):
+    """Length of ``[a0, a1] ∩ [b0, b1]``."""
+    return np.maximum(np.minimum(a1, b1) - np.maximum(a0, b0), 0.0)
+
+
+def _disc_corner_area(x, y, radius: float):
+    """Area of the disc ``|X| ≤ radius`` (centred at 0) with ``X ≤ x`` and ``Y ≤ y``.
+
+    ``∫ (s(t) + clamp(y, -s(t), s(t))) dt`` over ``t ≤ x``, ``s(t) = √(radius² - t²)``: where
+    ``|t| > w = √(radius² - y²)`` the chord lies wholly below ``y`` (``y ≥ 0``) or above it."""
+    r = radius
+    x = np.clip(x, -r, r)
+    y = np.clip(y, -r, r)
+
+    def primitive(a):  # ∫_{-r}^{a} s(t) dt
+        return (
+            0.5 * (a * np.sqrt(np.maximum(r * r - a * a, 0.0)) + r * r * np.arcsin(a / r)) + np.pi * r * r / 4
+        )
+
+    w = np.sqrt(np.maximum(r * r - y * y, 0.0))
+    m = np.minimum(x, w)
+    band = np.where(x > -w, primitive(m) - primitive(-w), 0.0)  # ∫ s over |t| ≤ w, t ≤ x
+    width = np.where(x > -w, m + w, 0.0)
+    return np.where(y >= 0, 2 * primitive(x) - band + y * width, band + y * width)
+
+
+class _Cells:
+    """Square cells ``[x0, x0 + width] × [y0, y0 + width]`` of one quadtree level."""
+
+    def __init__(self, x0, y0, width: float):
+        self.x0, self.y0, self.width = x0, y0, width
+
+    def children(self, keep) -> _Cells:
+        half = self.width / 2
+        x0, y0 = self.x0[keep], self.y0[keep]
+        return _Cells(
+            np.concatenate([x0, x0 + half, x0, x0 + half]),
+            np.concatenate([y0, y0, y0 + half, y0 + half]),
+            half,
+        )
+
+
+def _fluid_area(field: _SizeField, domain, cells: _Cells):
+    """Exact area of fluid (inside the half domain, outside the body) in each cell: additive, so
+    a cell's area is the sum of its children's."""
+    x0, y0, x1, y1 = cells.x0, cells.y0, cells.x0 + cells.width, cells.y0 + cells.width
+    area = _overlap(x0, x1, -domain.upstream, domain.downstream) * _overlap(y0, y1, 0.0, domain.lateral)
+    if field.is_plate:
+        solid = _overlap(x0, x1, -0.5, 0.5) * _overlap(y0, y1, -field.half_height, field.half_height)
+    else:
+        corner = _disc_corner_area
+        solid = np.zeros_like(area)
+        near = (x1 > -0.5) & (x0 < 0.5) & (y0 < 0.5)  # cells that may meet the disc
+        a0, a1, b0, b1 = x0[near], x1[near], y0[near], y1[near]
+        solid[near] = corner(a1, b1, 0.5) - corner(a0, b1, 0.5) - corner(a1, b0, 0.5) + corner(a0, b0, 0.5)
+    return np.maximum(area - solid, 0.0)
+
+
+def _area_over_h2(field: _SizeField, domain) -> tuple[float, bool]:
+    """A lower bound of ``∫ dA / h²`` over the fluid of the upper half domain, by an adaptive
+    quadtree, and whether the cell budget was exhausted (the bound is then far from sharp).
+
+    The cells lie on a lattice of spacing ``far`` anchored at the origin, the same for every
+    domain. A cell wider than ``REFINE · h`` at its centre is split; a leaf counts its fluid area over
+    ``(h(centre) + s r)²``, ``r`` its half-diagonal, an upper bound of ``h`` on the cell since ``h``
+    is ``s``-Lipschitz. A child's bound is at most its parent's and fluid areas add up, so
+    refining never lowers the sum, and a finer field (larger Re, a larger domain with its larger
+    boxes) refines the tree: the estimate is monotone in the sizes and the domain (as long as the
+    budget is not reached).
+    """
+    width = field.sizes.far
+    ix = np.arange(math.floor(-domain.upstream / width), math.ceil(domain.downstream / width))
+    iy = np.arange(0, math.ceil(domain.lateral / width))
+    if ix.size * iy.size > _MAX_LEAVES:  # h ≤ far everywhere: the fluid area over far² is a lower bound
+        solid = field.half_height if field.is_plate else math.pi / 8
+        area = (domain.upstream + domain.downstream) * domain.lateral - solid
+        return area / (width + field.slope * width / math.sqrt(2)) ** 2, True
+    gx, gy = np.meshgrid(ix * width, iy * width)
+    cells = _Cells(gx.ravel(), gy.ravel(), width)
+    total, leaves, saturated = 0.0, 0, False
+    while cells.x0.size:
+        area = _fluid_area(field, domain, cells)
+        half = cells.width / 2
+        h = field(cells.x0 + half, cells.y0 + half)
+        split = (area > 0) & (cells.width > REFINE * h)
+        if leaves + 4 * np.count_nonzero(split) > _MAX_LEAVES:
+            saturated, split = True, np.zeros_like(split)  # out of budget: the rest as leaves
+        leaf = (area > 0) & ~split
+        bound = h[leaf] + field.slope * half * math.sqrt(2)
+        total += float(np.sum(area[leaf] / bound**2))
+        leaves += int(np.count_nonzero(leaf))
+        cells = cells.children(split)
+    return total, saturated
+
+
+def _boundary_edges(spec: MeshSpec) -> float:
+    """Edges on the body and the outer boundary (whole domain): lengths over local sizes."""
+    body, domain, sizes = spec.body, spec.domain, spec.sizes
+    if isinstance(body, Plate):
+        on_body = 2 / sizes.wall + 2 * body.thickness / sizes.corner
+    else:
+        on_body = math.pi / sizes.wall
+    outer = 2 * (domain.upstream + domain.downstream) + 4 * domain.lateral
+    return on_body + outer / sizes.far
+
+
+def memory_bytes(unknowns: int) -> int:
+    """Peak resident memory of a steady solve and one complex LU with ``unknowns`` unknowns."""
+    return int(MEMORY_BASE + MEMORY_PER_UNKNOWN * unknowns)
+
+
+def estimate(spec: MeshSpec) -> Estimate:
+    """Triangles, Taylor–Hood unknowns and peak memory of the mesh of ``spec``, without meshing."""
+    field = _SizeField(spec)
+    domain = spec.domain
+    integral, saturated = _area_over_h2(field, domain)
+    triangles = 2 * DENSITY * integral  # the mesh is the upper half and its mirror image
+    unknowns = 4.5 * triangles + 2.5 * _boundary_edges(spec)
+    return Estimate(
+        triangles=round(triangles),
+        unknowns=round(unknowns),
+        memory_bytes=memory_bytes(unknowns),
+        lower_bound=saturated,
+    )
+
+
+def physical_memory() -> int | None:
+    """Bytes of physical memory (``os.sysconf``, else ``/proc/meminfo`` MemTotal), None if unknown."""
+    try:
+        pages, page_size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+        if pages > 0 and page_size > 0:
+            return pages * page_size
+    except (AttributeError, ValueError, OSError):
+        pass
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemTotal:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def check_fits(spec: MeshSpec, memory_available: int | None = None) -> Estimate:
+    """The estimate of ``spec``, or InputError (one line, before any meshing) if the mesh would
+    exceed :data:`MAX_UNKNOWNS` or its solve would need more than ``memory_available`` bytes
+    (default: :data:`SAFETY` × the physical memory; not checked if that is unknown)."""
+    found = estimate(spec)
+    if memory_available is None:
+        physical = physical_memory()
+        memory_available = None if physical is None else int(SAFETY * physical)
+    too_large = found.unknowns > MAX_UNKNOWNS
+    if too_large or (memory_available is not None and found.memory_bytes > memory_available):
+        available = "unknown" if memory_available is None else _gigabytes(memory_available)
+        raise InputError(
+            f"mesh too large: {found.describe()}, {available} available, at most "
+            f"{_thousands(MAX_UNKNOWNS)} unknowns allowed: use a coarser --mesh, a smaller --domain "
+            "or a lower --Re"
+        )
+    return found
