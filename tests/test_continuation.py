@@ -12,10 +12,13 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from fsistab.continuation import (
+    ContinuationSettings,
     CurveProblem,
+    SquareProblem,
     TestFunction,
     continuation,
     dense_bordered_solver,
+    newton,
     polyline_intersections,
 )
 from fsistab.errors import ConvergenceError, InputError
@@ -304,3 +307,66 @@ def test_arclength_weights_measure_the_step_in_the_weighted_components_only(pred
     values = [f.parameter_value for f in branch.folds[:2]]
     assert values == pytest.approx([1.0, -1.0], abs=1e-10)
     assert all(abs(f.point[0]) < 2e-10 for f in branch.folds)  # |F₁| < 1e-10 and x ≈ 0
+
+
+def test_newton_converges_quadratically_to_a_known_root():
+    """``y² - 2 = 0`` from 1: Newton's iterates 3/2, 17/12, 577/408 (errors squared each step)."""
+    problem = SquareProblem(lambda y: np.array([y[0] ** 2 - 2]), lambda y, rhs, reuse: rhs / (2 * y))
+    two_steps = newton(problem, [1.0], tol=1e-300, max_iterations=2)
+    assert not two_steps.converged and two_steps.point[0] == pytest.approx(17 / 12, rel=1e-15)
+    assert "after 2 iterations" in two_steps.reason
+    result = newton(problem, [1.0], tol=1e-14)
+    assert result.converged and result.point[0] == pytest.approx(math.sqrt(2), rel=1e-15)
+    errors = [abs(r) for r in result.residuals]
+    assert errors[:3] == pytest.approx([1.0, 0.25, 1 / 144], rel=1e-12)  # |y_k² - 2|
+    # a step criterion stops after the step, without evaluating G at the new point
+    by_step = newton(problem, [1.0], tol=0.0, small_step=lambda d, y: abs(d[0]) < 1e-12)
+    assert by_step.converged and len(by_step.residuals) == by_step.iterations
+    assert by_step.point[0] == pytest.approx(math.sqrt(2), rel=1e-15)
+
+
+def test_newton_reports_failures_instead_of_raising():
+    def residual(y):
+        if y[0] < 0:
+            raise ConvergenceError("left the admissible region")
+        return np.array([y[0] ** 2 + 1.0])  # no real root
+
+    result = newton(SquareProblem(residual, lambda y, rhs, reuse: rhs / (2 * y)), [0.5], max_iterations=5)
+    assert not result.converged and "admissible" in result.reason  # 0.5 → -0.75
+    singular = SquareProblem(lambda y: np.array([y[0] ** 2 + 1.0]), lambda y, rhs, reuse: rhs / 0.0)
+    with np.errstate(divide="ignore"):
+        assert "non-finite" in newton(singular, [0.5]).reason
+
+
+def test_pinned_curve_problem_is_a_point_of_the_curve():
+    """The circle x² + p² = 1 with p held at 0.6: x = 0.8 (from 1), p exactly 0.6 throughout."""
+    pinned = circle().pinned(1, 0.6)
+    result = newton(pinned, [1.0, 0.6], tol=1e-14)
+    assert result.converged and result.point[0] == pytest.approx(0.8, rel=1e-14)
+    assert result.point[1] == 0.6
+    # from off the held value the first step lands on it exactly
+    assert newton(pinned, [1.0, 0.5], tol=1e-14).point[1] == 0.6
+
+
+def test_settings_object_and_keyword_overrides_are_the_same():
+    settings_ = ContinuationSettings(step=0.05, max_step=0.3, max_points=12, predictor="secant")
+    by_object = continuation(circle(), [1.0, 0.0], [0.0, 1.0], settings_)
+    by_keywords = continuation(
+        circle(), [1.0, 0.0], [0.0, 1.0], step=0.05, max_step=0.3, max_points=12, predictor="secant"
+    )
+    assert np.array_equal(by_object.points, by_keywords.points) and len(by_object.points) == 12
+    overridden = continuation(circle(), [1.0, 0.0], [0.0, 1.0], settings_, max_points=5)
+    assert np.array_equal(overridden.points, by_object.points[:5])
+    for bad in (
+        {"step": math.nan},
+        {"max_points": 0},
+        {"max_points": 2.5},
+        {"min_step": 2.0, "step": 1.0},
+        {"tol": 0.0},
+        {"growth": 0.5},
+        {"predictor": "euler"},
+    ):
+        with pytest.raises(InputError):
+            ContinuationSettings(**bad)
+    with pytest.raises(InputError, match="unknown continuation settings"):
+        continuation(circle(), [1.0, 0.0], [0.0, 1.0], stepsize=0.1)

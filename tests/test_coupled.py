@@ -9,7 +9,7 @@ import pytest
 from fsistab.coupled import CoupledResidual, CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import ShiftedSolver
+from fsistab.linalg import FluidFactor, ShiftedSolver
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators, wall_coefficients, wall_coefficients_jacobian
 from fsistab.params import Cylinder, Flow, Plate, Solid
@@ -90,6 +90,21 @@ def test_bordered_umfpack_equals_superlu_on_coupled_matrix(plate_system):
     x_direct = ShiftedSolver(system, shift, backend="superlu").solve(b)
     assert np.linalg.norm(x_bordered - x_direct) < 1e-9 * np.linalg.norm(x_direct)
     residual = (system.jacobian + shift * system.mass) @ x_bordered - b
+    assert np.linalg.norm(residual) < 1e-9 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.3, 0.05 + 0.2j])
+def test_fluid_factor_inverts_the_assembled_blocks(plate_system, shift):
+    """The factorised ``J_ff + s M_f`` (assembled by operators.shifted_fluid_matrix, real for a real
+    shift) is the matrix of the SciPy blocks of fluid_operators: its solution has a residual at
+    round-off level in them."""
+    system, _ = plate_system
+    fluid = system.fluid
+    factor = FluidFactor(fluid, shift)
+    assert factor.dtype is (complex if complex(shift).imag else float)
+    b = np.random.default_rng(5).standard_normal(fluid.n_fluid)
+    x = factor.solve(b)
+    residual = (fluid.jff + shift * fluid.mff) @ x - b
     assert np.linalg.norm(residual) < 1e-9 * np.linalg.norm(b)
 
 

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from fsistab.coupled import CoupledSystem
-from fsistab.critical import divergence_point, flutter_point, stiffness_derivative
+from fsistab.coupled import CoupledSystem, stiffness_derivative
+from fsistab.critical import divergence_point, flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
 from fsistab.linalg import FactorCounter

@@ -1,18 +1,22 @@
+import logging
 import math
 
 import numpy as np
 import pytest
+from damage import KINDS, damage
 
 from fsistab.errors import CacheError, InputError
 from fsistab.mesh import (
     _PRESET_TABLE,
     build_mesh,
     high_reynolds_factor,
+    mesh_path,
     mesh_spec,
     mesh_statistics,
     preset_sizes,
 )
 from fsistab.params import Cylinder, Plate
+from fsistab.store import sidecar_path, verify_sidecar, write_sidecar
 
 
 def test_unknown_preset_refused():
@@ -47,17 +51,70 @@ def test_cylinder_perimeter_with_curved_elements():
     assert Integrate(CF(1) * ds("wall"), mesh) == pytest.approx(math.pi, rel=1e-6)
 
 
-def test_mesh_cache_roundtrip_and_corruption(tmp_path):
+@pytest.fixture(scope="module")
+def cached_cylinder_mesh(tmp_path_factory):
+    """The coarse cylinder mesh built once into a cache: (spec, its file's bytes, its sidecar's, mesh)."""
+    cache = tmp_path_factory.mktemp("cache")
     spec = mesh_spec(Cylinder(), "coarse", 40)
-    first = build_mesh(spec, tmp_path)
-    files = list((tmp_path / "meshes").iterdir())
-    assert [f.name for f in files] == [f"{spec.key()}.vol.gz"]  # no temporary file left
+    mesh = build_mesh(spec, cache)
+    path = mesh_path(spec, cache)
+    return spec, path.read_bytes(), sidecar_path(path).read_bytes(), mesh
+
+
+def _restore(cache, cached_cylinder_mesh):
+    spec, data, sidecar, _ = cached_cylinder_mesh
+    path = mesh_path(spec, cache)
+    path.parent.mkdir(parents=True)
+    path.write_bytes(data)
+    sidecar_path(path).write_bytes(sidecar)
+    return path
+
+
+def test_mesh_cache_roundtrip(tmp_path, cached_cylinder_mesh):
+    spec, _, _, first = cached_cylinder_mesh
+    path = _restore(tmp_path, cached_cylinder_mesh)
     second = build_mesh(spec, tmp_path)
     assert np.array_equal(first.ngmesh.Coordinates(), second.ngmesh.Coordinates())
     assert mesh_statistics(first) == mesh_statistics(second)
-    files[0].write_bytes(b"not a mesh")
-    with pytest.raises(CacheError):
-        build_mesh(spec, tmp_path)
+    # the mesh and its checksum beside it, no temporary file left
+    assert sorted(f.name for f in path.parent.iterdir()) == [path.name, sidecar_path(path).name]
+    fresh = tmp_path / "fresh"
+    build_mesh(spec, fresh)
+    assert sorted(f.name for f in (fresh / "meshes").iterdir()) == [path.name, sidecar_path(path).name]
+
+
+MESH_DAMAGE = (*KINDS[:3], "garbage", "no_sidecar", "bad_sidecar", "gzip_with_fixed_sidecar")
+
+
+@pytest.mark.parametrize("kind", MESH_DAMAGE)
+def test_a_damaged_cached_mesh_is_reported_and_rebuilt(tmp_path, cached_cylinder_mesh, caplog, kind):
+    """Netgen crashes the process on a damaged ``.vol.gz``: the checksum and gzip checks run first,
+    in this process, and the entry is rebuilt. ``gzip_with_fixed_sidecar``: a cut gzip stream whose
+    sidecar was rewritten to match, caught by reading the whole stream."""
+    spec, data, _, first = cached_cylinder_mesh
+    path = _restore(tmp_path, cached_cylinder_mesh)
+    if kind in KINDS:
+        damage(path, kind)
+    elif kind == "garbage":
+        path.write_bytes(b"not a mesh")
+    elif kind == "no_sidecar":
+        sidecar_path(path).unlink()
+    elif kind == "bad_sidecar":
+        sidecar_path(path).write_text("{")
+    else:
+        path.write_bytes(data[: len(data) - 100])
+        write_sidecar(path)
+        with pytest.raises(CacheError, match="not a complete gzip file"):
+            verify_sidecar(path)
+    if kind not in ("no_sidecar", "bad_sidecar"):
+        assert path.read_bytes() != data  # the damage is real
+    with caplog.at_level(logging.WARNING, logger="fsistab"):
+        mesh = build_mesh(spec, tmp_path)
+    assert str(path) in caplog.text and "recomputing" in caplog.text
+    assert mesh.nv == first.nv and np.array_equal(mesh.ngmesh.Coordinates(), first.ngmesh.Coordinates())
+    assert path.read_bytes() == data  # rebuilt identically, and verified from now on
+    verify_sidecar(path)
+    assert path.with_name(path.name + ".damaged").exists()
 
 
 def test_mesh_key_depends_on_every_input():

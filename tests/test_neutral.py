@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from fsistab.coupled import CoupledSystem
-from fsistab.critical import flutter_point
+from fsistab.critical import flutter_point, mass_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
-from fsistab.neutral import _aero_rows, continue_neutral_curve, divergence_curve
+from fsistab.neutral import continue_neutral_curve, divergence_curve, divergence_velocity
 from fsistab.params import Solid
 
 
@@ -34,7 +34,8 @@ def test_mass_ratio_derivative_matches_finite_difference(plate_operators):
         return system.jacobian @ q + 1j * omega * (system.mass @ q)
 
     fd = (apply(100 * math.exp(eps)) - apply(100 * math.exp(-eps))) / (2 * eps)
-    exact = _aero_rows(CoupledSystem(plate_operators, Solid(mass_ratio=100, reduced_velocity=4.5)), q, omega)
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=100, reduced_velocity=4.5))
+    exact = mass_derivative(system, q, omega)
     assert np.linalg.norm(fd - exact) < 1e-7 * np.linalg.norm(fd)
 
 
@@ -85,6 +86,22 @@ def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
     u = curve.reduced_velocities
     assert np.all(np.diff(u) < 0)  # U* keeps falling through the fold: U*_F(m) is double-valued
     _assert_neutral(plate_operators, fold.mass_ratio, fold.reduced_velocity, fold.frequency)
+
+
+def test_divergence_velocity_formula():
+    """U*_D = √(m r_θ²/(dC_M/dθ)) (MODEL.md §8): thin-airfoil slope π/2, m = 4, r_θ = 1/2 gives
+    √(2/π); broadcasting; no divergence (inf) where the slope restores; bad input refused."""
+    assert divergence_velocity(math.pi / 2, 0.5, 4.0) == pytest.approx(math.sqrt(2 / math.pi), rel=1e-15)
+    grid = divergence_velocity(np.array([[1.0], [4.0], [-2.0], [0.0]]), 0.5, np.array([4.0, 16.0]))
+    assert grid.shape == (4, 2)
+    assert np.allclose(grid[:2], [[1.0, 2.0], [0.5, 1.0]], rtol=1e-15)
+    assert np.all(np.isposinf(grid[2:]))
+    bad_inputs = [(math.nan, 0.5, 4), (1.0, math.inf, 4), (1.0, -0.5, 4), (1.0, 0.5, -4), (1.0, 0.5, 0)]
+    for bad in bad_inputs:
+        with pytest.raises(InputError):
+            divergence_velocity(*bad)
+    with pytest.raises(InputError, match="mass ratio"):
+        divergence_velocity(1.0, 0.5, np.array([1.0, np.nan]))
 
 
 def test_divergence_curve_and_bad_input(plate_operators):
@@ -253,3 +270,30 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
     assert ds.attrs["case"] == "test" and ds.sizes["point"] == 5
     assert np.allclose(ds.curve_reduced_velocity.values, [p.reduced_velocity for p in curve.points])
     assert np.allclose(ds.divergence_reduced_velocity.values, first.divergence_velocities)
+
+
+def test_determinant_formulation_points_and_curve():
+    """f(ω, v, p) = (ω² - p) + i(vω - 1): neutral points ω = √p, v = 1/√p. Held p = 4 gives (2, ½),
+    held ω = 3 gives (v, p) = (⅓, 9); the curve through them keeps ω² = p and vω = 1."""
+    from fsistab.continuation import continuation, newton
+    from fsistab.neutral_point import DeterminantProblem
+
+    def characteristic(y, gradient):
+        omega, v, p = y
+        value = complex(omega**2 - p, v * omega - 1)
+        return (value, np.array([2 * omega + 1j * v, 1j * omega, -1.0])) if gradient else value
+
+    problem = DeterminantProblem(characteristic)
+    at_p = newton(problem.at(2, 4.0), [1.5, 0.8, 4.0], tol=1e-14)
+    assert at_p.converged and at_p.point == pytest.approx([2.0, 0.5, 4.0], rel=1e-14)
+    at_omega = newton(problem.at(0, 3.0), [3.0, 0.5, 7.0], tol=1e-14)
+    assert at_omega.converged and at_omega.point == pytest.approx([3.0, 1 / 3, 9.0], rel=1e-14)
+    # a general border (not a held component): the 3×3 system of F_y = [[2ω, 0, -1], [v, ω, 0]]
+    y, border, rhs = np.array([1.5, 0.8, 4.0]), np.array([0.0, 0.6, 0.8]), np.array([0.1, -0.2, 0.3])
+    delta = problem.solve(y, border, rhs, False)
+    assert 2 * 1.5 * delta[0] - delta[2] == pytest.approx(0.1, rel=1e-14)
+    assert 0.8 * delta[0] + 1.5 * delta[1] == pytest.approx(-0.2, rel=1e-14)
+    assert border @ delta == pytest.approx(0.3, rel=1e-14)
+    branch = continuation(problem.curve(), at_p.point, [0.0, 0.0, 1.0], step=0.2, max_points=15)
+    omega, v, p = branch.points.T
+    assert p[-1] > 6 and np.allclose(omega**2, p, rtol=1e-9) and np.allclose(v * omega, 1.0, rtol=1e-9)

@@ -1,13 +1,17 @@
+import logging
 import math
+import shutil
 
 import numpy as np
 import pytest
+from damage import KINDS, damage
 
+from fsistab import store
 from fsistab.errors import CacheError
 from fsistab.forces import aerodynamic_coefficients, recirculation_length, surface_coefficients
 from fsistab.mesh import mesh_spec
 from fsistab.params import Cylinder, Flow, Plate
-from fsistab.steady import solve_steady, steady_path
+from fsistab.steady import load_steady, solve_steady, steady_key, steady_path
 
 
 def test_symmetric_plate_has_no_lift_or_moment(plate_2900):
@@ -58,23 +62,67 @@ def test_lift_is_smooth_in_alpha0():
     assert slope_2 == pytest.approx(slope_1, rel=1e-3)
 
 
-def test_cache_reuse_and_refusal(tmp_path, plate_coarse_spec):
+@pytest.fixture(scope="module")
+def cylinder_cache(tmp_path_factory):
+    """The coarse cylinder at Re 40 solved once into a cache: (spec, cache dir, steady state)."""
+    cache = tmp_path_factory.mktemp("cache")
     spec = mesh_spec(Cylinder(), "coarse", 40)
-    first = solve_steady(spec, Flow(40), cache_dir=tmp_path)
-    again = solve_steady(spec, Flow(40), cache_dir=tmp_path)
+    return spec, cache, solve_steady(spec, Flow(40), cache_dir=cache)
+
+
+def test_cache_reuse(cylinder_cache):
+    spec, cache, first = cylinder_cache
+    again = solve_steady(spec, Flow(40), cache_dir=cache)
     assert again.from_cache and not first.from_cache
     assert np.array_equal(first.state.vec.FV().NumPy(), again.state.vec.FV().NumPy())
     assert aerodynamic_coefficients(again).drag == aerodynamic_coefficients(first).drag
-    path = steady_path(spec, Flow(40), tmp_path)
+    path = steady_path(spec, Flow(40), cache)
     assert [p.name for p in path.parent.iterdir()] == [path.name]  # no partial file
-    # a file under this key but describing another computation is refused
-    other = steady_path(spec, Flow(41), tmp_path)
-    path.rename(other)
-    with pytest.raises(CacheError, match="does not match"):
-        solve_steady(spec, Flow(41), cache_dir=tmp_path)
-    other.write_bytes(b"\x89HDF garbage")
-    with pytest.raises(CacheError, match="corrupt"):
-        solve_steady(spec, Flow(41), cache_dir=tmp_path)
+
+
+@pytest.mark.parametrize("kind", [*KINDS, "other_key", "wrong_size"])
+def test_a_damaged_steady_state_is_reported_and_recomputed(cylinder_cache, tmp_path, caplog, kind):
+    """The issue's example: 4 KiB zeroed in a cached state gave C_D = 3.03 instead of 0.405. Every
+    damage is caught, reported, the entry moved aside and recomputed to the original state."""
+    import h5py
+
+    spec, cache, first = cylinder_cache
+    shutil.copytree(cache, tmp_path, dirs_exist_ok=True)
+    path = steady_path(spec, Flow(40), tmp_path)
+    original = first.state.vec.FV().NumPy().copy()
+    if kind in KINDS:
+        damage(path, kind, variable="state")
+    else:  # a well-formed file (valid checksum) that is not this computation's
+        ds = store.read_dataset(path)
+        if kind == "other_key":
+            ds = ds.assign_attrs(key=steady_key(spec, Flow(41)))
+        else:
+            ds = ds.isel(dof=slice(0, 100))
+        path.unlink()
+        store.write_dataset(ds, path)
+    if kind in ("flipped", "zeroed", "edited"):
+        with h5py.File(path, "r") as f:  # the damage reaches the values a reader would use
+            assert not np.array_equal(f["state"][...], original)
+    with caplog.at_level(logging.WARNING, logger="fsistab"):
+        again = solve_steady(spec, Flow(40), cache_dir=tmp_path)
+    assert not again.from_cache
+    (warning,) = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert str(path) in warning and "recomputing" in warning and "\n" not in warning
+    assert np.allclose(again.state.vec.FV().NumPy(), original, rtol=0, atol=1e-10)
+    drag = aerodynamic_coefficients(first).drag
+    assert aerodynamic_coefficients(again).drag == pytest.approx(drag, abs=1e-10)
+    assert path.with_name(path.name + ".damaged").exists()
+    assert solve_steady(spec, Flow(40), cache_dir=tmp_path).from_cache  # the new entry is sound
+
+
+def test_load_steady_refuses_a_damaged_file_in_one_line(cylinder_cache, tmp_path):
+    spec, cache, _ = cylinder_cache
+    shutil.copytree(cache, tmp_path, dirs_exist_ok=True)
+    path = steady_path(spec, Flow(40), tmp_path)
+    damage(path, "edited", variable="state")
+    with pytest.raises(CacheError, match="checksum") as error:
+        load_steady(path, spec, Flow(40), tmp_path)
+    assert str(path) in str(error.value) and "\n" not in str(error.value)
 
 
 def test_recirculation_behind_cylinder_grows_with_reynolds(cylinder_coarse_40):

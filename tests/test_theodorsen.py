@@ -442,21 +442,23 @@ def test_cli_bad_input_one_line_error(tmp_path, args, message):
 
 
 def _write_viscous_curves(out, factor):
-    """Stand-in for `fsistab neutral` output: the Theodorsen flutter boundary × factor."""
-    from fsistab.neutral import NeutralPoint, curve_dataset
+    """Stand-in for `fsistab neutral` output (its map dataset, written by either method): the
+    Theodorsen flutter boundary × factor."""
+    from fsistab.neutral import MapCurve, NeutralMap, NeutralPoint, neutral_map_dataset
     from fsistab.store import write_dataset
 
     attrs = {"reynolds": 2900.0, "alpha0_deg": 0.0, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}
-    attrs |= {"r_theta": 0.289, "kind": "flutter"}
-    for direction, masses in (("down", [1000.0, 300.0, 100.0]), ("up", [1000.0, 3000.0])):
-        points = [
-            NeutralPoint(
-                m, factor * flutter_points(PLATE.with_mass_ratio(m))[0].reduced_velocity, 0.2, np.zeros(2), 0
-            )
-            for m in masses
-        ]
-        ds = curve_dataset(points, {**attrs, "direction": -1 if direction == "down" else 1}, complete=True)
-        write_dataset(ds, out / f"neutral_plate_Re2900_a0_curve0_{direction}.nc")
+    attrs |= {"r_theta": 0.289}
+    points = tuple(
+        NeutralPoint(
+            m, factor * flutter_points(PLATE.with_mass_ratio(m))[0].reduced_velocity, 0.2, np.zeros(2), 0
+        )
+        for m in (100.0, 300.0, 1000.0, 3000.0)
+    )
+    curve = MapCurve("flutter", 1000.0, "onset", points, (), ("m_bound", "m_bound"))
+    masses = np.geomspace(10.0, 1e4, 20)
+    result = NeutralMap((curve,), masses, np.sqrt(masses * 0.289**2 / 1.562), 1.562, (), 0)
+    write_dataset(neutral_map_dataset(result, attrs), out / "neutral_plate_Re2900_a0_map.nc")
 
 
 def test_cli_neutral_curves_and_viscous_comparison(tmp_path):

@@ -1,7 +1,8 @@
 """Aerodynamic transfer functions (fsistab.transfer): exact elimination of the fluid, its derivative,
-the rational approximation and its linearisation, the viscous Theodorsen function."""
+the neutral point of det T(iω; U*), the viscous Theodorsen function."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -12,22 +13,17 @@ from fsistab.coupled import CoupledSystem
 from fsistab.critical import flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
-from fsistab.linalg import FluidFactor
+from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import fluid_operators
 from fsistab.params import Solid
 from fsistab.slopes import static_slopes
-from fsistab.theodorsen import theodorsen_function
 from fsistab.transfer import (
-    TransferFunction,
-    _solid_parts,
-    aaa,
+    TransferDeterminant,
     aerodynamic_loads,
     characteristic_matrix,
-    coupled_eigenvalues,
-    default_frequencies,
     exact_transfer,
-    sample_transfer,
     transfer_flutter_point,
+    viscous_theodorsen_dataset,
 )
 
 
@@ -103,69 +99,28 @@ def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_operator
     assert point.factorisations == point.iterations
 
 
-def test_aaa_recovers_theodorsen_function():
-    """Theodorsen's C(k) (a branch cut on the negative real s axis) is smooth on the imaginary axis:
-    AAA on s = iω, k = ω/2 reproduces it between samples."""
-    omega = np.geomspace(1e-3, 40.0, 120)
-    values = theodorsen_function(omega / 2)[:, None, None] * np.ones((1, 3, 4))
-    fit = aaa(np.concatenate([1j * omega, -1j * omega]), np.concatenate([values, values.conj()]), 1e-13)
-    test = np.random.default_rng(1).uniform(2e-3, 35.0, 50)
-    error = np.abs(fit(1j * test)[:, 0, 0] - theodorsen_function(test / 2)).max()
-    assert error < 1e-8
-    assert len(fit.support) < 60
-
-
-def test_rational_model_eigenvalues_match_a_state_space_realisation():
-    """With G(s) = G0 + R/(s - p) + conj(R)/(s - p̄) (exactly rational), the eigenvalues of the
-    linearised T(σ) equal those of the equivalent state-space pencil; poles of G are not returned."""
-    rng = np.random.default_rng(7)
-    g0 = rng.normal(size=(3, 4))
-    g0[:, 0] = 0.0
-    u, v = rng.normal(size=3) + 1j * rng.normal(size=3), rng.normal(size=4) + 1j * rng.normal(size=4)
-    v[0] = 0.0
-    pole = -0.1 + 2.0j
-    theta0, loads0 = 0.0, np.array([0.3, 0.0, 0.0])
-
-    def transfer(s):
-        return g0 + np.outer(u, v) / (s - pole) + np.outer(u.conj(), v.conj()) / (s - pole.conjugate())
-
-    omega = np.linspace(0.0, 10.0, 80)
-    tf = TransferFunction(
-        omega, np.array([transfer(1j * w) for w in omega]), loads0, theta0, {"tolerance": 1e-10}
-    )
-    assert np.abs(tf(0.3 + 1.7j) - transfer(0.3 + 1.7j)).max() < 1e-8
-    solid = Solid(mass_ratio=2.0, reduced_velocity=1.5)
-    p0, coupling, a = _solid_parts(solid, theta0, loads0)
-    n = len(a)
-    # x' part: (P0 - E G0 + sI) x - E u ξ1 - E ū ξ2 = 0,  (s - p) ξ1 = vᵀx,  (s - p̄) ξ2 = v̄ᵀx
-    k0 = np.zeros((n + 2, n + 2), dtype=complex)
-    k0[:n, :n] = p0 - coupling @ g0[:, a]
-    k0[:n, n] = -coupling @ u
-    k0[:n, n + 1] = -coupling @ u.conj()
-    k0[n, :n], k0[n, n] = -v[a], -pole
-    k0[n + 1, :n], k0[n + 1, n + 1] = -v.conj()[a], -pole.conjugate()
-    expected = np.linalg.eigvals(-k0)
-    expected = np.sort_complex(expected[expected.imag >= -1e-9])
-    found = np.sort_complex(coupled_eigenvalues(tf, solid, radius=50.0))
-    assert len(found) == len(expected)
-    assert np.abs(found - expected).max() < 1e-7
-
-
-def test_sampled_transfer_reports_its_prediction_errors(plate_operators):
-    """Adaptive sampling stops at max_samples and records a measured error for every added sample."""
-    tf = sample_transfer(plate_operators, omega_max=2.0, tolerance=1e-6, max_samples=12)
-    assert len(tf.frequencies) == 12
-    assert len(tf.attrs["prediction_errors"]) == 12 - 10
-    assert tf.attrs["factorisations"] == 12
-    exact = exact_transfer(plate_operators, 1j * tf.frequencies[3])
-    assert np.abs(tf(1j * tf.frequencies[3]) - exact).max() < 1e-8 * np.abs(exact).max()
+@pytest.mark.parametrize("dofs", [("heave", "pitch"), ("pitch",)])
+def test_determinant_gradient_matches_finite_differences(plate_operators, dofs):
+    """∂ det T/∂(ω, log U*, log m) of the transfer formulation against centred differences of det T
+    (∂/∂ log m is new: every aerodynamic term of T scales with 1/m)."""
+    fluid, eps = plate_operators, 1e-5
+    determinant = TransferDeterminant(fluid, Solid(1000.0, 4.5, dofs=dofs), FactorCounter())
+    y = np.array([0.19, math.log(4.4), math.log(300.0)])
+    _, gradient = determinant.characteristic(y, True)
+    for index in range(3):
+        up, down = y.copy(), y.copy()
+        up[index] += eps
+        down[index] -= eps
+        fd = (determinant.characteristic(up, False) - determinant.characteristic(down, False)) / (2 * eps)
+        assert abs(fd - gradient[index]) < 1e-6 * abs(gradient[index])
 
 
 def test_bad_input_is_refused_before_any_factorisation(plate_operators):
-    with pytest.raises(InputError, match="tolerance"):
-        sample_transfer(plate_operators, tolerance=2.0)
-    with pytest.raises(InputError, match="largest frequency"):
-        default_frequencies(-1.0)
+    counter = FactorCounter()
+    for frequencies in ([], [0.5, -0.1], [0.5, float("nan")], [0.0]):
+        with pytest.raises(InputError, match="frequencies"):
+            viscous_theodorsen_dataset(plate_operators, frequencies, counter=counter)
+    assert counter.count == 0
 
 
 def test_transfer_command_json(tmp_path, monkeypatch):

@@ -17,6 +17,7 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.params import Solid
+from fsistab.store import write_dataset
 from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
     AxisSample,
@@ -24,6 +25,7 @@ from fsistab.transfer_map import (
     characteristic_function,
     neutral_roots,
     roots_from_loads,
+    samples_dataset,
     second_order_loads,
     transfer_neutral_map,
     unstable_counts,
@@ -193,9 +195,10 @@ def test_bad_input_is_refused_before_any_factorisation(fluid, tmp_path):
     ):
         with pytest.raises(InputError):
             transfer_neutral_map(fluid, Solid(), counter=counter, **kwargs)
-    bad = tmp_path / "samples.nc"
-    bad.write_bytes(b"not netcdf")
-    with pytest.raises(CacheError):
+    bad = tmp_path / "samples.nc"  # samples of another flow (a damaged file is recomputed: test_store)
+    other_flow = {"reynolds": 100.0, "alpha0_deg": 0.0, "mesh_key": "x"}
+    write_dataset(samples_dataset([AxisSample(0.5, np.ones((3, 4)), np.ones((3, 4)))], other_flow), bad)
+    with pytest.raises(CacheError, match="another computation"):
         transfer_neutral_map(fluid, Solid(), samples_path=bad, counter=counter)
     assert counter.count == 0
     with pytest.raises(InputError):

@@ -28,6 +28,12 @@ Detection between consecutive points, each localised on the curve by a bracketin
   Jacobian vanishes, two neutral curves crossing, ...), located where ``g = 0``;
 - bounds on components of ``y``: the curve stops there (at the bound itself with ``clip``).
 
+The corrector is :func:`newton`, the one Newton of the package: it solves any square system
+``G(y) = 0`` given ``G`` and a solver of ``G_y δ = rhs`` (:class:`SquareProblem`), e.g. a neutral
+point at a fixed point of its parameter plane (:meth:`CurveProblem.pinned`: ``F(y) = 0`` with one
+component of ``y`` held, the bordered solve with border ``e_k``). The settings of a continuation
+are one frozen, validated :class:`ContinuationSettings`.
+
 Steps grow by ``growth`` after a corrector that needed at most ``fast_iterations`` iterations,
 halve after a failure or, with the tangent predictor, when the step's chord or the new tangent
 turns by more than ``max_turn`` from the tangent (this also refuses most jumps across an S-shaped
@@ -40,7 +46,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
+from numbers import Integral, Real
 
 import numpy as np
 
@@ -48,6 +55,90 @@ from fsistab.errors import ConvergenceError, InputError
 
 Residual = Callable[[np.ndarray], np.ndarray]
 BorderedSolve = Callable[[np.ndarray, np.ndarray, np.ndarray, bool], np.ndarray]
+SquareSolve = Callable[[np.ndarray, np.ndarray, bool], np.ndarray]
+
+# what a failed evaluation of the residual or of a Newton step may raise: the iteration stops there
+_RESIDUAL_ERRORS = (ConvergenceError, FloatingPointError, ValueError)
+_SOLVE_ERRORS = (ConvergenceError, np.linalg.LinAlgError, FloatingPointError)
+
+
+@dataclass(frozen=True)
+class SquareProblem:
+    """A square system ``G(y) = 0``, ``G: R^N → R^N``, and ``solve(y, rhs, reuse)`` returning ``δ``
+    with ``G_y(y) δ = rhs`` (``reuse`` as for :class:`CurveProblem`)."""
+
+    residual: Residual
+    solve: SquareSolve
+
+
+@dataclass(frozen=True)
+class NewtonResult:
+    """What :func:`newton` did: the last ``point``, whether it ``converged``, the number of Newton
+    steps (``iterations``, one solve each), ``residuals`` ``‖G‖`` at the points of ``path`` (every
+    point where ``G`` was evaluated, in order), the last step ``δ`` (``None`` before the first)
+    and, on failure, the ``reason``."""
+
+    point: np.ndarray
+    converged: bool
+    iterations: int
+    residuals: tuple[float, ...]
+    last_step: np.ndarray | None
+    reason: str = ""
+    path: tuple[np.ndarray, ...] = ()
+
+
+def newton(
+    problem: SquareProblem,
+    start: np.ndarray,
+    *,
+    tol: float = 1e-10,
+    max_iterations: int = 10,
+    chord: bool = False,
+    small_step: Callable[[np.ndarray, np.ndarray], bool] | None = None,
+) -> NewtonResult:
+    """Newton's method on ``G(y) = 0`` from ``start``: converged when ``‖G(y)‖ < tol`` or, if given,
+    when ``small_step(δ, y_new)`` holds after a step (a step-size criterion evaluates ``G`` once
+    less). With ``chord`` the solver may reuse its factorisation (``reuse=True``) while the residual
+    falls at least tenfold per iteration. Never raises for a failed iteration: an exception of the
+    residual (:class:`ConvergenceError`, ``FloatingPointError``, ``ValueError``) or of the solve
+    (:class:`ConvergenceError`, ``LinAlgError``, ``FloatingPointError``), a non-finite value, or
+    ``max_iterations`` steps without convergence return ``converged=False`` with the reason.
+    """
+    y = np.array(start, dtype=float)
+    residuals: list[float] = []
+    path: list[np.ndarray] = []
+    step: np.ndarray | None = None
+    previous = math.inf
+
+    def result(converged: bool, iterations: int, reason: str = "") -> NewtonResult:
+        return NewtonResult(y, converged, iterations, tuple(residuals), step, reason, tuple(path))
+
+    for iteration in range(max_iterations + 1):
+        try:
+            residual = np.asarray(problem.residual(y), dtype=float)
+        except _RESIDUAL_ERRORS as error:
+            return result(False, iteration, str(error))
+        norm = float(np.linalg.norm(residual))
+        residuals.append(norm)
+        path.append(y)
+        if not math.isfinite(norm):
+            return result(False, iteration, "non-finite residual")
+        if norm < tol:
+            return result(True, iteration)
+        if iteration == max_iterations:
+            break
+        reuse = chord and iteration > 0 and norm <= 0.1 * previous
+        previous = norm
+        try:
+            step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
+        except _SOLVE_ERRORS as error:
+            return result(False, iteration, str(error))
+        if not np.all(np.isfinite(step)):
+            return result(False, iteration, "non-finite Newton step")
+        y = y + step
+        if small_step is not None and small_step(step, y):
+            return result(True, iteration + 1)
+    return result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
 
 
 @dataclass(frozen=True)
@@ -77,6 +168,23 @@ class CurveProblem:
     ) -> CurveProblem:
         """A small problem with a dense ``(N-1) × N`` Jacobian ``[F_x F_p]``."""
         return cls(residual, dense_bordered_solver(jacobian), parameter, weights)
+
+    def pinned(self, index: int, value: float) -> SquareProblem:
+        """The square system ``F(y) = 0, y[index] = value`` (one point of the curve, e.g. a neutral
+        point at a fixed mass ratio), solved with the bordered solver and border ``e_index``. The
+        held component's step is set exactly (no round-off drift of a held parameter)."""
+
+        def residual(y: np.ndarray) -> np.ndarray:
+            return np.append(self.residual(y), y[index] - value)
+
+        def solve(y: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+            border = np.zeros(len(y))
+            border[index] = 1.0
+            delta = np.array(self.solve(y, border, rhs, reuse), dtype=float)
+            delta[index] = rhs[-1]
+            return delta
+
+        return SquareProblem(residual, solve)
 
 
 def dense_bordered_solver(jacobian: Callable[[np.ndarray], np.ndarray]) -> BorderedSolve:
@@ -194,31 +302,16 @@ class _Curve:
     max_iterations: int
 
     def correct(self, guess: np.ndarray, anchor: np.ndarray, direction: np.ndarray, step: float):
-        """Newton on ``F(y) = 0, ⟨direction, y - anchor⟩_W = step`` from ``guess``."""
+        """:func:`newton` (chord) on ``F(y) = 0, ⟨direction, y - anchor⟩_W = step`` from ``guess``."""
         border = self.weights * direction
-        y, previous = np.array(guess, dtype=float), math.inf
-        for iteration in range(self.max_iterations + 1):
-            try:
-                residual = np.append(self.problem.residual(y), border @ (y - anchor) - step)
-            except (ConvergenceError, FloatingPointError, ValueError) as error:
-                raise _StepFailure(str(error)) from error
-            norm = float(np.linalg.norm(residual))
-            if not math.isfinite(norm):
-                raise _StepFailure("non-finite residual")
-            if norm < self.tol:
-                return y, iteration
-            if iteration == self.max_iterations:
-                break
-            reuse = iteration > 0 and norm <= 0.1 * previous
-            previous = norm
-            try:
-                delta = self.problem.solve(y, border, -residual, reuse)
-            except (ConvergenceError, np.linalg.LinAlgError, FloatingPointError) as error:
-                raise _StepFailure(str(error)) from error
-            if not np.all(np.isfinite(delta)):
-                raise _StepFailure("non-finite Newton step")
-            y = y + delta
-        raise _StepFailure(f"residual {norm:.1e} after {self.max_iterations} iterations")
+        system = SquareProblem(
+            lambda y: np.append(self.problem.residual(y), border @ (y - anchor) - step),
+            lambda y, rhs, reuse: self.problem.solve(y, border, rhs, reuse),
+        )
+        result = newton(system, guess, tol=self.tol, max_iterations=self.max_iterations, chord=True)
+        if not result.converged:
+            raise _StepFailure(result.reason)
+        return result.point, result.iterations
 
     def tangent(self, y: np.ndarray, previous: np.ndarray, reuse: bool) -> np.ndarray:
         """Unit tangent at ``y`` oriented along ``previous`` (bordered solve with ``W previous``)."""
@@ -326,48 +419,95 @@ def _excess(index: int, bound: float):
     return lambda y, _chord: float(y[index] - bound)
 
 
+@dataclass(frozen=True)
+class ContinuationSettings:
+    """How :func:`continuation` steps along a curve (module doc), validated on construction.
+
+    ``step`` the first ``Δs``, kept in ``[min_step, max_step]``, multiplied by ``growth`` after a
+    corrector of at most ``fast_iterations`` iterations; ``max_points`` recorded points (the start
+    included); ``predictor`` ``"tangent"`` (one bordered solve per point, exact fold brackets) or
+    ``"secant"`` (no extra solve); ``max_turn`` (rad) the largest turn of the direction in one
+    step; ``tol``/``max_iterations`` the corrector's (:func:`newton`); ``locate_tol``/
+    ``max_locate_iterations`` those of the localisation of folds, events and bounds; ``clip`` ends
+    a curve at a bound itself (else at the first point beyond it); ``detect_folds``,
+    ``locate_folds`` report turning points in the parameter and locate them on the curve;
+    ``correct_start`` corrects the start onto the curve first.
+    """
+
+    step: float = 0.1
+    min_step: float = 1e-4
+    max_step: float = 1.0
+    max_points: int = 200
+    predictor: str = "tangent"
+    tol: float = 1e-10
+    max_iterations: int = 10
+    fast_iterations: int = 3
+    growth: float = 1.5
+    max_turn: float = 0.5
+    locate_tol: float = 1e-10
+    max_locate_iterations: int = 40
+    clip: bool = True
+    detect_folds: bool = True
+    locate_folds: bool = True
+    correct_start: bool = True
+
+    def __post_init__(self):
+        if self.predictor not in ("tangent", "secant"):
+            raise InputError(f"predictor must be 'tangent' or 'secant', not {self.predictor!r}")
+        for name in ("step", "min_step", "max_step", "growth", "max_turn", "tol", "locate_tol"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+                raise InputError(f"continuation setting {name} must be a finite number, got {value!r}")
+        for name in ("max_points", "max_iterations", "fast_iterations", "max_locate_iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Integral):
+                raise InputError(f"continuation setting {name} must be an integer, got {value!r}")
+        if not (0 < self.min_step <= self.step <= self.max_step) or self.growth < 1 or self.max_points < 1:
+            raise InputError("steps must satisfy 0 < min_step ≤ step ≤ max_step, growth ≥ 1, max_points ≥ 1")
+        if self.tol <= 0 or self.locate_tol <= 0 or self.max_turn <= 0:
+            raise InputError("tolerances and max_turn must be positive")
+        if self.max_iterations < 0 or self.fast_iterations < 0 or self.max_locate_iterations < 1:
+            raise InputError("iteration counts must be non-negative (max_locate_iterations ≥ 1)")
+
+
 def continuation(
     problem: CurveProblem,
     start: np.ndarray,
     direction: np.ndarray,
+    settings: ContinuationSettings | None = None,
     *,
-    step: float = 0.1,
-    min_step: float = 1e-4,
-    max_step: float = 1.0,
-    max_points: int = 200,
-    predictor: str = "tangent",
     bounds: Mapping[int, tuple[float, float]] | None = None,
-    clip: bool = True,
     events: Mapping[str, TestFunction | Callable[[np.ndarray], float]] | None = None,
-    detect_folds: bool = True,
-    locate_folds: bool = True,
-    tol: float = 1e-10,
-    max_iterations: int = 10,
-    fast_iterations: int = 3,
-    growth: float = 1.5,
-    max_turn: float = 0.5,
-    locate_tol: float = 1e-10,
-    max_locate_iterations: int = 40,
-    correct_start: bool = True,
     record: Callable[[np.ndarray], np.ndarray] | None = None,
     on_point: Callable[[np.ndarray, int], None] | None = None,
     on_event: Callable[[Event], None] | None = None,
+    **overrides,
 ) -> Branch:
     """Follow the curve ``F(y) = 0`` of ``problem`` from ``start`` (pseudo-arclength, module doc).
 
     ``direction`` orients the first step (e.g. ``+e_p``: increasing parameter); the first
-    predictor is the tangent oriented along it. ``predictor`` is ``"tangent"`` (one bordered solve
-    per point, exact fold brackets) or ``"secant"`` (no extra solve). ``bounds`` maps component
-    indices to ``(low, high)``; leaving them stops the curve, at the bound itself when ``clip``.
-    ``events`` maps names to test functions ``g(y)``. ``record(y)`` selects what is stored per
-    point (default all of ``y``; the continuation itself keeps only the last three points);
-    ``on_point(y, iterations)`` is called for every accepted point, after ``on_event`` for the
-    events found on its step.
+    predictor is the tangent oriented along it. ``settings`` (default :class:`ContinuationSettings`)
+    say how to step; keyword ``overrides`` (``step=0.05``, ...) replace single fields of it.
+    ``bounds`` maps component indices to ``(low, high)``; leaving them stops the curve, at the
+    bound itself when ``settings.clip``. ``events`` maps names to test functions ``g(y)``.
+    ``record(y)`` selects what is stored per point (default all of ``y``; the continuation itself
+    keeps only the last three points); ``on_point(y, iterations)`` is called for every accepted
+    point, after ``on_event`` for the events found on its step.
 
     Raises :class:`~fsistab.errors.ConvergenceError` when the start point cannot be corrected onto
     the curve or no step down to ``min_step`` converges from it; a failure later ends the curve
     with ``stop = "step_too_small"``.
     """
+    settings = settings if settings is not None else ContinuationSettings()
+    if overrides:
+        unknown = sorted(set(overrides) - {f.name for f in fields(ContinuationSettings)})
+        if unknown:
+            raise InputError(f"unknown continuation settings {unknown}")
+        settings = replace(settings, **overrides)
+    step, min_step, max_step = settings.step, settings.min_step, settings.max_step
+    max_points, predictor, growth = settings.max_points, settings.predictor, settings.growth
+    clip, detect_folds, locate_folds = settings.clip, settings.detect_folds, settings.locate_folds
+    fast_iterations, max_turn = settings.fast_iterations, settings.max_turn
     y0 = np.array(start, dtype=float)
     n = y0.size
     if y0.ndim != 1 or n < 2:
@@ -379,10 +519,6 @@ def continuation(
     d0 = np.asarray(direction, dtype=float)
     if d0.shape != (n,) or _wnorm(weights, d0) == 0:
         raise InputError("the initial direction must have a nonzero weighted component")
-    if predictor not in ("tangent", "secant"):
-        raise InputError(f"predictor must be 'tangent' or 'secant', not {predictor!r}")
-    if not (0 < min_step <= step <= max_step) or growth < 1 or max_points < 1:
-        raise InputError("steps must satisfy 0 < min_step ≤ step ≤ max_step, growth ≥ 1, max_points ≥ 1")
     bounds = dict(bounds or {})
     for index, (low, high) in bounds.items():
         if not low < high:
@@ -395,11 +531,11 @@ def continuation(
         name: (g if isinstance(g, TestFunction) else TestFunction(g)) for name, g in (events or {}).items()
     }
     record = record or (lambda y: y)
-    curve = _Curve(problem, weights, tol, max_iterations)
+    curve = _Curve(problem, weights, settings.tol, settings.max_iterations)
 
     d0 = d0 / _wnorm(weights, d0)
     iterations0 = 0
-    if correct_start:
+    if settings.correct_start:
         try:
             y0, iterations0 = curve.correct(y0, y0, d0, 0.0)
         except _StepFailure as failure:
@@ -423,7 +559,7 @@ def continuation(
     y, t, h = y0, t0, float(step)
     stop, stop_event = "max_points", None
 
-    locating = (locate_tol, max_locate_iterations)
+    locating = (settings.locate_tol, settings.max_locate_iterations)
 
     def fold_test(point: np.ndarray, chord: np.ndarray) -> float:
         # an exact tangent (no chord factorisation): its p component is the located quantity

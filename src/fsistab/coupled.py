@@ -50,6 +50,19 @@ def solid_stiffness(solid: Solid) -> np.ndarray:
     )
 
 
+def stiffness_derivative(solid: Solid) -> np.ndarray:
+    """``∂J_ss/∂U*`` (4 × 4, MODEL.md §7): derivative of the in-vacuo rows of :func:`solid_stiffness`
+    (``ω_h = Ω/U*``, ``ω_θ = 1/U*``); ``U*`` enters ``J`` nowhere else."""
+    u = solid.reduced_velocity
+    w_h, w_t = solid.freq_ratio / u, 1.0 / u
+    d = np.zeros((4, 4))
+    d[2, 0] = -2 * w_h**2 / u
+    d[2, 2] = -2 * solid.zeta_h * w_h / u
+    d[3, 1] = -2 * w_t**2 / u
+    d[3, 3] = -2 * solid.zeta_theta * w_t / u
+    return d
+
+
 def solid_blocks(
     solid: Solid, theta0: float, loads0: np.ndarray, load_s: np.ndarray, load_mass_s: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -151,6 +164,14 @@ class CoupledSystem:
         full = np.zeros(4, dtype=q.dtype)
         full[self.active] = q[: self.n_solid]
         return full, q[self.n_solid :]
+
+
+def velocity_derivative(system: CoupledSystem, q: np.ndarray) -> np.ndarray:
+    """``∂J/∂U* q``: nonzero on the solid rows only."""
+    ns = system.n_solid
+    out = np.zeros(system.size, dtype=q.dtype)
+    out[:ns] = stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[:ns]
+    return out
 
 
 class CoupledResidual:

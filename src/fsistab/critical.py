@@ -1,6 +1,9 @@
 """Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (MODEL.md §8).
 
-Dynamic instability: Newton on the augmented system in the unknowns ``(q̂, ω, U*)`` at fixed ``m``::
+Dynamic instability: the neutral-point problem of :mod:`fsistab.neutral_point` in its augmented
+sparse formulation (:class:`AugmentedProblem`, unknowns ``(q̂, ω, U*, log m)``; the neutral curves
+of :mod:`fsistab.neutral` continue the same problem), solved by the one Newton
+(:func:`fsistab.continuation.newton`) at fixed ``m``::
 
     (iω M + J(U*)) q̂ = 0,     Re(ĥ) = 0 (phase),     q̂ᴴ M q̂ = 1 (amplitude)
 
@@ -15,35 +18,160 @@ the same matrix ``iωM + J(U*)`` — one factorisation of the fluid block at ``i
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fsistab.coupled import CoupledSystem
+from fsistab.continuation import CurveProblem, SquareProblem, newton
+from fsistab.coupled import CoupledSystem, solid_stiffness, velocity_derivative
+from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
-from fsistab.operators import FluidOperators
+from fsistab.neutral_point import divergence_velocity, unit_index
+from fsistab.operators import FluidOperators, fluid_operators
 from fsistab.params import Solid
+from fsistab.slopes import static_slopes
+from fsistab.steady import solve_steady
+from fsistab.tracking import track_branches
+from fsistab.transfer import transfer_flutter_point
 
 
-def stiffness_derivative(solid: Solid) -> np.ndarray:
-    """``∂J_ss/∂U*`` (4 × 4): derivative of the in-vacuo rows (``ω_h = Ω/U*``, ``ω_θ = 1/U*``)."""
-    u = solid.reduced_velocity
-    w_h, w_t = solid.freq_ratio / u, 1.0 / u
-    d = np.zeros((4, 4))
-    d[2, 0] = -2 * w_h**2 / u
-    d[2, 2] = -2 * solid.zeta_h * w_h / u
-    d[3, 1] = -2 * w_t**2 / u
-    d[3, 3] = -2 * solid.zeta_theta * w_t / u
+def phase_index(system: CoupledSystem) -> int:
+    """Index in the coupled vector of ``h`` (or ``θ`` for a pitch-only system): the phase condition
+    ``Re(q̂_k) = 0`` of MODEL.md §8."""
+    labels = system.state_labels()
+    for name in ("h", "theta"):
+        if name in labels:
+            return labels.index(name)
+    raise InputError("a critical point of the coupled system needs at least one solid degree of freedom")
+
+
+def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
+    """``∂(J + iωM)/∂(log m) q``: every aerodynamic term of the solid rows (and its inertia) scales
+    with ``1/m`` (MODEL.md §3), so this is minus the aerodynamic part of the solid rows applied to
+    ``q``."""
+    ns = system.n_solid
+    full = system.jacobian @ q + 1j * omega * (system.mass @ q)
+    in_vacuo = np.zeros_like(full)
+    active = system.active
+    in_vacuo[:ns] = solid_stiffness(system.solid)[np.ix_(active, active)] @ q[:ns] + 1j * omega * q[:ns]
+    d = np.zeros_like(full)
+    d[:ns] = -(full[:ns] - in_vacuo[:ns])
     return d
 
 
-def velocity_derivative(system: CoupledSystem, q: np.ndarray) -> np.ndarray:
-    """``∂J/∂U* q``: nonzero on the solid rows only."""
-    ns = system.n_solid
-    out = np.zeros(system.size, dtype=q.dtype)
-    out[:ns] = stiffness_derivative(system.solid)[np.ix_(system.active, system.active)] @ q[:ns]
-    return out
+class AugmentedProblem:
+    """The augmented sparse system of MODEL.md §8 (module doc) in ``y = (Re q̂, Im q̂, ω, U*, μ)``,
+    ``μ = log m``, for the solid parameters of ``template`` otherwise.
+
+    The bordered solve eliminates ``δq̂ = a + δω b + δU* c + δμ d`` with
+    ``(J + iωM)(a, b, c, d) = (r_q, -iMq̂, -∂J/∂U* q̂, -∂(J + iωM)/∂μ q̂)`` — one factorisation of
+    the fluid block at ``iω`` (:mod:`fsistab.linalg`), four back-substitutions — and solves the
+    3×3 real border of the phase, amplitude and bordering rows; the border may weigh ``U*`` and
+    ``μ`` only. With ``μ`` held (border ``e_μ``, a point at fixed m) ``d`` is not needed and the
+    border is 2×2. With ``reuse`` the last fluid factorisation is kept (its shift ``iω_f`` differs
+    from ``iω`` by the Newton updates of ``ω``: chord Newton)."""
+
+    def __init__(self, fluid: FluidOperators, template: Solid, counter: FactorCounter | None = None):
+        self.fluid, self.template = fluid, template
+        self.counter = counter if counter is not None else FactorCounter()
+        system = CoupledSystem(fluid, template)
+        self.n, self.phase = system.size, phase_index(system)
+        self._system: tuple[tuple[float, float], CoupledSystem] | None = None
+        self._solver: tuple[tuple, ShiftedSolver] | None = None
+        self._factor = None
+
+    @property
+    def size(self) -> int:
+        return 2 * self.n + 3
+
+    @property
+    def mass_index(self) -> int:
+        return self.size - 1
+
+    def pack(self, q: np.ndarray, omega: float, velocity: float, log_mass: float) -> np.ndarray:
+        return np.concatenate([q.real, q.imag, [omega, velocity, log_mass]])
+
+    def unpack(self, y: np.ndarray) -> tuple[np.ndarray, float, float, float]:
+        n = self.n
+        return y[:n] + 1j * y[n : 2 * n], float(y[-3]), float(y[-2]), float(y[-1])
+
+    def start(self, mode: np.ndarray, omega: float, velocity: float, mass_ratio: float) -> np.ndarray:
+        """``y`` from a guess of the mode, normalised: ``Re(q̂_k) = 0`` and ``q̂ᴴ M q̂ = 1``."""
+        system = self.system(velocity, math.log(mass_ratio))
+        q = np.asarray(mode, dtype=complex)
+        q = q * np.exp(-1j * (np.angle(q[self.phase]) - np.pi / 2))
+        q /= np.sqrt(np.vdot(q, system.mass @ q).real)
+        return self.pack(q, omega, velocity, math.log(mass_ratio))
+
+    def system(self, velocity: float, log_mass: float) -> CoupledSystem:
+        if not (math.isfinite(velocity) and velocity > 0 and math.isfinite(log_mass)):
+            raise ConvergenceError(
+                f"the neutral-point Newton left the admissible range (U* = {velocity:g}); "
+                "start closer to the crossing (a finer sweep in U*)"
+            )
+        key = (velocity, log_mass)
+        if self._system is None or self._system[0] != key:
+            # the template's own m where it is held (exp(log m) may differ from it in the last bit)
+            held = log_mass == math.log(self.template.mass_ratio)
+            mass = self.template.mass_ratio if held else math.exp(log_mass)
+            solid = replace(self.template, reduced_velocity=velocity, mass_ratio=mass)
+            self._system = (key, CoupledSystem(self.fluid, solid))
+        return self._system[1]
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        q, omega, velocity, log_mass = self.unpack(y)
+        system = self.system(velocity, log_mass)
+        mq = system.mass @ q
+        r = system.jacobian @ q + 1j * omega * mq
+        return np.concatenate([r.real, r.imag, [q[self.phase].real, np.vdot(q, mq).real - 1.0]])
+
+    def solve(self, y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+        n, k = self.n, self.phase
+        if np.any(border[: 2 * n + 1]):
+            raise InputError("the neutral-point border has weight on (U*, log m) only")
+        q, omega, velocity, log_mass = self.unpack(y)
+        system = self.system(velocity, log_mass)
+        factor = self._factor if reuse else None
+        shift = factor.shift if factor is not None else 1j * omega
+        key = (velocity, log_mass, shift, id(factor))
+        if self._solver is None or self._solver[0] != key or factor is None:
+            solver = ShiftedSolver(system, shift, fluid_factor=factor, counter=self.counter)
+            self._factor = solver.fluid_factor
+            self._solver = ((velocity, log_mass, shift, id(self._factor)), solver)
+        solver = self._solver[1]
+        mq = system.mass @ q
+        r_q = rhs[:n] + 1j * rhs[n : 2 * n]
+        a = solver.solve(r_q) if np.any(r_q) else np.zeros(n, dtype=complex)
+        b = solver.solve(-1j * mq)
+        c = solver.solve(-velocity_derivative(system, q))
+        small = np.array([rhs[2 * n] - a[k].real, rhs[2 * n + 1] - 2 * np.vdot(mq, a).real, rhs[2 * n + 2]])
+        if unit_index(border) == self.mass_index and small[2] == 0:  # m held: δμ = 0
+            matrix = np.array([[b[k].real, c[k].real], [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real]])
+            d_omega, d_velocity = np.linalg.solve(matrix, small[:2])
+            return self.pack(a + d_omega * b + d_velocity * c, d_omega, d_velocity, 0.0)
+        d = solver.solve(-mass_derivative(system, q, omega))
+        matrix = np.array(
+            [
+                [b[k].real, c[k].real, d[k].real],
+                [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real, 2 * np.vdot(mq, d).real],
+                [0.0, border[-2], border[-1]],
+            ]
+        )
+        d_omega, d_velocity, d_log_mass = np.linalg.solve(matrix, small)
+        return self.pack(a + d_omega * b + d_velocity * c + d_log_mass * d, d_omega, d_velocity, d_log_mass)
+
+    def curve(self) -> CurveProblem:
+        """The neutral curve in the ``(m, U*)`` plane: arclength weights on ``(U*, log m)`` only,
+        turning points in ``m``."""
+        weights = np.zeros(self.size)
+        weights[-2:] = 1.0
+        return CurveProblem(self.residual, self.solve, parameter=-1, weights=weights)
+
+    def at_mass_ratio(self, mass_ratio: float) -> SquareProblem:
+        """The neutral point at fixed ``mass_ratio`` (unknowns ``q̂, ω, U*``)."""
+        return self.curve().pinned(self.mass_index, math.log(mass_ratio))
 
 
 @dataclass(frozen=True)
@@ -72,15 +200,6 @@ def _with_velocity(solid: Solid, reduced_velocity: float) -> Solid:
     return replace(solid, reduced_velocity=float(reduced_velocity))
 
 
-def _phase_index(system: CoupledSystem) -> int:
-    """Index in the coupled vector of ``h`` (or ``θ`` for a pitch-only system)."""
-    labels = system.state_labels()
-    for name in ("h", "theta"):
-        if name in labels:
-            return labels.index(name)
-    raise InputError("a critical point of the coupled system needs at least one solid degree of freedom")
-
-
 def flutter_point(
     fluid: FluidOperators,
     solid: Solid,
@@ -91,46 +210,27 @@ def flutter_point(
     maxit: int = 12,
     counter: FactorCounter | None = None,
 ) -> CriticalPoint:
-    """Newton on the augmented system of MODEL.md §8 from ``(mode, frequency, solid.reduced_velocity)``.
+    """The neutral point of MODEL.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
+    on the augmented sparse system (:class:`AugmentedProblem`, ``m`` held)
+    from ``(mode, frequency, solid.reduced_velocity)``.
 
     ``mode`` is a coupled vector of the system for ``solid`` (e.g. the eigenvector of the
     eigenvalue closest to the axis). Converges quadratically; raises ConvergenceError otherwise.
     """
     counter = counter if counter is not None else FactorCounter()
     start = counter.count
-    system = CoupledSystem(fluid, solid)
-    k = _phase_index(system)
-    q = np.asarray(mode, dtype=complex)
-    q = q * np.exp(-1j * (np.angle(q[k]) - np.pi / 2))  # Re(q_k) = 0
-    q /= np.sqrt(np.vdot(q, system.mass @ q).real)
-    omega, velocity = float(frequency), float(solid.reduced_velocity)
-    history: list[float] = []
-    for _ in range(maxit + 1):
-        system = CoupledSystem(fluid, _with_velocity(solid, velocity))
-        matrix_q = system.jacobian @ q + 1j * omega * (system.mass @ q)
-        residual = np.concatenate([matrix_q, [q[k].real, np.vdot(q, system.mass @ q).real - 1.0]])
-        history.append(float(np.linalg.norm(residual)))
-        if history[-1] < tol:
-            return CriticalPoint(
-                "flutter", solid.mass_ratio, velocity, omega, q, tuple(history), counter.count - start
-            )
-        if len(history) > maxit or not np.isfinite(history[-1]):
-            break
-        solver = ShiftedSolver(system, 1j * omega, counter=counter)
-        d_jss = velocity_derivative(system, q)
-        a = solver.solve(-matrix_q)
-        b = solver.solve(-1j * (system.mass @ q))
-        c = solver.solve(-d_jss)
-        mq = system.mass @ q
-        border = np.array([[b[k].real, c[k].real], [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real]])
-        rhs = np.array([-(q[k] + a[k]).real, 1.0 - np.vdot(q, mq).real - 2 * np.vdot(mq, a).real])
-        d_omega, d_velocity = np.linalg.solve(border, rhs)
-        q = q + a + d_omega * b + d_velocity * c
-        omega += d_omega
-        velocity += d_velocity
+    problem = AugmentedProblem(fluid, solid, counter)
+    y0 = problem.start(mode, float(frequency), float(solid.reduced_velocity), solid.mass_ratio)
+    result = newton(problem.at_mass_ratio(solid.mass_ratio), y0, tol=tol, max_iterations=maxit)
+    q, omega, velocity, _ = problem.unpack(result.point)
+    if result.converged:
+        return CriticalPoint(
+            "flutter", solid.mass_ratio, velocity, omega, q, result.residuals, counter.count - start
+        )
     raise ConvergenceError(
         f"flutter Newton did not converge near U* = {velocity:.4g}, omega = {omega:.4g} "
-        f"(residuals {', '.join(f'{r:.1e}' for r in history[-4:])}); start closer to the crossing"
+        f"({result.reason}; residuals {', '.join(f'{r:.1e}' for r in result.residuals[-4:])}); "
+        "start closer to the crossing"
     )
 
 
@@ -216,8 +316,6 @@ def solid_mode_starts(
     """Starting eigenpairs of the branches to follow: one per active solid dof (the eigenvalue near
     its in-vacuo frequency holding the most solid energy) and, if ``wake_shift`` is given, the
     least stable fluid mode near it."""
-    from fsistab.eigen import eigenpairs_near
-
     solid = system.solid
     in_vacuo = {"heave": solid.freq_ratio / solid.reduced_velocity, "pitch": 1.0 / solid.reduced_velocity}
     starts = {}
@@ -251,8 +349,6 @@ def find_thresholds(
     wake mode or its frequency is within 30 % of the wake frequency, ``flutter`` otherwise.
     Returns the thresholds sorted by U* and the tracked branches.
     """
-    from fsistab.tracking import track_branches
-
     counter = counter if counter is not None else FactorCounter()
     velocities = np.asarray(velocities, dtype=float)
     if velocities.ndim != 1 or len(velocities) < 2 or np.any(np.diff(velocities) <= 0) or velocities[0] <= 0:
@@ -289,14 +385,12 @@ def find_thresholds(
             boundary = "onset" if growth[i] < 0 else "restabilisation"
             found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
     if "pitch" in solid.dofs:
-        from fsistab.slopes import static_slopes
-
         # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
         factor = static_factor or FluidFactor(fluid, 0.0, counter)
         slope = static_slopes(fluid, factor=factor).moment
         if slope > 0:
             # (a little below it: at the root itself the static system is singular)
-            estimate = 0.98 * float(np.sqrt(solid.mass_ratio * solid.r_theta**2 / slope))
+            estimate = 0.98 * divergence_velocity(slope, solid.r_theta, solid.mass_ratio)
             point = divergence_point(
                 fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
             )
@@ -340,10 +434,6 @@ def critical_points_along_flow(
     ``flutter_frequency`` at the first flow, e.g. a threshold of :func:`find_thresholds`); the
     divergence point by :func:`divergence_point`, started from the previous one.
     """
-    from fsistab.operators import fluid_operators
-    from fsistab.steady import solve_steady
-    from fsistab.transfer import transfer_flutter_point
-
     flows = list(flows)
     if not flows:
         raise InputError("give at least one flow")
@@ -399,8 +489,6 @@ def wake_mode_near(
     vibration, refined from a guess. (A global search for "the least stable mode" is ambiguous
     here: the truncated domain has a cloud of weakly damped modes advected through its far field
     at every frequency, on the coarse plate mesh less damped than the wake mode itself.)"""
-    from fsistab.eigen import eigenpairs_near
-
     if not (np.isfinite(frequency) and frequency > 0):
         raise InputError(f"the wake-frequency guess must be positive, got {frequency}")
     pairs = eigenpairs_near(

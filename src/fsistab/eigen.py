@@ -150,12 +150,14 @@ def _unique(pairs: list[Eigenpair], rtol: float = 1e-7) -> list[Eigenpair]:
 def spectrum_dataset(pairs: list[Eigenpair], system: CoupledSystem, attrs: dict | None = None):
     """Eigenvalues, residuals, labels and solid amplitudes as an xarray Dataset (NetCDF-ready).
 
-    Complex values are stored as real and imaginary parts; ``h, θ`` amplitudes are those of the
-    normalised modes. Attributes carry the solid parameters and conventions.
+    Complex values (``shift``, ``solid``) carry the store's trailing ``part`` dimension
+    (:func:`fsistab.store.complex_variable`); ``h, θ`` amplitudes are those of the normalised modes.
+    Attributes carry the solid parameters and conventions.
     """
     import xarray as xr
 
     from fsistab.params import as_dict
+    from fsistab.store import complex_variable
 
     n = len(pairs)
     solid = np.array([p.solid for p in pairs]).reshape(n, 4)
@@ -165,10 +167,8 @@ def spectrum_dataset(pairs: list[Eigenpair], system: CoupledSystem, attrs: dict 
         "residual": ("mode", np.array([p.residual for p in pairs])),
         "label": ("mode", np.array([p.label for p in pairs], dtype=str)),
         "solid_energy_fraction": ("mode", np.array([p.solid_energy_fraction for p in pairs])),
-        "shift_real": ("mode", np.array([p.shift.real for p in pairs])),
-        "shift_imag": ("mode", np.array([p.shift.imag for p in pairs])),
-        "solid_real": (("mode", "solid_state"), solid.real),
-        "solid_imag": (("mode", "solid_state"), solid.imag),
+        "shift": complex_variable("mode", np.array([p.shift for p in pairs], dtype=complex)),
+        "solid": complex_variable(("mode", "solid_state"), solid),
     }
     solid_attrs = {
         f"solid_{k}": (",".join(v) if isinstance(v, tuple) else v) for k, v in as_dict(system.solid).items()

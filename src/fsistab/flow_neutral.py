@@ -28,10 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fsistab.continuation import CurveProblem, TestFunction, continuation
+from fsistab.continuation import ContinuationSettings, TestFunction, continuation
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
+from fsistab.neutral_point import DeterminantProblem
+from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
+from fsistab.steady import solve_steady
+from fsistab.transfer import characteristic_matrix, determinant_gradient, exact_transfer
 
 PARAMETERS = ("reynolds", "alpha0")
 _FD_STEP = {"reynolds": 1e-4, "alpha0": 1e-3}  # in log Re and in degrees (steady states to 1e-10)
@@ -62,7 +66,9 @@ class FlowNeutralCurve:
 
 
 class _FlowDeterminant:
-    """``det T(iω; U*, p)`` with its derivatives, memoised on the steady states and transfers."""
+    """The exact-transfer formulation of the neutral point in a flow plane (module doc): ``det T(iω;
+    U*, p)`` with its derivatives (:func:`fsistab.transfer.determinant_gradient`), memoised on the
+    steady states and transfers, for :class:`fsistab.neutral_point.DeterminantProblem`."""
 
     def __init__(
         self, spec, flow: Flow, solid: Solid, parameter: str, cache_dir, counter, initial, fluid=None
@@ -71,7 +77,6 @@ class _FlowDeterminant:
         self.cache_dir, self.counter = cache_dir, counter
         self._states: OrderedDict = OrderedDict()
         self._transfers: OrderedDict = OrderedDict()
-        self._last_jacobian: np.ndarray | None = None
         self.scale = 1.0
         if fluid is not None:
             self._states[self.value_of(flow)] = (fluid.steady, fluid)
@@ -87,9 +92,6 @@ class _FlowDeterminant:
         return replace(self.flow0, alpha0_deg=p)
 
     def fluid_at(self, p: float):
-        from fsistab.operators import fluid_operators
-        from fsistab.steady import solve_steady
-
         if p in self._states and self._states[p][1] is not None:
             self._states.move_to_end(p)
             return self._states[p][1]
@@ -106,8 +108,6 @@ class _FlowDeterminant:
         return fluid
 
     def transfer(self, p: float, omega: float):
-        from fsistab.transfer import exact_transfer
-
         key = (p, omega)
         if key not in self._transfers:
             fluid = self.fluid_at(p)
@@ -117,32 +117,28 @@ class _FlowDeterminant:
         return self._transfers[key]
 
     def determinant(self, y: np.ndarray, derivatives: bool = False):
-        from fsistab.transfer import determinant_on_axis
-
         omega, log_u, p = (float(v) for v in y)
         fluid, value, rate = self.transfer(p, omega)
         solid = replace(self.solid, reduced_velocity=math.exp(log_u))
-        _, det, d_omega, d_logu = determinant_on_axis(value, rate, solid, omega, fluid.theta0, fluid.loads0)
-        det, d_omega, d_logu = det / self.scale, d_omega / self.scale, d_logu / self.scale
+        _, det, gradient = determinant_gradient(value, rate, solid, omega, fluid.theta0, fluid.loads0)
+        det, d_omega, d_logu = det / self.scale, gradient[0] / self.scale, gradient[1] / self.scale
         return (det, d_omega, d_logu) if derivatives else det
 
-    def residual(self, y: np.ndarray) -> np.ndarray:
-        det = self.determinant(y)
-        return np.array([det.real, det.imag])
-
-    def jacobian(self, y: np.ndarray) -> np.ndarray:
+    def characteristic(self, y: np.ndarray, gradient: bool):
+        """``f = det T / scale`` and, with ``gradient``, ``∂f/∂(ω, log U*, p)``: analytic in ω and
+        U*, a one-sided finite difference through a second steady state in ``p``."""
+        if not gradient:
+            return self.determinant(y)
         det, d_omega, d_logu = self.determinant(y, derivatives=True)
         step = _FD_STEP[self.parameter]
         shifted = np.array(y, dtype=float)
         shifted[2] += step
         d_p = (self.determinant(shifted) - det) / step
-        return np.array([[d_omega.real, d_logu.real, d_p.real], [d_omega.imag, d_logu.imag, d_p.imag]])
+        return det, np.array([d_omega, d_logu, d_p])
 
-    def solve(self, y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+    def problem(self) -> DeterminantProblem:
         # chord Newton: keep the finite-difference Jacobian while the residual falls tenfold
-        if not reuse or self._last_jacobian is None:
-            self._last_jacobian = self.jacobian(y)
-        return np.linalg.solve(np.vstack([self._last_jacobian, border]), rhs)
+        return DeterminantProblem(self.characteristic, chord=True)
 
 
 def continue_flow_neutral_curve(
@@ -194,8 +190,6 @@ def continue_flow_neutral_curve(
         raise InputError(f"the starting flow lies outside the {parameter} range")
     omega, log_u = float(frequency), math.log(solid.reduced_velocity)
     # fixed scale: |det| of the in-vacuo part at the start (so that tolerances are relative)
-    from fsistab.transfer import characteristic_matrix
-
     start_fluid = problem.fluid_at(p0)
     in_vacuo = characteristic_matrix(
         np.zeros((3, 4)), solid, 1j * omega, start_fluid.theta0, start_fluid.loads0
@@ -218,24 +212,26 @@ def continue_flow_neutral_curve(
 
     try:
         branch = continuation(
-            CurveProblem(problem.residual, problem.solve, parameter=2, weights=np.array([0.0, 1.0, 1.0])),
+            problem.problem().curve(np.array([0.0, 1.0, 1.0])),
             np.array([omega, log_u, p0]),
             np.array([0.0, 0.0, float(np.sign(direction) or 1.0)]),
-            step=step,
-            min_step=min_step,
-            max_step=max_step,
-            max_points=max_points,
-            predictor="tangent",
+            ContinuationSettings(
+                step=step,
+                min_step=min_step,
+                max_step=max_step,
+                max_points=max_points,
+                predictor="tangent",
+                clip=False,
+                tol=1e-9,
+                max_iterations=12,
+                fast_iterations=4,
+                locate_tol=1e-5,
+                max_locate_iterations=8,
+            ),
             bounds={2: p_range, 1: (math.log(velocity_range[0]), math.log(velocity_range[1]))},
-            clip=False,
             events={
                 "zero_frequency": TestFunction(lambda y: float(y[0]) - 1e-4, terminal=True, localise=False)
             },
-            tol=1e-9,
-            max_iterations=12,
-            fast_iterations=4,
-            locate_tol=1e-5,
-            max_locate_iterations=8,
             on_point=accept,
             on_event=on_event,
         )
@@ -275,3 +271,57 @@ def flow_curve_dataset(curve: FlowNeutralCurve, attrs: dict):
             "factorisations": curve.factorisations,
         },
     )
+
+
+def stack_flow_curves(halves, parameter: str, attrs: dict):
+    """The half-curves of :func:`flow_curve_dataset` (each continued from one threshold in one
+    direction) stacked in one Dataset: points along ``point`` with a ``curve`` index, turning points
+    along ``fold``, each half's kind, direction and stop along ``curve_index``."""
+    import xarray as xr
+
+    column = "reynolds" if parameter == "reynolds" else "alpha0_deg"
+
+    def stacked(name: str, dim: str) -> np.ndarray:
+        return np.concatenate([h[name].values for h in halves] or [np.zeros(0)]).astype(float)
+
+    def index(dim: str) -> np.ndarray:
+        return np.concatenate(
+            [np.full(h.sizes.get(dim, 0), i) for i, h in enumerate(halves)] or [np.zeros(0)]
+        )
+
+    return xr.Dataset(
+        {
+            "curve": ("point", index("point").astype(int)),
+            "parameter_value": ("point", stacked(column, "point")),
+            "reduced_velocity": ("point", stacked("reduced_velocity", "point")),
+            "frequency": ("point", stacked("frequency", "point")),
+            "fold_curve": ("fold", index("fold").astype(int)),
+            "fold_parameter_value": ("fold", stacked(f"fold_{column}", "fold")),
+            "fold_reduced_velocity": ("fold", stacked("fold_reduced_velocity", "fold")),
+            "kind": ("curve_index", np.array([h.attrs["kind"] for h in halves], dtype=str)),
+            "direction": ("curve_index", np.array([int(h.attrs["direction"]) for h in halves], dtype=int)),
+            "stop": ("curve_index", np.array([str(h.attrs["stop"]) for h in halves], dtype=str)),
+        },
+        attrs={**attrs, "parameter": parameter},
+    )
+
+
+def flow_curves(ds):
+    """``(kind, direction, values, U*, ω, fold values, fold U*, stop)`` of each half-curve of a
+    Dataset of :func:`stack_flow_curves`."""
+    result = []
+    for i in range(ds.sizes.get("curve_index", 0)):
+        on, fold = ds.curve.values == i, ds.fold_curve.values == i
+        result.append(
+            (
+                str(ds.kind.values[i]),
+                int(ds.direction.values[i]),
+                ds.parameter_value.values[on],
+                ds.reduced_velocity.values[on],
+                ds.frequency.values[on],
+                ds.fold_parameter_value.values[fold],
+                ds.fold_reduced_velocity.values[fold],
+                str(ds.stop.values[i]),
+            )
+        )
+    return result

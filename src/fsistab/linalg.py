@@ -1,8 +1,9 @@
 """Sparse factorisations of ``K(s) = J + s M`` and the shift-invert operator (ARCHITECTURE `linalg`).
 
-The fluid block ``K_ff(s) = J_ff + s M_f`` is assembled in complex arithmetic by NGSolve from the
-same forms as :func:`fsistab.operators.fluid_operators` and factorised once with UMFPACK (four
-times faster than SciPy's SuperLU on these matrices). The few solid unknowns are attached by
+The fluid block ``K_ff(s) = J_ff + s M_f``, assembled by :func:`fsistab.operators.shifted_fluid_matrix`
+(in complex arithmetic for a complex shift; NGSolve's solvers take no SciPy matrix), is factorised
+once with UMFPACK (four times faster than SciPy's SuperLU on these matrices); this module writes
+no finite-element form. The few solid unknowns are attached by
 exact block elimination (a bordered solve)::
 
     X = K_ff⁻¹ K_fs,   S = K_ss - K_sf X        (n_s fluid solves per factorisation)
@@ -22,8 +23,7 @@ import scipy.sparse.linalg as spla
 
 from fsistab.coupled import CoupledSystem
 from fsistab.errors import InputError
-from fsistab.operators import FluidOperators, jacobian_integrand
-from fsistab.steady import taylor_hood_space, wall_velocity
+from fsistab.operators import FluidOperators, shifted_fluid_matrix
 
 BACKENDS = ("umfpack", "superlu")
 
@@ -39,25 +39,12 @@ class FluidFactor:
     """``K_ff(s) = J_ff + s M_f`` factorised by NGSolve's UMFPACK (real if ``s`` is real)."""
 
     def __init__(self, fluid: FluidOperators, shift: complex, counter: FactorCounter | None = None):
-        from ngsolve import CF, BilinearForm, InnerProduct, dx
-
-        steady = fluid.steady
         shift = complex(shift)
-        is_complex = shift.imag != 0
-        space = taylor_hood_space(steady.mesh, complex=is_complex)
-        (u, p), (v, q) = space.TnT()
-        grid_velocity = CF(wall_velocity(fluid.theta0))
-        form = BilinearForm(space)
-        value = shift if is_complex else shift.real
-        form += (
-            jacobian_integrand(u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds)
-            + value * InnerProduct(u, v)
-        ) * dx
-        form.Assemble()
+        form, free = shifted_fluid_matrix(fluid, shift)
         self.shift = shift
-        self.dtype = complex if is_complex else float
+        self.dtype = complex if shift.imag != 0 else float
         self.index = fluid.free_dofs
-        self._inverse = form.mat.Inverse(space.FreeDofs(), inverse="umfpack")
+        self._inverse = form.mat.Inverse(free, inverse="umfpack")
         self._rhs = form.mat.CreateColVector()
         self._sol = form.mat.CreateColVector()
         self._form = form  # keeps the matrix alive with its factorisation

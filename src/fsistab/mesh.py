@@ -151,6 +151,12 @@ def mesh_spec(
     return MeshSpec(body=body, domain=domain or DEFAULT_DOMAINS[body.kind], sizes=base, preset=preset)
 
 
+def spec_for(case) -> MeshSpec:
+    """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its Re, its
+    body and domain."""
+    return mesh_spec(case.body, case.preset, case.flow.reynolds, case.domain)
+
+
 def _generate(spec: MeshSpec):
     """Mesh the upper half of the domain and mirror it about ``Y = 0`` (exactly symmetric)."""
     import netgen.meshing
@@ -173,11 +179,19 @@ def curve_wall(mesh, body: Body, order: int) -> None:
     mesh.SetDeformation(deformation)
 
 
+def mesh_path(spec: MeshSpec, cache_dir: Path) -> Path:
+    """Where the mesh of ``spec`` is cached (its checksum beside it, :func:`fsistab.store.sidecar_path`)."""
+    return Path(cache_dir) / "meshes" / f"{spec.key()}.vol.gz"
+
+
 def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
     """The NGSolve mesh of ``spec``, read from the cache or generated and cached, wall curved.
 
-    The cache stores Netgen's ``.vol.gz`` under the spec's key. A file that cannot be read, or that
-    lacks the expected boundaries, raises CacheError.
+    The cache stores Netgen's ``.vol.gz`` under the spec's key, with a sha256 sidecar written after
+    it. Before Netgen reads a cached file its checksum and whole gzip stream are verified (a damaged
+    file makes Netgen crash the process): a damaged or unverifiable entry is reported, moved aside and
+    rebuilt. A file that Netgen still cannot read, or that lacks the expected boundaries, raises
+    CacheError.
     """
     import tempfile
 
@@ -187,12 +201,18 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
     if cache_dir is None:
         with tempfile.TemporaryDirectory() as scratch:
             return build_mesh(spec, scratch)
-    path = Path(cache_dir) / "meshes" / f"{spec.key()}.vol.gz"
+    path = mesh_path(spec, cache_dir)
+    if path.exists():
+        try:
+            store.verify_sidecar(path)
+        except CacheError as exc:
+            store.discard_damaged(path, exc)
     if not path.exists():
         # the file rounds coordinates: what is computed always comes from the file, so a cached
         # mesh and a fresh one are identical
         with store.atomic_path(path, ".vol.gz") as tmp:
             _generate(spec).Save(str(tmp))
+        store.write_sidecar(path)  # after the mesh: a mesh without its sidecar is rebuilt
     ngmesh = netgen.meshing.Mesh(dim=2)
     try:
         ngmesh.Load(str(path))

@@ -5,23 +5,25 @@ A point of a dynamic neutral curve solves, in the unknowns ``y = (Re q̂, Im q̂
     (iω M(m) + J(U*, m)) q̂ = 0,   Re(ĥ) = 0,   q̂ᴴ M q̂ = 1,
     t_U (U* - U*_k) + t_μ (μ - μ_k) = Δs                       (arclength in the parameter plane)
 
-with ``(t_U, t_μ)`` the unit tangent of the curve at the previous point ``k``. The continuation
-is the generic one of :mod:`fsistab.continuation` with arclength weights on ``(U*, μ)`` only and a
-tangent predictor (three extra solves per point with the last factorisation; the turn control
-that it allows keeps the steps from jumping across the S-shaped part of the flutter curve, which
-a secant predictor with ``Δs = 0.5`` does on the coarse plate mesh); this module supplies the
-residual and the bordered solve. Because the arclength
-is measured in the plane (log m, U*), the continuation passes turning points where the curve folds
-back in ``m``; they are reported (where ``d(log m)/ds`` changes sign, located where the tangent's
-``μ`` component vanishes) and stored with the curve. Every aerodynamic term of the solid rows, and
-their inertia, scale with ``1/m``: ``∂(J + iωM)/∂μ q̂ = -(aerodynamic solid rows)(q̂)`` is explicit.
-Each Newton step needs one factorisation of the fluid block at ``iω`` (:mod:`fsistab.linalg`),
-kept while the residual falls tenfold per iteration (chord), four solves and a 3×3 real border.
-The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static moment independent of
-``h``). Codimension-two points where two neutral curves cross (flutter meeting divergence, two
-flutter curves) come from :func:`curve_crossings`. :func:`trace_neutral_map` assembles a whole
-stability map: seed sweeps in U* (flutter at a few m, VIV near the wake frequency), every new
-threshold continued both ways, the divergence curve and all crossings.
+with ``(t_U, t_μ)`` the unit tangent of the curve at the previous point ``k``. The continuation is
+the generic one of :mod:`fsistab.continuation` with arclength weights on ``(U*, μ)`` only and a
+tangent predictor (three extra solves per point with the last factorisation; the turn control that
+it allows keeps the steps from jumping across the S-shaped part of the flutter curve, which a secant
+predictor with ``Δs = 0.5`` does on the coarse plate mesh); the residual and the bordered solve are
+those of the neutral-point problem :class:`fsistab.critical.AugmentedProblem` (the same problem,
+with m held, gives :func:`fsistab.critical.flutter_point`; :mod:`fsistab.neutral_point`). Because
+the arclength is measured in the plane (log m, U*), the continuation passes turning points where the
+curve folds back in ``m``; they are reported (where ``d(log m)/ds`` changes sign, located where the
+tangent's ``μ`` component vanishes) and stored with the curve. Every aerodynamic term of the solid
+rows, and their inertia, scale with ``1/m``: ``∂(J + iωM)/∂μ q̂ = -(aerodynamic solid rows)(q̂)`` is
+explicit. Each Newton step needs one factorisation of the fluid block at ``iω``
+(:mod:`fsistab.linalg`), kept while the residual falls tenfold per iteration (chord), four solves
+and a 3×3 real border. The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static
+moment independent of ``h``; :func:`divergence_velocity`). Codimension-two points where two neutral
+curves cross (flutter meeting divergence, two flutter curves) come from :func:`curve_crossings`.
+:func:`trace_neutral_map` assembles a whole stability map: seed sweeps in U* (flutter at a few m,
+VIV near the wake frequency), every new threshold continued both ways, the divergence curve and all
+crossings.
 """
 
 from __future__ import annotations
@@ -32,11 +34,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fsistab.continuation import CurveProblem, TestFunction, continuation, polyline_intersections
-from fsistab.coupled import CoupledSystem, solid_stiffness
-from fsistab.critical import CriticalPoint, _phase_index, velocity_derivative
+from fsistab.continuation import ContinuationSettings, TestFunction, continuation, polyline_intersections
+from fsistab.critical import AugmentedProblem, CriticalPoint
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
+from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 
@@ -93,97 +95,6 @@ class NeutralCurve:
         return np.column_stack([np.log(self.mass_ratios), self.reduced_velocities])
 
 
-def _aero_rows(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
-    """``∂(J + iωM)/∂(log m) q``: minus the aerodynamic part of the solid rows applied to ``q``."""
-    ns = system.n_solid
-    full = system.jacobian @ q + 1j * omega * (system.mass @ q)
-    in_vacuo = np.zeros_like(full)
-    active = system.active
-    in_vacuo[:ns] = solid_stiffness(system.solid)[np.ix_(active, active)] @ q[:ns] + 1j * omega * q[:ns]
-    d = np.zeros_like(full)
-    d[:ns] = -(full[:ns] - in_vacuo[:ns])
-    return d
-
-
-class _NeutralProblem:
-    """Residual and bordered solve of the neutral-curve system (module doc) for
-    :func:`fsistab.continuation.continuation`, in real unknowns ``y = (Re q̂, Im q̂, ω, U*, μ)``.
-
-    The bordered solve eliminates ``δq̂ = a + δω b + δU* c + δμ d`` with
-    ``(J + iωM)(a, b, c, d) = (r_q, -iMq̂, -∂J/∂U* q̂, -∂(J + iωM)/∂μ q̂)`` and solves the 3×3 real
-    border of the phase, amplitude and arclength rows (the arclength row has weight on ``U*``
-    and ``μ`` only). With ``reuse`` the last fluid factorisation is kept (its shift ``iω_f``
-    differs from ``iω`` by the Newton updates of ``ω``: chord Newton)."""
-
-    def __init__(self, fluid: FluidOperators, template: Solid, counter: FactorCounter):
-        self.fluid, self.template, self.counter = fluid, template, counter
-        system = CoupledSystem(fluid, template)
-        self.n, self.phase = system.size, _phase_index(system)
-        self._system: tuple[tuple[float, float], CoupledSystem] | None = None
-        self._solver: tuple[tuple, ShiftedSolver] | None = None
-        self._factor = None
-
-    @property
-    def size(self) -> int:
-        return 2 * self.n + 3
-
-    def pack(self, q: np.ndarray, omega: float, velocity: float, log_mass: float) -> np.ndarray:
-        return np.concatenate([q.real, q.imag, [omega, velocity, log_mass]])
-
-    def unpack(self, y: np.ndarray) -> tuple[np.ndarray, float, float, float]:
-        n = self.n
-        return y[:n] + 1j * y[n : 2 * n], float(y[-3]), float(y[-2]), float(y[-1])
-
-    def system(self, velocity: float, log_mass: float) -> CoupledSystem:
-        if not (math.isfinite(velocity) and velocity > 0 and math.isfinite(log_mass)):
-            raise ConvergenceError(
-                f"the neutral-curve corrector left the admissible range (U* = {velocity:g})"
-            )
-        key = (velocity, log_mass)
-        if self._system is None or self._system[0] != key:
-            solid = replace(self.template, reduced_velocity=velocity, mass_ratio=math.exp(log_mass))
-            self._system = (key, CoupledSystem(self.fluid, solid))
-        return self._system[1]
-
-    def residual(self, y: np.ndarray) -> np.ndarray:
-        q, omega, velocity, log_mass = self.unpack(y)
-        system = self.system(velocity, log_mass)
-        mq = system.mass @ q
-        r = system.jacobian @ q + 1j * omega * mq
-        return np.concatenate([r.real, r.imag, [q[self.phase].real, np.vdot(q, mq).real - 1.0]])
-
-    def solve(self, y: np.ndarray, border: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
-        n, k = self.n, self.phase
-        if np.any(border[: 2 * n + 1]):
-            raise InputError("the neutral-curve arclength has weight on (U*, log m) only")
-        q, omega, velocity, log_mass = self.unpack(y)
-        system = self.system(velocity, log_mass)
-        factor = self._factor if reuse else None
-        shift = factor.shift if factor is not None else 1j * omega
-        key = (velocity, log_mass, shift, id(factor))
-        if self._solver is None or self._solver[0] != key or factor is None:
-            solver = ShiftedSolver(system, shift, fluid_factor=factor, counter=self.counter)
-            self._factor = solver.fluid_factor
-            self._solver = ((velocity, log_mass, shift, id(self._factor)), solver)
-        solver = self._solver[1]
-        mq = system.mass @ q
-        r_q = rhs[:n] + 1j * rhs[n : 2 * n]
-        a = solver.solve(r_q) if np.any(r_q) else np.zeros(n, dtype=complex)
-        b = solver.solve(-1j * mq)
-        c = solver.solve(-velocity_derivative(system, q))
-        d = solver.solve(-_aero_rows(system, q, omega))
-        matrix = np.array(
-            [
-                [b[k].real, c[k].real, d[k].real],
-                [2 * np.vdot(mq, b).real, 2 * np.vdot(mq, c).real, 2 * np.vdot(mq, d).real],
-                [0.0, border[-2], border[-1]],
-            ]
-        )
-        small = np.array([rhs[2 * n] - a[k].real, rhs[2 * n + 1] - 2 * np.vdot(mq, a).real, rhs[2 * n + 2]])
-        d_omega, d_velocity, d_log_mass = np.linalg.solve(matrix, small)
-        return self.pack(a + d_omega * b + d_velocity * c + d_log_mass * d, d_omega, d_velocity, d_log_mass)
-
-
 def continue_neutral_curve(
     fluid: FluidOperators,
     start: CriticalPoint,
@@ -220,10 +131,8 @@ def continue_neutral_curve(
         raise InputError("mass and velocity ranges must be positive and increasing")
     counter = counter if counter is not None else FactorCounter()
     first = counter.count
-    problem = _NeutralProblem(fluid, template, counter)
+    problem = AugmentedProblem(fluid, template, counter)
     n = problem.n
-    weights = np.zeros(problem.size)
-    weights[-2:] = 1.0
     y0 = problem.pack(
         np.asarray(start.mode, dtype=complex),
         start.frequency,
@@ -259,23 +168,25 @@ def continue_neutral_curve(
 
     try:
         branch = continuation(
-            CurveProblem(problem.residual, problem.solve, parameter=-1, weights=weights),
+            problem.curve(),
             y0,
             d0,
-            step=step,
-            min_step=min_step,
-            max_step=max_step,
-            max_points=max_points,
-            predictor="tangent",
+            ContinuationSettings(
+                step=step,
+                min_step=min_step,
+                max_step=max_step,
+                max_points=max_points,
+                predictor="tangent",
+                clip=False,
+                tol=1e-10,
+                max_iterations=12,
+                fast_iterations=4,
+                locate_tol=1e-6,
+                locate_folds=locate_folds,
+                max_locate_iterations=8,
+            ),
             bounds={2 * n + 2: (math.log(mass_range[0]), math.log(mass_range[1])), 2 * n + 1: velocity_range},
-            clip=False,
             events={"zero_frequency": TestFunction(zero_frequency, terminal=True, localise=False)},
-            tol=1e-10,
-            max_iterations=12,
-            fast_iterations=4,
-            locate_tol=1e-6,
-            locate_folds=locate_folds,
-            max_locate_iterations=8,
             record=lambda y: y[-3:],
             on_point=accept,
             on_event=lambda e: fold(e) if e.kind == "fold" else None,
@@ -292,11 +203,10 @@ def continue_neutral_curve(
 
 
 def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarray) -> np.ndarray:
-    """``U*_D(m) = √(m r_θ² / (dC_M/dθ))`` (MODEL.md §8); NaN where the slope is not positive."""
-    mass_ratios = np.asarray(mass_ratios, dtype=float)
-    if moment_slope <= 0:
-        return np.full_like(mass_ratios, np.nan)
-    return np.sqrt(mass_ratios * r_theta**2 / moment_slope)
+    """``U*_D(m)`` of :func:`divergence_velocity` on ``mass_ratios`` (MODEL.md §8), as the map
+    stores it: NaN (no line to draw) where the slope is not positive."""
+    velocities = np.asarray(divergence_velocity(moment_slope, r_theta, mass_ratios))
+    return np.where(np.isinf(velocities), np.nan, velocities)
 
 
 @dataclass(frozen=True)
@@ -347,13 +257,14 @@ def curve_dataset(
     its turning points in m (``fold_*`` variables along ``fold``; attribute ``n_folds``)."""
     import xarray as xr
 
+    from fsistab.store import complex_variable
+
     last = curve_points[-1]
     variables = {
         "mass_ratio": ("point", np.array([p.mass_ratio for p in curve_points])),
         "reduced_velocity": ("point", np.array([p.reduced_velocity for p in curve_points])),
         "frequency": ("point", np.array([p.frequency for p in curve_points])),
-        "last_mode_real": ("unknown", last.mode.real),
-        "last_mode_imag": ("unknown", last.mode.imag),
+        "last_mode": complex_variable("unknown", last.mode),
     }
     if turning_points:
         variables |= {
@@ -394,14 +305,15 @@ def trace_curve_resumable(
 
     If ``path`` holds a curve with the same ``attrs`` that was interrupted, or stopped at fewer
     than ``max_points`` points, it continues from its last point in the direction of its last
-    step (so a resumed curve keeps going past a turning point); a mismatched file is refused.
+    step (so a resumed curve keeps going past a turning point); a damaged file (checksum) is
+    reported and the curve restarts, a file of other ``attrs`` is refused (CacheError).
     Turning points in m are stored with the curve (:func:`curve_dataset`)."""
-    from fsistab.store import read_dataset, write_dataset
+    from fsistab.store import complex_values, read_resumable, write_dataset
 
     points: list[NeutralPoint] = []
     turning: list[TurningPoint] = []
-    if path.exists():
-        ds = read_dataset(path, expect=attrs)
+    ds = read_resumable(path, attrs)
+    if ds is not None:
         points = [
             NeutralPoint(m, u, w, np.zeros(0), 0)
             for m, u, w in zip(
@@ -409,7 +321,7 @@ def trace_curve_resumable(
             )
         ]
         turning = _turning_points_of(ds)
-        mode = ds.last_mode_real.values + 1j * ds.last_mode_imag.values
+        mode = complex_values(ds["last_mode"])
         points[-1] = replace(points[-1], mode=mode)
         wanted = options.get("max_points", 200)
         if ds.attrs.get("complete") and (ds.attrs.get("stop") != "max_points" or len(points) >= wanted):
@@ -671,3 +583,23 @@ def neutral_map_dataset(result: NeutralMap, attrs: dict):
         coords={"mass_ratio": result.divergence_mass_ratios},
         attrs={**attrs, "moment_slope": result.moment_slope, "factorisations": result.factorisations},
     )
+
+
+def map_curves(ds) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """``(kind, m, U*, ω)`` of each dynamic curve of a map dataset (:func:`neutral_map_dataset`), in
+    order of arclength."""
+    index = ds.curve.values
+    return [
+        (
+            str(kind),
+            ds.curve_mass_ratio.values[index == i],
+            ds.curve_reduced_velocity.values[index == i],
+            ds.curve_frequency.values[index == i],
+        )
+        for i, kind in enumerate(ds.curve_kind.values)
+    ]
+
+
+def map_curve_names(ds) -> list[str]:
+    """``flutter 0``, ``viv 1``, ...: the names of a map dataset's curves (tables, JSON)."""
+    return [f"{kind} {i}" for i, kind in enumerate(ds.curve_kind.values)]

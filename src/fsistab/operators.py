@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
-from fsistab.steady import SteadyState, momentum_form, wall_velocity
+from fsistab.steady import SteadyState, momentum_form, taylor_hood_space, wall_velocity
 
 SOLID_STATE = ("h", "theta", "hdot", "thetadot")
 NEAR_RADIUS = 1.0  # body lengths around G
@@ -198,6 +198,31 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
         theta0=theta0,
         mff_near=_to_scipy(near.mat, n_all)[index][:, index].tocsr(),
     )
+
+
+def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
+    """``K_ff(s) = J_ff + s M_f`` (MODEL.md §7) as NGSolve's assembled matrix on the whole space
+    (real for a real ``s``) and the mask of the fluid unknowns, ``(form, free dofs)``: the form of
+    :func:`fluid_operators`' ``jff`` and ``mff`` assembled in one pass in the arithmetic of ``s``,
+    for a factorisation by NGSolve's sparse solvers (:class:`fsistab.linalg.FluidFactor`; SciPy's
+    complex sparse matrices cannot be handed to them). The caller keeps ``form`` alive while it
+    uses the matrix ``form.mat``."""
+    from ngsolve import CF, BilinearForm, InnerProduct, dx
+
+    steady = fluid.steady
+    shift = complex(shift)
+    is_complex = shift.imag != 0
+    space = taylor_hood_space(steady.mesh, complex=is_complex)
+    (u, p), (v, q) = space.TnT()
+    grid_velocity = CF(wall_velocity(fluid.theta0))
+    form = BilinearForm(space)
+    value = shift if is_complex else shift.real
+    form += (
+        jacobian_integrand(u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds)
+        + value * InnerProduct(u, v)
+    ) * dx
+    form.Assemble()
+    return form, space.FreeDofs()
 
 
 class FluidResidual:

@@ -220,3 +220,438 @@ class Solid:
 def as_dict(obj) -> dict:
     """Plain dict of a parameter dataclass (for cache keys and metadata)."""
     return asdict(obj)
+
+
+# --- what a command computes: validated before any work --------------------------------------------
+
+MESH_PRESETS = ("coarse", "medium", "fine")  # the presets of fsistab.mesh (checked there too)
+BODIES = ("plate", "cylinder")
+# finite bounds on what a command accepts: beyond them a run is meaningless or unbounded in time
+MAX_REYNOLDS = 1e7  # a 2-D laminar model; the machine's limit (fsistab.resources) is lower
+MAX_MASS_RATIO = 1e9
+MAX_REDUCED_VELOCITY = 1e6
+MAX_FREQUENCY = 1e4  # in units U∞/L
+MAX_SWEEP_POINTS = 500
+MAX_CURVE_POINTS = 10_000
+DEFAULT_MASS_RATIO = {"plate": 1000.0, "cylinder": 20.0}  # MODEL.md §2, §10
+DEFAULT_REDUCED_VELOCITY = {"plate": 4.7, "cylinder": 8.0}
+DEFAULT_DOFS = {"plate": ("heave", "pitch"), "cylinder": ("heave",)}
+
+
+def _count(name: str, value: int, low: int, high: int) -> int:
+    """An integer option within ``[low, high]``."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        try:
+            as_float = float(value)
+        except (TypeError, ValueError):
+            raise InputError(f"{name} must be an integer, got {value!r}") from None
+        if not as_float.is_integer():
+            raise InputError(f"{name} must be an integer, got {value!r}")
+        value = int(as_float)
+    if not low <= value <= high:
+        raise InputError(f"{name} must be between {low} and {high}, got {value}")
+    return int(value)
+
+
+def _bounded(name: str, value: float, high: float) -> float:
+    """A positive finite number at most ``high``."""
+    value = _positive(name, value)
+    if value > high:
+        raise InputError(f"{name} must be at most {high:g}, got {value:g}")
+    return value
+
+
+def _interval(name: str, pair, high: float) -> tuple[float, float]:
+    """``(low, high)`` with ``0 < low < high <= high bound``, both finite."""
+    try:
+        low, top = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be two numbers, got {pair!r}") from None
+    if not (math.isfinite(low) and math.isfinite(top) and 0 < low < top):
+        raise InputError(f"{name} must be 0 < low < high, both finite, got {low:g} {top:g}")
+    if top > high:
+        raise InputError(f"{name} must end at most at {high:g}, got {top:g}")
+    return low, top
+
+
+def parse_complex(name: str, text: str, high: float = MAX_FREQUENCY) -> complex:
+    """A complex number written like ``0.05+0.2j`` (``i`` accepted for ``j``), finite, ``|z| <= high``."""
+    try:
+        value = complex(str(text).replace(" ", "").replace("i", "j"))
+    except ValueError:
+        raise InputError(f"cannot read the {name} {text!r}: write it like 0.05+0.2j") from None
+    if not (math.isfinite(value.real) and math.isfinite(value.imag)):
+        raise InputError(f"the {name} must be finite, got {text!r}")
+    if abs(value) > high:
+        raise InputError(f"the {name} must be at most {high:g} in modulus, got {text!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Case:
+    """One body in one steady flow on one mesh preset: what a steady state (and everything
+    linearised about it) depends on. ``domain`` None is the body's default (DEFAULT_DOMAINS)."""
+
+    body: Body
+    flow: Flow
+    preset: str = "medium"
+    domain: Domain | None = None
+
+    def __post_init__(self):
+        if self.preset not in MESH_PRESETS:
+            raise InputError(f"unknown mesh preset {self.preset!r}: choose one of {', '.join(MESH_PRESETS)}")
+        if self.flow.reynolds > MAX_REYNOLDS:
+            raise InputError(f"Reynolds number must be at most {MAX_REYNOLDS:g}, got {self.flow.reynolds:g}")
+
+    @classmethod
+    def create(
+        cls,
+        body: str = "plate",
+        reynolds: float = 2900.0,
+        alpha0_deg: float = 0.0,
+        preset: str = "medium",
+        aspect_ratio: float = 20.0,
+        corner_radius: float = 0.1,
+        domain: tuple[float, float, float] | None = None,
+    ) -> Case:
+        """From the command-line options. The plate's shape is checked for every body: a value
+        that makes no sense is refused even where it is not used."""
+        if body not in BODIES:
+            raise InputError(f"unknown body {body!r}: choose 'plate' or 'cylinder'")
+        plate = Plate(aspect_ratio=aspect_ratio, corner_radius=corner_radius)
+        return cls(
+            body=plate if body == "plate" else Cylinder(),
+            flow=Flow(reynolds, alpha0_deg),
+            preset=preset,
+            domain=Domain(*domain) if domain is not None else None,
+        )
+
+    @property
+    def kind(self) -> str:
+        return self.body.kind
+
+    @property
+    def tag(self) -> str:
+        """``plate_Re2900_a0``: the stem of the files a command writes for this case."""
+        return f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
+
+    def require_plate(self, what: str) -> None:
+        if self.kind != "plate":
+            raise InputError(f"{what} are implemented for the plate (heave and pitch)")
+
+
+def parse_dofs(text: str | None, kind: str) -> tuple[str, ...]:
+    """``heave,pitch`` | ``heave`` | ``pitch`` | ``none``; None is the body's default."""
+    if text is None:
+        return DEFAULT_DOFS[kind]
+    if text.strip() == "none":
+        return ()
+    names = tuple(d.strip() for d in text.split(",") if d.strip())
+    if not names:
+        raise InputError(f"--dofs must be heave,pitch | heave | pitch | none, got {text!r}")
+    bad = [d for d in names if d not in SOLID_DOFS]
+    if bad or len(set(names)) != len(names):
+        raise InputError(f"--dofs must be distinct names among heave, pitch (or none), got {text!r}")
+    if kind == "cylinder" and "pitch" in names:
+        raise InputError("the cylinder has no pitch degree of freedom: use --dofs heave or none")
+    return names
+
+
+def solid_for(
+    kind: str,
+    mass_ratio: float | None = None,
+    reduced_velocity: float | None = None,
+    freq_ratio: float = 0.8,
+    zeta_h: float = 0.0,
+    zeta_theta: float = 0.05,
+    r_theta: float = 0.289,
+    dofs: tuple[str, ...] | None = None,
+) -> Solid:
+    """Solid parameters in the body's conventions (plate MODEL.md §2, cylinder §10), None meaning
+    the body's default (never a falsy value: ``0`` is refused, not replaced). Every value is
+    checked, also those the cylinder ignores (Ω, ζ_θ, r_θ)."""
+    mass = (
+        DEFAULT_MASS_RATIO[kind] if mass_ratio is None else _bounded("mass ratio", mass_ratio, MAX_MASS_RATIO)
+    )
+    velocity = (
+        DEFAULT_REDUCED_VELOCITY[kind]
+        if reduced_velocity is None
+        else _bounded("reduced velocity", reduced_velocity, MAX_REDUCED_VELOCITY)
+    )
+    checked = Solid(
+        mass_ratio=mass,
+        reduced_velocity=velocity,
+        freq_ratio=_bounded("frequency ratio", freq_ratio, 1e3),
+        zeta_h=zeta_h,
+        zeta_theta=zeta_theta,
+        r_theta=_bounded("radius of gyration", r_theta, 1e3),
+        dofs=DEFAULT_DOFS[kind] if dofs is None else dofs,
+    )
+    for name, value in (("heave damping ratio", checked.zeta_h), ("pitch damping ratio", checked.zeta_theta)):
+        if value > 100:
+            raise InputError(f"{name} must be at most 100, got {value:g}")
+    if kind == "cylinder":
+        if "pitch" in checked.dofs:
+            raise InputError("the cylinder has no pitch degree of freedom: use --dofs heave or none")
+        solid = Solid.cylinder(mass, velocity, zeta=checked.zeta_h)
+        return Solid(**{**asdict(solid), "dofs": checked.dofs})
+    return checked
+
+
+def body_mass_ratio(kind: str, solid: Solid) -> float:
+    """The mass ratio in the body's own convention (inverse of :meth:`Solid.cylinder`)."""
+    return 2 * solid.mass_ratio / math.pi if kind == "cylinder" else solid.mass_ratio
+
+
+def body_velocity_scale(kind: str) -> float:
+    """Body-convention U* over the generic one: ``2π`` for the cylinder (MODEL.md §10), else 1."""
+    return 2 * math.pi if kind == "cylinder" else 1.0
+
+
+@dataclass(frozen=True)
+class SpectrumSettings:
+    """Eigenvalues of ``fsistab spectrum``: ``n_eigenvalues`` nearest each shift; figures of the
+    ``mode_figures`` least stable modes with the pressure at ``phase`` (rad); VTK of the modes."""
+
+    shifts: tuple[complex, ...]
+    n_eigenvalues: int = 6
+    vtk: bool = True
+    mode_figures: int = 2
+    phase: float = 0.0
+
+    def __post_init__(self):
+        shifts = tuple(complex(z) for z in self.shifts)
+        if not shifts or not all(math.isfinite(z.real) and math.isfinite(z.imag) for z in shifts):
+            raise InputError("give at least one finite shift")
+        if len(shifts) > 20:
+            raise InputError(f"at most 20 shifts, got {len(shifts)}")
+        object.__setattr__(self, "shifts", shifts)
+        object.__setattr__(self, "n_eigenvalues", _count("--n-eigenvalues", self.n_eigenvalues, 1, 50))
+        object.__setattr__(self, "mode_figures", _count("--mode-figures", self.mode_figures, 0, 50))
+        phase = _finite("--phase", self.phase)
+        if abs(phase) > 100:
+            raise InputError(f"--phase must be within ±100 rad, got {phase:g}")
+        object.__setattr__(self, "phase", phase)
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """A sweep in U* (``points`` log-spaced values over ``velocity_range``, body conventions) at
+    one ``mass_ratio`` (body conventions), optionally following the wake mode near ``wake_shift``."""
+
+    velocity_range: tuple[float, float] = (2.0, 10.0)
+    points: int = 24
+    wake_shift: complex | None = None
+    mass_ratio: float = 1000.0
+
+    def __post_init__(self):
+        interval = _interval("--reduced-velocity-range", self.velocity_range, MAX_REDUCED_VELOCITY)
+        object.__setattr__(self, "velocity_range", interval)
+        object.__setattr__(self, "points", _count("--points", self.points, 2, MAX_SWEEP_POINTS))
+        object.__setattr__(self, "mass_ratio", _bounded("mass ratio", self.mass_ratio, MAX_MASS_RATIO))
+
+
+MAP_METHODS = ("transfer", "continuation")
+
+
+@dataclass(frozen=True)
+class MapSettings:
+    """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, MODEL.md §8).
+
+    Every value is checked whichever ``method`` uses it. ``seed_masses`` None means ``m/10`` and
+    ``m/100`` of ``start_mass`` within the range; ``tolerance`` and ``max_frequencies`` None are the
+    transfer method's defaults.
+    """
+
+    mass_range: tuple[float, float] = (1.0, 1e4)
+    start_mass: float = 1000.0
+    velocity_range: tuple[float, float] = (2.0, 10.0)
+    seed_masses: tuple[float, ...] | None = None
+    wake_frequency: float | None = None
+    points: int = 24
+    max_points: int = 60
+    method: str = "transfer"
+    frequency_range: tuple[float, float] | None = None
+    tolerance: float | None = None
+    max_frequencies: int | None = None
+    reduced_blocks: int = 60
+    reduced_tolerance: float = 1e-7
+
+    def __post_init__(self):
+        if self.method not in MAP_METHODS:
+            raise InputError(f"--method must be continuation or transfer, got {self.method!r}")
+        lo_m, hi_m = _interval("--mass-ratio-range", self.mass_range, MAX_MASS_RATIO)
+        object.__setattr__(self, "mass_range", (lo_m, hi_m))
+        start = _bounded("--start-mass-ratio", self.start_mass, MAX_MASS_RATIO)
+        if self.method == "continuation" and not lo_m <= start <= hi_m:
+            raise InputError("--mass-ratio-range must contain --start-mass-ratio (the first sweep)")
+        object.__setattr__(self, "start_mass", start)
+        interval = _interval("--reduced-velocity-range", self.velocity_range, MAX_REDUCED_VELOCITY)
+        object.__setattr__(self, "velocity_range", interval)
+        if self.seed_masses is not None:
+            seeds = tuple(_bounded("--seed-mass-ratio", m, MAX_MASS_RATIO) for m in self.seed_masses)
+            if len(seeds) > 20:
+                raise InputError(f"at most 20 --seed-mass-ratio, got {len(seeds)}")
+            if self.method == "continuation" and any(not lo_m <= m <= hi_m for m in seeds):
+                raise InputError(
+                    f"every --seed-mass-ratio must lie in the mass-ratio range [{lo_m:g}, {hi_m:g}]"
+                )
+            object.__setattr__(self, "seed_masses", seeds)
+        if self.wake_frequency is not None:
+            object.__setattr__(
+                self, "wake_frequency", _bounded("--wake-frequency", self.wake_frequency, MAX_FREQUENCY)
+            )
+        object.__setattr__(self, "points", _count("--points", self.points, 2, MAX_SWEEP_POINTS))
+        object.__setattr__(self, "max_points", _count("--max-points", self.max_points, 1, MAX_CURVE_POINTS))
+        if self.frequency_range is not None:
+            object.__setattr__(
+                self, "frequency_range", _interval("--frequency-range", self.frequency_range, MAX_FREQUENCY)
+            )
+        if self.tolerance is not None:
+            tolerance = _finite("--tolerance", self.tolerance)
+            if not 0 < tolerance < 0.5:
+                raise InputError(f"--tolerance must be in (0, 0.5), got {tolerance:g}")
+            object.__setattr__(self, "tolerance", tolerance)
+        if self.max_frequencies is not None:
+            object.__setattr__(
+                self, "max_frequencies", _count("--max-frequencies", self.max_frequencies, 4, 100_000)
+            )
+        blocks = _count("--reduced-blocks", self.reduced_blocks, 0, 10_000)
+        if 0 < blocks < 3:
+            raise InputError(f"--reduced-blocks must be 0 (exact samples) or at least 3, got {blocks}")
+        object.__setattr__(self, "reduced_blocks", blocks)
+        reduced_tolerance = _finite("--reduced-tolerance", self.reduced_tolerance)
+        if not 0 < reduced_tolerance < 1e-2:
+            raise InputError(f"--reduced-tolerance must be in (0, 1e-2), got {reduced_tolerance:g}")
+        object.__setattr__(self, "reduced_tolerance", reduced_tolerance)
+
+    @property
+    def template_mass(self) -> float:
+        """The solid template's m: the first sweep's (continuation); for the transfer method any
+        value in the range works, so the start is clamped into it."""
+        return min(max(self.start_mass, self.mass_range[0]), self.mass_range[1])
+
+    @property
+    def seeds(self) -> tuple[float, ...]:
+        if self.seed_masses is not None:
+            return self.seed_masses
+        start = self.template_mass
+        return tuple(m for m in (start / 10, start / 100) if m >= self.mass_range[0])
+
+
+FLOW_PARAMETERS = ("reynolds", "alpha0")  # the flow parameters of fsistab.flow_neutral
+
+
+@dataclass(frozen=True)
+class FlowNeutralSettings:
+    """Neutral curves in ``(parameter, U*)`` (``fsistab flow-neutral``): from the thresholds of a
+    sweep in U* at ``start`` (the case's Re or α0), continued over ``parameter_range``."""
+
+    parameter: str = "alpha0"
+    parameter_range: tuple[float, float] = (0.0, 5.0)
+    start: float = 0.0
+    velocity_range: tuple[float, float] = (2.0, 10.0)
+    points: int = 24
+    max_points: int = 40
+
+    def __post_init__(self):
+        if self.parameter not in FLOW_PARAMETERS:
+            raise InputError(
+                f"--parameter must be one of {', '.join(FLOW_PARAMETERS)}, got {self.parameter!r}"
+            )
+        try:
+            low, high = (_finite("--range", v) for v in self.parameter_range)
+        except InputError:
+            raise InputError(f"--range must be two finite numbers, got {self.parameter_range}") from None
+        start = _finite(f"the starting {self.parameter}", self.start)
+        if not low <= start <= high or not low < high:
+            raise InputError(
+                f"--range {low:g} {high:g} must be increasing and contain the starting {self.parameter}"
+            )
+        if self.parameter == "reynolds" and not (0 < low and high <= MAX_REYNOLDS):
+            raise InputError(f"--range of Re must lie in (0, {MAX_REYNOLDS:g}], got {low:g} {high:g}")
+        if self.parameter == "alpha0" and not (-45 <= low and high <= 45):
+            raise InputError(f"--range of alpha0 must lie within ±45 degrees, got {low:g} {high:g}")
+        object.__setattr__(self, "parameter_range", (low, high))
+        object.__setattr__(self, "start", start)
+        interval = _interval("--reduced-velocity-range", self.velocity_range, MAX_REDUCED_VELOCITY)
+        object.__setattr__(self, "velocity_range", interval)
+        object.__setattr__(self, "points", _count("--points", self.points, 2, MAX_SWEEP_POINTS))
+        object.__setattr__(self, "max_points", _count("--max-points", self.max_points, 1, MAX_CURVE_POINTS))
+
+
+SLOPE_SOURCES = ("thin-airfoil", "calibrated", "given")
+
+
+@dataclass(frozen=True)
+class TheodorsenSettings:
+    """``fsistab theodorsen``: the typical section's critical points at ``mass_ratio`` over
+    ``velocity_range``, or its neutral curves at ``points`` mass ratios over ``mass_range``, with
+    the slopes ``slopes`` (thin airfoil, viscous ``calibrated`` at the case's Re, or ``given``:
+    ``dC_L/dα`` and ``d(-C_M)/dα`` about mid-chord per radian, MODEL.md §9); ``elastic_axis`` and
+    ``static_unbalance`` in chords (their bounds, which need r_θ, are checked by the section)."""
+
+    mass_ratio: float = 1000.0
+    mass_range: tuple[float, float] | None = None
+    points: int = 40
+    velocity_range: tuple[float, float] = (0.01, 100.0)
+    slopes: str = "thin-airfoil"
+    lift_slope_alpha: float | None = None
+    moment_slope_alpha: float | None = None
+    elastic_axis: float = 0.0
+    static_unbalance: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "mass_ratio", _bounded("mass ratio", self.mass_ratio, MAX_MASS_RATIO))
+        object.__setattr__(self, "elastic_axis", _finite("--elastic-axis", self.elastic_axis))
+        object.__setattr__(self, "static_unbalance", _finite("--static-unbalance", self.static_unbalance))
+        if self.mass_range is not None:
+            object.__setattr__(
+                self, "mass_range", _interval("--mass-ratio-range", self.mass_range, MAX_MASS_RATIO)
+            )
+        object.__setattr__(self, "points", _count("--points", self.points, 2, 2000))
+        interval = _interval("--reduced-velocity-range", self.velocity_range, MAX_REDUCED_VELOCITY)
+        object.__setattr__(self, "velocity_range", interval)
+        if self.slopes not in SLOPE_SOURCES:
+            raise InputError(f"unknown --slopes {self.slopes!r}: choose {', '.join(SLOPE_SOURCES)}")
+        given = (self.lift_slope_alpha, self.moment_slope_alpha)
+        if self.slopes != "given":
+            if any(v is not None for v in given):
+                raise InputError("--lift-slope-alpha and --moment-slope-alpha need --slopes given")
+            return
+        if any(v is None for v in given):
+            raise InputError("--slopes given needs both --lift-slope-alpha and --moment-slope-alpha")
+        lift = _finite("--lift-slope-alpha", self.lift_slope_alpha)
+        moment = _finite("--moment-slope-alpha", self.moment_slope_alpha)
+        if lift <= 0:
+            raise InputError(
+                f"--lift-slope-alpha must be positive, got {lift:g}: the circulatory lift grows with α, and "
+                "without it the flutter determinant is degenerate (roots everywhere)"
+            )
+        if moment == 0:
+            raise InputError(
+                "--moment-slope-alpha 0 puts the aerodynamic centre at mid-chord, a degenerate section "
+                "(no aerodynamic pitch stiffness): give the slope about mid-chord, π/2 for a thin airfoil"
+            )
+        if max(abs(lift), abs(moment)) > 1e3:
+            raise InputError(f"the given slopes must be at most 1000 per radian, got {lift:g} {moment:g}")
+        object.__setattr__(self, "lift_slope_alpha", lift)
+        object.__setattr__(self, "moment_slope_alpha", moment)
+
+
+@dataclass(frozen=True)
+class TransferSettings:
+    """``fsistab transfer``: ``points`` reduced frequencies ``k = ω L/(2U∞)``, log-spaced over ``k_range``."""
+
+    k_range: tuple[float, float] = (0.01, 2.0)
+    points: int = 24
+
+    def __post_init__(self):
+        object.__setattr__(
+            self,
+            "k_range",
+            _interval(
+                "the reduced-frequency range (--reduced-frequency-range)", self.k_range, MAX_FREQUENCY / 2
+            ),
+        )
+        object.__setattr__(self, "points", _count("--points", self.points, 2, 2000))

@@ -20,13 +20,16 @@ def _triangulation(mesh) -> mtri.Triangulation:
 
 
 def save_figure(fig, path: Path) -> Path:
-    """Write ``fig`` to ``path`` (PNG, 150 dpi) atomically and close it."""
+    """Write ``fig`` to ``path`` (PNG, 150 dpi) atomically (:func:`fsistab.store.atomic_path`: an
+    interrupted or failed write leaves neither file nor temporary) and close it."""
+    from fsistab.store import atomic_path
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.part{path.suffix}")
-    fig.savefig(tmp, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_path(path, path.suffix) as tmp:  # the suffix last: matplotlib picks the format by it
+            fig.savefig(tmp, dpi=150, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -104,9 +107,13 @@ def plot_spectrum(ds, path: Path, title: str = "") -> Path:
 def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Path) -> Path:
     """Real and imaginary parts of the velocity and pressure of each mode, as one VTK file.
 
-    ``modes`` maps a name to a fluid vector (the fluid unknowns, indexed by ``fluid_index``).
+    ``modes`` maps a name to a fluid vector (the fluid unknowns, indexed by ``fluid_index``). The
+    file is ``path`` with ``.vtu`` appended (unless it ends so), written atomically
+    (:func:`fsistab.store.atomic_path`).
     """
     from ngsolve import GridFunction, VTKOutput
+
+    from fsistab.store import atomic_path
 
     coefs, names = [], []
     for name, vector in modes.items():
@@ -115,10 +122,13 @@ def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Pat
             field.vec.FV().NumPy()[fluid_index] = values
             coefs += [field.components[0], field.components[1]]
             names += [f"{name}_velocity_{part}", f"{name}_pressure_{part}"]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    VTKOutput(steady.mesh, coefs=coefs, names=names, filename=str(path.with_suffix("")), subdivision=1).Do()
-    return path.with_suffix(".vtu")
+    path = Path(path)  # a name with dots (alpha0 = 2.5) keeps them: ".vtu" is appended
+    target = path if path.suffix == ".vtu" else path.with_name(path.name + ".vtu")
+    with atomic_path(target, ".vtu") as tmp:
+        # VTKOutput appends ".vtu" to the name it is given: give it the temporary without it
+        stem = str(tmp.with_suffix(""))
+        VTKOutput(steady.mesh, coefs=coefs, names=names, filename=stem, subdivision=1).Do()
+    return target
 
 
 # --- modes -----------------------------------------------------------------------------------------
@@ -546,3 +556,45 @@ def plot_slopes(ds, path: Path, title: str = "") -> Path:
     )
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+# --- figures of the workflows' Datasets (fsistab.workflows) -----------------------------------------
+
+
+def plot_map(ds, path: Path, title: str = "") -> Path:
+    """The stability map of :func:`fsistab.workflows.stability_map` (its Dataset) by
+    :func:`plot_stability_map`: curves, divergence, turning points, crossings and, for the transfer
+    method, the unstable regions of ``unstable_count``."""
+    from fsistab.neutral import map_curves
+
+    unstable = None
+    if "unstable_count" in ds:
+        unstable = (ds.grid_mass_ratio.values, ds.grid_reduced_velocity.values, ds.unstable_count.values)
+    return plot_stability_map(
+        [(kind, m, u) for kind, m, u, _ in map_curves(ds)],
+        (ds.mass_ratio.values, ds.divergence_reduced_velocity.values),
+        path,
+        title=title,
+        turning_points=list(zip(ds.fold_mass_ratio.values, ds.fold_reduced_velocity.values, strict=True)),
+        crossings=list(zip(ds.crossing_mass_ratio.values, ds.crossing_reduced_velocity.values, strict=True)),
+        unstable=unstable,
+    )
+
+
+def plot_flow_neutral_curves(ds, path: Path, title: str = "") -> Path:
+    """The curves of :func:`fsistab.workflows.flow_neutral_curves` by :func:`plot_flow_neutral`."""
+    from fsistab.flow_neutral import flow_curves
+
+    curves = [(kind, values, u, fp, fu) for kind, _, values, u, _, fp, fu, _ in flow_curves(ds)]
+    return plot_flow_neutral(curves, ds.attrs["parameter"], path, title=title)
+
+
+def plot_theodorsen_comparison(ds, path: Path, title: str = "") -> Path:
+    """The Dataset of :func:`fsistab.workflows.theodorsen_comparison` by
+    :func:`plot_theodorsen_map`, with the viscous curves and the relative error if it has them."""
+    from fsistab.theodorsen import viscous_curves
+
+    comparison = None
+    if "comparison_mass_ratio" in ds and ds.sizes.get("comparison", 0):
+        comparison = (ds.comparison_mass_ratio.values, ds.comparison_relative_error.values)
+    return plot_theodorsen_map(ds, path, viscous=viscous_curves(ds), comparison=comparison, title=title)

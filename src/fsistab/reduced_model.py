@@ -49,7 +49,14 @@ from fsistab.errors import CacheError, ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
-from fsistab.store import json_attr, read_dataset, write_dataset
+from fsistab.store import (
+    complex_values,
+    complex_variable,
+    discard_damaged,
+    json_attr,
+    read_resumable,
+    write_dataset,
+)
 from fsistab.transfer import flow_identity
 
 DEFLATION = 1e-10  # a new Krylov direction smaller than this (relative) is dropped as dependent
@@ -231,7 +238,8 @@ class ReducedModels:
         self.models: list[KrylovModel] = []
         if self.path is not None and self.path.is_file():
             self.models = read_models(self.path, self.identity)
-            self._say(f"{len(self.models)} reduced models reused from {self.path}")
+            if self.models:
+                self._say(f"{len(self.models)} reduced models reused from {self.path}")
 
     def covering(self, omega: float) -> KrylovModel | None:
         """The model whose certified interval contains ``omega`` (closest shift), or None."""
@@ -384,12 +392,12 @@ def models_dataset(models: Sequence[KrylovModel], identity: dict) -> xr.Dataset:
         "lf": ("model", "load", "column"),
         "lm": ("model", "load", "column"),
     }
-    data = {name: ((*dims[name], "part"), np.stack([a.real, a.imag], axis=-1)) for name, a in arrays.items()}
+    data = {name: complex_variable(dims[name], a) for name, a in arrays.items()}
     ends = np.full((n, max(len(m.ends) for m in models)), -1, dtype=int)
     for i, m in enumerate(models):
         ends[i, : len(m.ends)] = m.ends
     data["ends"] = (("model", "block"), ends)
-    data["shift"] = (("model", "part"), np.array([[m.shift.real, m.shift.imag] for m in models]))
+    data["shift"] = complex_variable("model", [m.shift for m in models])
     data["interval"] = (("model", "edge"), np.array([m.interval for m in models]))
     return xr.Dataset(
         data,
@@ -405,22 +413,24 @@ def models_dataset(models: Sequence[KrylovModel], identity: dict) -> xr.Dataset:
 
 
 def read_models(path: Path, identity: dict) -> list[KrylovModel]:
-    """Models saved by :func:`reduced_cover` for the same mesh, flow, blocks and tolerance."""
-    ds = read_dataset(path, expect=identity)
+    """Models saved by :func:`reduced_cover` for the same mesh, flow, blocks and tolerance: none if
+    there is no file; a damaged one (checksum) is reported, moved aside and recomputed (none);
+    another computation's raises CacheError."""
+    ds = read_resumable(path, identity)
+    if ds is None:
+        return []
     try:
         load_s = np.array(json.loads(ds.attrs["load_s"]))
         load_mass_s = np.array(json.loads(ds.attrs["load_mass_s"]))
-        parts = {
-            name: ds[name].values[..., 0] + 1j * ds[name].values[..., 1]
-            for name in ("jr", "mr", "br0", "br1", "lf", "lm")
-        }
+        parts = {name: complex_values(ds[name]) for name in ("jr", "mr", "br0", "br1", "lf", "lm")}
+        shifts = complex_values(ds["shift"])
         models = []
         for i in range(ds.sizes["model"]):
             ends = tuple(int(e) for e in ds["ends"].values[i] if e > 0)
             k = ends[-1]
             models.append(
                 KrylovModel(
-                    shift=complex(*ds["shift"].values[i]),
+                    shift=complex(shifts[i]),
                     jr=parts["jr"][i, :k, :k],
                     mr=parts["mr"][i, :k, :k],
                     br0=parts["br0"][i, :k],
@@ -433,6 +443,7 @@ def read_models(path: Path, identity: dict) -> list[KrylovModel]:
                     interval=tuple(float(x) for x in ds["interval"].values[i]),
                 )
             )
-    except (KeyError, AttributeError, ValueError, IndexError) as exc:
-        raise CacheError(f"{path} is not a reduced-model file ({exc}); delete it to recompute") from None
+    except (KeyError, AttributeError, ValueError, IndexError, CacheError) as exc:
+        discard_damaged(path, f"{path} is not a reduced-model file ({exc})")
+        return []
     return models

@@ -261,8 +261,14 @@ def solve_steady(
     ``Re = min(Re, 40)`` at rest.
     """
     path = None if cache_dir is None else steady_path(spec, flow, cache_dir)
-    if path is not None and path.exists():
-        return load_steady(path, spec, flow, cache_dir)
+    if path is not None:
+        # a damaged entry (checksum, key or size) is reported, moved aside and recomputed
+        cached = store.read_cached(path, expect={"key": steady_key(spec, flow)})
+        if cached is not None:
+            try:
+                return _steady_from_dataset(cached, path, spec, flow, cache_dir)
+            except CacheError as exc:
+                store.discard_damaged(path, exc)
     if initial is not None and initial.mesh_spec.key() != spec.key():
         raise InputError("the initial steady state is on another mesh")
 
@@ -334,17 +340,25 @@ def save_steady(result: SteadyState, path: Path) -> Path:
 
 
 def load_steady(path: Path, spec: MeshSpec, flow: Flow, cache_dir: Path | None = None) -> SteadyState:
-    """Read a cached steady state, refusing one whose key, size or values do not match."""
+    """Read a cached steady state, refusing (CacheError) one whose checksum, key, size or values do
+    not match."""
+    ds = store.read_dataset(path, expect={"key": steady_key(spec, flow)})
+    return _steady_from_dataset(ds, path, spec, flow, cache_dir)
+
+
+def _steady_from_dataset(ds, path: Path, spec: MeshSpec, flow: Flow, cache_dir: Path | None) -> SteadyState:
+    """The steady state of a verified cache dataset, on the mesh of ``spec``."""
     import json
 
     from ngsolve import GridFunction
 
-    ds = store.read_dataset(path, expect={"key": steady_key(spec, flow)})
     mesh = build_mesh(spec, cache_dir)
     space = taylor_hood_space(mesh)
     values = ds["state"].values if "state" in ds else None
     if values is None or values.shape != (space.ndof,) or not np.all(np.isfinite(values)):
-        raise CacheError(f"cached steady state {path} does not fit its mesh (corrupt); delete it")
+        raise CacheError(
+            f"cached steady state {path} does not fit its mesh (damaged)" + store.DELETE_AND_RERUN
+        )
     state = GridFunction(space)
     state.vec.FV().NumPy()[:] = values
     return SteadyState(

@@ -1,26 +1,45 @@
-"""Results store: cache keys, atomic writes and NetCDF I/O (ARCHITECTURE.md, `store`).
+"""Results store: cache keys, atomic writes, checksummed NetCDF I/O, complex data, resumable tables
+(ARCHITECTURE.md, `store`).
 
-A cache entry is written under a temporary name in its final directory and renamed, so an
-interrupted run never leaves a partial file behind. Its key is a hash of every input that changes
-it, including the discretisation's software versions; a corrupt or mismatched entry is refused
-with a :class:`~fsistab.errors.CacheError`.
+Every output (NetCDF, PNG, VTK, mesh) is written under a temporary name in its final directory and
+renamed, so an interrupted run never leaves a partial file behind; :func:`recording` collects the
+paths written. A cache entry's key is a hash of every input that changes it, including the
+discretisation's software versions. Every dataset carries a content checksum (attribute
+``fsistab_checksum``) verified on load: a damaged file is refused with a one-line
+:class:`~fsistab.errors.CacheError`, and a cache entry that can be recomputed is reported and
+recomputed (:func:`read_cached`), never used.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import gzip
 import hashlib
 import json
+import logging
 import os
 import tempfile
-from collections.abc import Iterator
+import zlib
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
-from fsistab.errors import CacheError
+from fsistab.errors import CacheError, InputError
 
 NETCDF_ENGINE = "h5netcdf"
+CHECKSUM_ATTR = "fsistab_checksum"
+DELETE_AND_RERUN = "; delete it and rerun"
+PART = ("real", "imag")  # the trailing dimension ``part`` of complex data
+
+log = logging.getLogger("fsistab")
+
+# the lists of the active `recording()` blocks, innermost last (a context variable: per thread/task)
+_RECORDINGS: contextvars.ContextVar[tuple[list[Path], ...]] = contextvars.ContextVar(
+    "fsistab_recordings", default=()
+)
 
 
 def software_versions() -> dict[str, str]:
@@ -44,9 +63,36 @@ def cache_key(kind: str, inputs: dict) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()[:20]
 
 
+# --- writes: atomic, recorded ------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def recording() -> Iterator[list[Path]]:
+    """Collect, in the list yielded, every path written atomically while the block is active.
+
+    Nested blocks each see the writes made inside them. The state lives in a context variable, so
+    threads and asyncio tasks record separately.
+    """
+    written: list[Path] = []
+    token = _RECORDINGS.set((*_RECORDINGS.get(), written))
+    try:
+        yield written
+    finally:
+        _RECORDINGS.reset(token)
+
+
+def _record(path: Path) -> None:
+    for written in _RECORDINGS.get():
+        written.append(path)
+
+
 @contextlib.contextmanager
 def atomic_path(path: Path, suffix: str = "") -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; rename it to ``path`` only if the block succeeds."""
+    """Yield a temporary path next to ``path``; rename it to ``path`` only if the block succeeds.
+
+    On an exception nothing is left behind: neither ``path`` (an older file there is untouched) nor
+    the temporary.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     # the suffix stays last: some writers (Netgen) append their own extension otherwise
@@ -56,23 +102,126 @@ def atomic_path(path: Path, suffix: str = "") -> Iterator[Path]:
     try:
         yield tmp
         os.replace(tmp, path)
+        _record(path)
     finally:
         if tmp.exists():
             tmp.unlink()
 
 
+def atomic_write_bytes(path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def ensure_writable_dir(path: Path, what: str) -> Path:
+    """Create directory ``path`` and check a file can be written in it (created and deleted).
+
+    ``what`` names it for the user (``"--out"``); a failure raises :class:`InputError` with one line
+    ``"<what> <path> is not a writable directory: <reason>"``.
+    """
+    path = Path(path).expanduser()
+
+    def refuse(reason: str) -> InputError:
+        return InputError(f"{what} {path} is not a writable directory: {reason}")
+
+    if path.exists() and not path.is_dir():
+        raise refuse("it is a file")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".fsistab-write-test.", dir=path)
+        try:
+            os.write(fd, b"x")
+        finally:
+            os.close(fd)
+            os.unlink(probe)
+    except OSError as exc:
+        raise refuse(exc.strerror or type(exc).__name__) from None
+    return path
+
+
+# --- checksums ---------------------------------------------------------------------------------
+
+
+def _plain(value):
+    """An attribute value as plain JSON data: NetCDF returns numpy scalars and arrays for numbers."""
+    if isinstance(value, np.ndarray):
+        return [_plain(v) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, bytes):
+        return value.decode()
+    return value
+
+
+def _variable_bytes(variable: xr.Variable) -> tuple[str, bytes]:
+    """A canonical (dtype, bytes) of a variable's values; strings are hashed as their text (NetCDF
+    returns them as objects whatever the width written)."""
+    values = np.asarray(variable.values)
+    if values.dtype.kind in "OUS":
+        text = json.dumps([str(_plain(v)) for v in values.ravel().tolist()])
+        return "str", text.encode()
+    values = np.ascontiguousarray(values)
+    return values.dtype.newbyteorder("<").str, values.astype(values.dtype.newbyteorder("<")).tobytes()
+
+
+def dataset_checksum(ds: xr.Dataset) -> str:
+    """sha256 over every variable's (data and coordinate) name, dims, shape, dtype and bytes in
+    sorted name order, and the dataset attributes other than the checksum itself."""
+    digest = hashlib.sha256()
+    for name in sorted(map(str, ds.variables)):
+        variable = ds.variables[name]
+        dtype, data = _variable_bytes(variable)
+        header = json.dumps([name, list(map(str, variable.dims)), list(variable.shape), dtype])
+        digest.update(header.encode())
+        digest.update(hashlib.sha256(data).digest())
+    attrs = {str(k): _plain(v) for k, v in ds.attrs.items() if k != CHECKSUM_ATTR}
+    digest.update(json.dumps(attrs, sort_keys=True, default=str).encode())
+    return digest.hexdigest()
+
+
+def file_checksum(path: Path) -> str:
+    """sha256 of a file's bytes."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+# --- NetCDF ------------------------------------------------------------------------------------
+
+
 def write_dataset(ds: xr.Dataset, path: Path) -> Path:
-    """Write ``ds`` as NetCDF-4 atomically."""
+    """Write ``ds`` as NetCDF-4 atomically, with its content checksum in attribute ``fsistab_checksum``.
+
+    The checksum is that of the file as a reader decodes it (NetCDF turns a one-element list
+    attribute into a scalar, fixed-width strings into objects, ...), added to the temporary file
+    before it is renamed, so :func:`read_dataset` finds it equal unless the file changed.
+    """
+    import h5py
+
     path = Path(path)
+    ds = ds.copy(deep=False)
+    ds.attrs = {k: v for k, v in ds.attrs.items() if k != CHECKSUM_ATTR}
     with atomic_path(path, ".nc") as tmp:
         ds.to_netcdf(tmp, engine=NETCDF_ENGINE)
+        with xr.open_dataset(tmp, engine=NETCDF_ENGINE) as written:
+            checksum = dataset_checksum(written.load())
+        with h5py.File(tmp, "r+") as f:
+            f.attrs[CHECKSUM_ATTR] = checksum
     return path
 
 
 def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
-    """Read a NetCDF file fully into memory, checking that its attributes match ``expect``.
+    """Read a NetCDF file written by :func:`write_dataset` fully into memory, verify its content
+    checksum and that its attributes match ``expect``.
 
-    Raises :class:`CacheError` naming the file when it is missing, unreadable or mismatched.
+    Raises :class:`CacheError` (one line naming the file and what to do) when it is missing,
+    unreadable, has no checksum, fails the checksum or does not match.
     """
     path = Path(path)
     if not path.is_file():
@@ -81,11 +230,70 @@ def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
         with xr.open_dataset(path, engine=NETCDF_ENGINE) as ds:
             ds = ds.load()
     except Exception as exc:  # h5py/netCDF raise many types for a damaged file
-        raise CacheError(f"cannot read {path} (corrupt or not NetCDF): {type(exc).__name__}") from None
+        raise CacheError(
+            f"cannot read {path} (damaged or not NetCDF: {type(exc).__name__})" + DELETE_AND_RERUN
+        ) from None
+    stored = ds.attrs.get(CHECKSUM_ATTR)
+    if stored is None:
+        raise CacheError(f"{path} has no content checksum (not written by this fsistab)" + DELETE_AND_RERUN)
+    if stored != dataset_checksum(ds):
+        raise CacheError(f"{path} is damaged (content checksum mismatch)" + DELETE_AND_RERUN)
     for name, value in (expect or {}).items():
-        if ds.attrs.get(name) != value:
+        if _plain(ds.attrs.get(name)) != _plain(value):
             raise CacheError(
                 f"{path} does not match the request: {name} is {ds.attrs.get(name)!r}, expected {value!r}"
+            )
+    return ds
+
+
+def discard_damaged(path: Path, problem: CacheError | str) -> Path:
+    """Report a damaged cache entry in one warning line and move it aside (``<name>.damaged``, which
+    replaces an older one); returns where it went."""
+    path = Path(path)
+    aside = path.with_name(path.name + ".damaged")
+    message = str(problem).removesuffix(DELETE_AND_RERUN)
+    try:
+        os.replace(path, aside)
+    except OSError:
+        with contextlib.suppress(OSError):
+            path.unlink()
+    log.warning("%s; moved aside to %s, recomputing", message, aside.name)
+    return aside
+
+
+def read_cached(path: Path, expect: dict | None = None) -> xr.Dataset | None:
+    """A cache entry that can be recomputed: its dataset, or None when it is missing or damaged.
+
+    A damaged or mismatched entry is reported and moved aside (:func:`discard_damaged`), so the
+    caller recomputes it; it is never used.
+    """
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        return read_dataset(path, expect)
+    except CacheError as exc:
+        discard_damaged(path, exc)
+        return None
+
+
+def read_resumable(path: Path, identity: Mapping) -> xr.Dataset | None:
+    """A partial result to resume: its dataset, or None when there is none or it is damaged
+    (reported and moved aside: the work restarts). One whose ``identity`` attributes differ is
+    another computation's: :class:`CacheError` (one line), so that it is not overwritten."""
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        ds = read_dataset(path)
+    except CacheError as exc:
+        discard_damaged(path, exc)
+        return None
+    for name, value in identity.items():
+        if _plain(ds.attrs.get(name)) != _plain(value):
+            raise CacheError(
+                f"{path} does not match this run, it holds another computation ({name} = "
+                f"{ds.attrs.get(name)!r}, this run has {value!r}); move it away or choose another output"
             )
     return ds
 
@@ -93,3 +301,141 @@ def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
 def json_attr(value) -> str:
     """Encode structured metadata as a JSON string attribute (NetCDF attributes are flat)."""
     return json.dumps(value, sort_keys=True)
+
+
+# --- complex data ------------------------------------------------------------------------------
+
+
+def complex_variable(dims, values, attrs: dict | None = None) -> xr.DataArray:
+    """Complex ``values`` on ``dims`` as a real array with a trailing dimension ``part`` =
+    ("real", "imag") — the one encoding of complex data in fsistab's files."""
+    dims = (dims,) if isinstance(dims, str) else tuple(dims)
+    values = np.asarray(values, dtype=complex)
+    if values.ndim != len(dims):
+        raise ValueError(f"complex values of shape {values.shape} do not fit dims {dims}")
+    return xr.DataArray(
+        np.stack([values.real, values.imag], axis=-1),
+        dims=(*dims, "part"),
+        coords={"part": list(PART)},
+        attrs=dict(attrs or {}),
+    )
+
+
+def complex_values(array: xr.DataArray) -> np.ndarray:
+    """The complex values of an array written by :func:`complex_variable`."""
+    if "part" not in array.dims:
+        raise CacheError(f"variable {array.name!r} has no 'part' dimension: not complex data")
+    parts = array.transpose(..., "part")
+    labels = [str(p) for p in parts["part"].values] if "part" in parts.coords else list(PART)
+    real = parts.isel(part=labels.index("real")).values
+    imag = parts.isel(part=labels.index("imag")).values
+    return real + 1j * imag
+
+
+# --- meshes and other files with a checksum sidecar --------------------------------------------
+
+
+def sidecar_path(path: Path) -> Path:
+    return Path(path).with_name(Path(path).name + ".sha256.json")
+
+
+def write_sidecar(path: Path) -> Path:
+    """Record ``path``'s sha256 and size in a JSON sidecar, written atomically."""
+    path = Path(path)
+    payload = {"file": path.name, "sha256": file_checksum(path), "bytes": path.stat().st_size}
+    return atomic_write_bytes(sidecar_path(path), json.dumps(payload, sort_keys=True).encode())
+
+
+def verify_sidecar(path: Path) -> None:
+    """Check ``path`` against its sidecar checksum, and a ``.gz`` file's whole gzip stream.
+
+    Raises :class:`CacheError` (one line) when the sidecar is missing or unreadable, or the file
+    differs from it or is not a complete gzip stream.
+    """
+    path = Path(path)
+    side = sidecar_path(path)
+    try:
+        payload = json.loads(side.read_text())
+        expected = payload["sha256"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise CacheError(f"{path} has no valid checksum file {side.name}" + DELETE_AND_RERUN) from None
+    if file_checksum(path) != expected:
+        raise CacheError(f"{path} is damaged (checksum mismatch)" + DELETE_AND_RERUN)
+    if path.name.endswith(".gz"):
+        try:
+            with gzip.open(path, "rb") as f:
+                while f.read(1 << 20):
+                    pass
+        except (OSError, EOFError, zlib.error) as exc:  # BadGzipFile is an OSError
+            raise CacheError(f"{path} is not a complete gzip file ({exc})" + DELETE_AND_RERUN) from None
+
+
+# --- resumable tables --------------------------------------------------------------------------
+
+
+class ResumableTable:
+    """A dataset of finished records, saved atomically after each one, that a rerun resumes.
+
+    ``identity`` (flat JSON-able attributes) says what the table is a table of: an existing file at
+    ``path`` is resumed only if its identity attributes match — else :class:`CacheError` (one line,
+    the file named) — and only if its checksum holds — else a warning and a fresh start. Records are
+    dicts of names to scalars or arrays (complex allowed), all records having the same names and
+    shapes; they are stacked along dimension ``record``.
+    """
+
+    def __init__(self, path: Path, identity: Mapping):
+        self.path = Path(path)
+        self.identity = {str(k): _plain(v) for k, v in identity.items()}
+        self._records: list[dict[str, np.ndarray]] = []
+        if self.path.exists():
+            self._records = self._load()
+
+    def _load(self) -> list[dict[str, np.ndarray]]:
+        ds = read_resumable(self.path, self.identity)
+        return [] if ds is None else table_records(ds)
+
+    @property
+    def records(self) -> list[dict[str, np.ndarray]]:
+        """The finished records, in order (copies)."""
+        return [dict(r) for r in self._records]
+
+    def __len__(self) -> int:
+        return len(self._records)
+
+    def append(self, record: Mapping, *, save: bool = True) -> None:
+        record = {str(k): np.asarray(v) for k, v in record.items()}
+        if self._records and set(record) != set(self._records[0]):
+            raise ValueError(f"record names {sorted(record)} differ from {sorted(self._records[0])}")
+        self._records.append(record)
+        if save:
+            self.save()
+
+    def dataset(self) -> xr.Dataset:
+        return records_dataset(self._records, self.identity)
+
+    def save(self) -> Path:
+        return write_dataset(self.dataset(), self.path)
+
+
+def records_dataset(records: list[Mapping], attrs: Mapping) -> xr.Dataset:
+    """Stack records (dicts of equal-shaped arrays) along ``record``; complex values are encoded by
+    :func:`complex_variable` and marked with attribute ``complex = 1``."""
+    variables = {}
+    names = list(records[0]) if records else []
+    for name in names:
+        stacked = np.stack([np.asarray(r[name]) for r in records])
+        dims = ("record", *(f"{name}_{i}" for i in range(stacked.ndim - 1)))
+        if np.iscomplexobj(stacked):
+            variables[name] = complex_variable(dims, stacked, {"complex": 1})
+        else:
+            variables[name] = xr.DataArray(stacked, dims=dims)
+    return xr.Dataset(variables, attrs=dict(attrs))
+
+
+def table_records(ds: xr.Dataset) -> list[dict[str, np.ndarray]]:
+    """The records of a dataset written by :func:`records_dataset`."""
+    columns = {}
+    for name, array in ds.data_vars.items():
+        columns[str(name)] = complex_values(array) if array.attrs.get("complex") else array.values
+    count = ds.sizes.get("record", 0)
+    return [{name: values[i] for name, values in columns.items()} for i in range(count)]

@@ -52,7 +52,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from fsistab.continuation import newton
 from fsistab.errors import ConvergenceError, InputError
+from fsistab.neutral_point import DeterminantProblem
+from fsistab.neutral_point import divergence_velocity as divergence_velocity_formula
 from fsistab.params import SOLID_DOFS, Solid, _finite
 
 THIN_AIRFOIL_LIFT_SLOPE = -2 * math.pi  # dC_L/dθ (α = -θ: dC_L/dα = 2π)
@@ -324,11 +327,12 @@ def flutter_determinant(section: TypicalSection, frequency, reduced_velocity: fl
 
 def divergence_velocity(section: TypicalSection) -> float:
     """Torsional divergence ``U*_D = √(m r_θ² / (dC_M/dθ))`` with the slope about the elastic axis
-    (MODEL.md §8, §9); ``nan`` when the slope is not positive (no divergence)."""
-    slope = section.moment_slope_elastic_axis
-    if slope <= 0:
-        return math.nan
-    return math.sqrt(section.mass_ratio * section.solid.r_theta**2 / slope)
+    (MODEL.md §8, §9, :func:`fsistab.neutral_point.divergence_velocity`); ``nan`` when the slope is
+    not positive (no divergence)."""
+    velocity = divergence_velocity_formula(
+        section.moment_slope_elastic_axis, section.solid.r_theta, section.mass_ratio
+    )
+    return velocity if math.isfinite(velocity) else math.nan
 
 
 def divergence_determinant(section: TypicalSection, reduced_velocity) -> np.ndarray:
@@ -422,35 +426,41 @@ def _indicator(roots: np.ndarray, band: tuple[float, float]) -> np.ndarray:
 
 
 def _polish(section: TypicalSection, omega: float, w: float, tol: float = 1e-13, maxit: int = 30):
-    """Newton on ``Re det = Im det = 0`` in the real unknowns ``(ω, w = 1/U*)``, the determinant
-    scaled by its size ``m² r_θ² max(ω, w)⁴`` (central differences for the Jacobian).
-    Returns ``(ω, w, scaled residual)``."""
-    scale0 = section.mass_ratio**2 * section.solid.r_theta**2
+    """The neutral point at the section's m by the one Newton (:func:`fsistab.continuation.newton`)
+    on ``Re det = Im det = 0`` in the real unknowns ``(ω, w = 1/U*)``
+    (:class:`fsistab.neutral_point.DeterminantProblem`, ``y = (ω, w, log m)``, m held), the
+    determinant scaled by its size ``m² r_θ² max(ω, w)⁴`` (central differences for the Jacobian).
+    Returns ``(ω, w, scaled residual)``, the residual of the last admissible iterate."""
+    log_mass = math.log(section.mass_ratio)
 
-    def f(om, ww):
-        d = complex(flutter_determinant(section, om, 1.0 / ww))
-        return np.array([d.real, d.imag]) / (scale0 * max(om, ww) ** 4)
+    def scaled(y: np.ndarray) -> complex:
+        om, ww = float(y[0]), float(y[1])
+        if not (om > 0 and ww > 0):
+            raise ConvergenceError("the Theodorsen neutral-point Newton left ω > 0, U* > 0")
+        at = section if y[2] == log_mass else section.with_mass_ratio(math.exp(float(y[2])))
+        d = complex(flutter_determinant(at, om, 1.0 / ww))
+        return d / (at.mass_ratio**2 * at.solid.r_theta**2 * max(om, ww) ** 4)
 
-    residual = f(omega, w)
-    for _ in range(maxit):
-        if np.linalg.norm(residual) < tol:
-            break
-        ho, hw = 1e-7 * omega, 1e-7 * w
-        jac = np.column_stack(
-            [
-                (f(omega + ho, w) - f(omega - ho, w)) / (2 * ho),
-                (f(omega, w + hw) - f(omega, w - hw)) / (2 * hw),
-            ]
-        )
-        try:
-            d_omega, d_w = np.linalg.solve(jac, -residual)
-        except np.linalg.LinAlgError:
-            break
-        omega, w = omega + d_omega, w + d_w
-        if not (omega > 0 and w > 0):
-            break
-        residual = f(omega, w)
-    return omega, w, float(np.linalg.norm(residual))
+    def characteristic(y: np.ndarray, gradient: bool):
+        value = scaled(y)
+        if not gradient:
+            return value
+        steps = np.array([1e-7 * y[0], 1e-7 * y[1], 1e-7])
+        columns = []
+        for i, h in enumerate(steps):
+            e = np.zeros(3)
+            e[i] = h
+            columns.append((scaled(y + e) - scaled(y - e)) / (2 * h))
+        return value, np.array(columns)
+
+    result = newton(
+        DeterminantProblem(characteristic).at(2, log_mass),
+        np.array([omega, w, log_mass]),
+        tol=tol,
+        max_iterations=maxit,
+    )
+    residual = result.residuals[-1] if result.residuals else math.inf  # (inf: the start was not admissible)
+    return float(result.point[0]), float(result.point[1]), residual
 
 
 def flutter_points(
@@ -740,3 +750,17 @@ def lower_envelope(curves) -> list[tuple[float, float]]:
             if not lower:
                 kept.append((float(m), float(u)))
     return sorted(set(kept))
+
+
+def viscous_curves(ds):
+    """The viscous curves that :func:`fsistab.workflows.theodorsen_comparison` stores beside the
+    Theodorsen curves, as ``{"flutter": [(m, U*), ...], "divergence": (m, U*)}`` (None without them)."""
+    count = int(ds.attrs.get("viscous_flutter_curves", 0))
+    if "viscous_divergence_mass_ratio" not in ds:
+        return None
+    flutter = [
+        (ds[f"viscous_flutter{i}_mass_ratio"].values, ds[f"viscous_flutter{i}_reduced_velocity"].values)
+        for i in range(count)
+    ]
+    divergence = (ds.viscous_divergence_mass_ratio.values, ds.viscous_divergence_reduced_velocity.values)
+    return {"flutter": flutter, "divergence": divergence}

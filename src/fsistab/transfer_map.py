@@ -62,14 +62,16 @@ import numpy as np
 import numpy.polynomial.polynomial as npoly
 import xarray as xr
 
+from fsistab.continuation import newton
 from fsistab.coupled import active_states
 from fsistab.errors import CacheError, ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
+from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.reduced_model import ReducedModels
-from fsistab.store import read_dataset, write_dataset
-from fsistab.transfer import _complex_variable, aerodynamic_loads, exact_transfer, flow_identity, from_parts
+from fsistab.store import complex_values, complex_variable, discard_damaged, read_resumable, write_dataset
+from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity
 
 VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
@@ -285,22 +287,34 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bo
 
 
 def _polish(loads, rate, solid, s, mass_ratio, u, iterations: int = 8):
-    """Newton on ``Re F = Im F = 0`` in ``(log m, log u)``; None if it does not converge."""
-    x = np.array([math.log(mass_ratio), math.log(u)])
-    for _ in range(iterations):
-        m, uu = math.exp(x[0]), math.exp(x[1])
-        f, f_m, f_u, _ = characteristic_function(loads, rate, solid, s, m, uu)
-        jac = np.array([[(f_m * m).real, (f_u * uu).real], [(f_m * m).imag, (f_u * uu).imag]])
-        try:
-            step = np.linalg.solve(jac, -np.array([f.real, f.imag]))
-        except np.linalg.LinAlgError:
-            return None
-        x = x + step
-        if not np.all(np.abs(x) < 200):  # diverged (exp would overflow)
-            return None
-        if np.max(np.abs(step)) < 1e-12:
-            return math.exp(x[0]), math.exp(x[1])
-    return (math.exp(x[0]), math.exp(x[1])) if np.max(np.abs(step)) < 1e-9 else None
+    """The neutral point ``F = 0`` at the sampled frequency (``ω`` held) from ``(m, u)``: the one
+    Newton (:func:`fsistab.continuation.newton`) on ``Re F = Im F = 0`` in ``(log m, log U*)``
+    (:class:`fsistab.neutral_point.DeterminantProblem`, ``y = (ω, log U*, log m)``) until the step
+    is below 1e-12 (or 1e-9 after ``iterations``); None if it does not converge."""
+    omega = s.imag
+
+    def characteristic(y: np.ndarray, gradient: bool):
+        log_velocity, log_mass = float(y[1]), float(y[2])
+        if not (abs(log_velocity) < 200 and abs(log_mass) < 200):  # diverged (exp would overflow)
+            raise ConvergenceError("the neutral-point Newton left the admissible range")
+        m, uu = math.exp(log_mass), math.exp(-log_velocity)
+        f, f_m, f_u, f_s = characteristic_function(loads, rate, solid, s, m, uu)
+        # ∂/∂(ω, log U*, log m) with u = 1/U*: ∂u/∂(log U*) = -u
+        return (f, np.array([1j * f_s, -f_u * uu, f_m * m])) if gradient else f
+
+    problem = DeterminantProblem(characteristic).at(0, omega)
+    result = newton(
+        problem,
+        np.array([omega, -math.log(u), math.log(mass_ratio)]),
+        tol=0.0,
+        max_iterations=iterations,
+        small_step=lambda d, y: np.max(np.abs(d)) < 1e-12,
+    )
+    y = result.point
+    near = result.last_step is not None and np.max(np.abs(result.last_step)) < 1e-9
+    if result.converged or (result.iterations == iterations and near and np.all(np.abs(y[1:]) < 200)):
+        return math.exp(y[2]), math.exp(-y[1])
+    return None
 
 
 def _root_with_tangent(loads, rate, solid, omega, m, u) -> NeutralRoot:
@@ -331,7 +345,7 @@ def divergence_lines(
     rates = []
     for lam in lambdas:  # any m: the rate does not depend on where on the line
         m = 1.0
-        u = math.sqrt(lam / m)
+        u = 1.0 / divergence_velocity(lam, 1.0, m)  # u = 1/U*_D, λ the slope per unit r_θ² (see above)
         _, _, f_u, f_s = characteristic_function(loads, rate, solid, 0.0, m, u)
         rates.append((f_u * u / f_s).real)
     return np.array(lambdas), np.array(rates)
@@ -436,7 +450,8 @@ class TransferMap:
     unresolved: tuple[tuple[float, float], ...]
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
-        return np.sqrt(mass_ratio / self.divergence_lambdas)
+        # λ is the static load slope per unit inertia r_θ² (MODEL.md §8): U*_D = √(m · 1 / λ)
+        return np.asarray(divergence_velocity(self.divergence_lambdas, 1.0, mass_ratio), dtype=float)
 
     def crossings_at(self, mass_ratio: float) -> list[tuple[float, float, str]]:
         """All neutral points at ``mass_ratio``, sorted by U*: ``(U*, crossing rate, kind)``."""
@@ -470,8 +485,8 @@ def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
     dims = ("frequency", "load", "state")
     return xr.Dataset(
         {
-            "transfer": _complex_variable(dims, np.array([s.transfer for s in samples])),
-            "transfer_rate": _complex_variable(dims, np.array([s.rate for s in samples])),
+            "transfer": complex_variable(dims, np.array([s.transfer for s in samples])),
+            "transfer_rate": complex_variable(dims, np.array([s.rate for s in samples])),
             "reduced": ("frequency", np.array([s.reduced for s in samples], dtype=np.int8)),
         },
         coords={
@@ -490,12 +505,17 @@ def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
 
 
 def read_samples(path: Path, fluid: FluidOperators) -> dict[float, AxisSample]:
-    """Samples saved by :func:`transfer_neutral_map` for the same mesh and flow (else CacheError)."""
-    ds = read_dataset(path, expect=flow_identity(fluid))
+    """Samples saved by :func:`transfer_neutral_map` for the same mesh and flow: none if there is no
+    file; a damaged one (checksum) is reported, moved aside and recomputed (none); another flow's
+    raises CacheError."""
+    ds = read_resumable(path, flow_identity(fluid))
+    if ds is None:
+        return {}
     try:
-        values, rates = from_parts(ds.transfer), from_parts(ds.transfer_rate)
-    except (AttributeError, KeyError) as exc:
-        raise CacheError(f"{path} is not a transfer-sample file ({exc}); delete it to recompute") from None
+        values, rates = complex_values(ds["transfer"]), complex_values(ds["transfer_rate"])
+    except (CacheError, KeyError) as exc:
+        discard_damaged(path, f"{path} is not a transfer-sample file ({exc})")
+        return {}
     reduced = ds["reduced"].values.astype(bool) if "reduced" in ds else np.zeros(ds.sizes["frequency"], bool)
     return {
         float(w): AxisSample(float(w), g, dg, bool(r))
@@ -601,7 +621,7 @@ def transfer_neutral_map(
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     start = counter.count
-    stored = read_samples(samples_path, fluid) if samples_path and Path(samples_path).is_file() else {}
+    stored = read_samples(samples_path, fluid) if samples_path else {}
     identity = flow_identity(fluid)
     wide = (low / 4, high * 4)  # roots followed; those in mass_range must be matched
     inner = (low, high)

@@ -1,0 +1,947 @@
+"""Workflows: one function per command-line command, the whole computation behind it.
+
+Each takes validated parameter objects (:mod:`fsistab.params`), a cache directory, an output
+directory where it writes its data (NetCDF, written atomically by :mod:`fsistab.store`; figures
+that need the fields themselves, such as meshes and modes, are drawn here too) and a ``progress``
+callback taking one message string. Each returns an :class:`xarray.Dataset` holding the results
+with their units and conventions in attributes; the figures of the results are drawn by
+:mod:`fsistab.plots` from that Dataset, and :func:`payload` turns it into the JSON object the
+command prints (keys documented in README.md, "Command line"). Nothing here prints.
+
+Lengths, times and coefficients follow the body's conventions (MODEL.md §1, §10): chord-based for
+the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), MODEL.md §10).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fsistab.params import (
+    Case,
+    FlowNeutralSettings,
+    MapSettings,
+    Solid,
+    SpectrumSettings,
+    SweepSettings,
+    TheodorsenSettings,
+    TransferSettings,
+    body_velocity_scale,
+)
+
+Progress = Callable[[str], None] | None
+
+
+def _say(progress: Progress) -> Callable[[str], None]:
+    return progress if progress is not None else (lambda message: None)
+
+
+def _mesh_spec(case: Case):
+    from fsistab.mesh import spec_for
+
+    return spec_for(case)
+
+
+def _fluid(case: Case, cache_dir: Path, say: Callable[[str], None]):
+    """Steady state (cached) and its linear operators (MODEL.md §6, §7)."""
+    from fsistab.operators import fluid_operators
+    from fsistab.steady import solve_steady
+
+    say(f"steady state: {case.kind}, Re = {case.flow.reynolds:g}, alpha0 = {case.flow.alpha0_deg:g} deg")
+    steady = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=_steady_progress(say))
+    say("fluid operators")
+    return steady, fluid_operators(steady)
+
+
+def _steady_progress(say: Callable[[str], None]):
+    def progress(step_flow, iterations: int) -> None:
+        say(
+            f"continuation: Re = {step_flow.reynolds:.4g}, alpha0 = {step_flow.alpha0_deg:.3g} deg "
+            f"converged in {iterations} Newton iterations"
+        )
+
+    return progress
+
+
+def _divergence_velocity(moment_slope, r_theta, mass_ratio):
+    """``U*_D = √(m r_θ²/(dC_M/dθ))`` (MODEL.md §8), inf where there is no divergence."""
+    from fsistab.neutral import divergence_velocity
+
+    return divergence_velocity(moment_slope, r_theta, mass_ratio)
+
+
+def _finite_or_none(values) -> list:
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, dtype=float).ravel()]
+
+
+# --- mesh and steady flow --------------------------------------------------------------------------
+
+
+def mesh_summary(case: Case, cache_dir: Path, out: Path, progress: Progress = None) -> xr.Dataset:
+    """Build (or read from the cache) the case's mesh; its size in attributes, its picture in ``out``."""
+    from fsistab.mesh import build_mesh, mesh_statistics
+    from fsistab.plots import plot_mesh
+
+    say = _say(progress)
+    spec = _mesh_spec(case)
+    say(f"mesh: {case.kind}, preset {case.preset}")
+    mesh = build_mesh(spec, cache_dir)
+    stats = mesh_statistics(mesh)
+    name = f"mesh_{case.kind}_{case.preset}_Re{case.flow.reynolds:g}.png"
+    figure = plot_mesh(mesh, Path(out) / name, title=f"{case.kind}, {case.preset}")
+    return xr.Dataset(
+        attrs={
+            **stats,
+            "body": case.kind,
+            "reynolds": case.flow.reynolds,
+            "preset": case.preset,
+            "mesh_key": spec.key(),
+            "figure": str(figure),
+        }
+    )
+
+
+def steady_flow(case: Case, cache_dir: Path, out: Path, progress: Progress = None) -> xr.Dataset:
+    """Steady flow around the fixed body (MODEL.md §6): coefficients (MODEL.md §5 conventions),
+    recirculation length, Newton history and continuation path; the velocity figure in ``out``."""
+    from fsistab.forces import aerodynamic_coefficients, recirculation_length
+    from fsistab.plots import plot_streamwise_velocity
+    from fsistab.steady import solve_steady
+
+    say = _say(progress)
+    say("steady Navier–Stokes (Newton, continuation in Re)")
+    result = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=_steady_progress(say))
+    coefficients = aerodynamic_coefficients(result)
+    figure = plot_streamwise_velocity(result, Path(out) / f"steady_{case.tag}.png")
+    path = np.array(result.path, dtype=float).reshape(-1, 3)
+    return xr.Dataset(
+        {
+            "newton_residual": ("iteration", np.array(result.history, dtype=float)),
+            "path_reynolds": ("step", path[:, 0]),
+            "path_alpha0_deg": ("step", path[:, 1]),
+            "path_iterations": ("step", path[:, 2].astype(int)),
+        },
+        attrs={
+            "body": case.kind,
+            "reynolds": result.flow.reynolds,
+            "alpha0_deg": result.flow.alpha0_deg,
+            "lift_coefficient": coefficients.lift,
+            "moment_coefficient": coefficients.moment,
+            "drag_coefficient": coefficients.drag,
+            "recirculation_length": recirculation_length(result),
+            "ndof": result.ndof,
+            "newton_iterations": result.newton_iterations,
+            "factorisations": result.factorisations,
+            "from_cache": int(result.from_cache),
+            "seconds": result.seconds,
+            "figure": str(figure),
+            "conventions": "coefficients F/(0.5 rho U^2 L s); C_M about G, counter-clockwise +",
+        },
+    )
+
+
+# --- eigenvalues -----------------------------------------------------------------------------------
+
+
+def spectrum(
+    case: Case,
+    solid: Solid,
+    settings: SpectrumSettings,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """Eigenvalues of the coupled system nearest the shifts (MODEL.md §7), saved as
+    ``spectrum_{tag}.nc``; pressure snapshots and motions of the least stable modes and (option)
+    the modes as VTK in ``out``, their paths in attributes."""
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near, spectrum_dataset
+    from fsistab.plots import plot_mode_snapshot, plot_solid_motion, write_modes_vtk
+    from fsistab.store import write_dataset
+
+    say = _say(progress)
+    out = Path(out)
+    steady, fluid = _fluid(case, cache_dir, say)
+    system = CoupledSystem(fluid, solid)
+    say(f"shift-invert Arnoldi near {len(settings.shifts)} shift(s), {system.size} unknowns")
+    pairs = eigenpairs_near(system, list(settings.shifts), settings.n_eigenvalues)
+    shifts = json.dumps([[z.real, z.imag] for z in settings.shifts])
+    ds = spectrum_dataset(pairs, system, {"shifts": shifts})
+    data_path = write_dataset(ds, out / f"spectrum_{case.tag}.nc")
+    mode_paths = []
+    for i, pair in enumerate(pairs[: settings.mode_figures]):
+        say(f"figures of mode {i}")
+        snapshot = out / f"mode{i}_{case.tag}.png"
+        index = system.fluid.free_dofs
+        mode_paths.append(str(plot_mode_snapshot(steady, index, pair, system, snapshot, settings.phase)))
+        if system.n_solid:
+            mode_paths.append(str(plot_solid_motion(pair, out / f"mode{i}_motion_{case.tag}.png").path))
+    vtk_path = None
+    if settings.vtk:
+        say("modes as VTK")
+        modes = {f"mode{i}": p.vector[system.n_solid :] for i, p in enumerate(pairs[:6])}
+        vtk_path = write_modes_vtk(steady, system.fluid.free_dofs, modes, out / f"modes_{case.tag}")
+    return ds.assign_attrs(
+        netcdf=str(data_path),
+        vtk=str(vtk_path) if vtk_path else "",
+        mode_figures=json.dumps(mode_paths),
+        dofs=",".join(solid.dofs) or "none",
+    )
+
+
+def static_slopes_study(
+    cases: list[Case], cache_dir: Path, out: Path, progress: Progress = None
+) -> xr.Dataset:
+    """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, MODEL.md §9)
+    of the plate at each case's Re (same α0 and preset), saved as ``slopes_plate_a{α0}_{preset}.nc``."""
+    from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
+    from fsistab.store import write_dataset
+
+    say = _say(progress)
+    results = []
+    for case in cases:
+        say(f"Re = {case.flow.reynolds:g}: steady state and one linear solve")
+        _, fluid = _fluid(case, cache_dir, lambda message: None)
+        results.append(static_slopes(fluid))
+    first = cases[0]
+    ds = xr.Dataset(
+        {
+            "lift_slope_alpha": ("reynolds", np.array([r.lift_slope_alpha for r in results])),
+            "moment_slope_alpha": ("reynolds", np.array([r.moment_slope_alpha for r in results])),
+            "drag_slope_theta": ("reynolds", np.array([r.drag for r in results])),
+        },
+        coords={"reynolds": np.array([c.flow.reynolds for c in cases])},
+        attrs={
+            "alpha0_deg": first.flow.alpha0_deg,
+            "mesh": first.preset,
+            "convention": "dC_L/dalpha and d(-C_M)/dalpha per radian, alpha = -theta, moment about mid-chord",
+            "thin_airfoil_lift_slope": THIN_AIRFOIL_LIFT_SLOPE,
+            "thin_airfoil_moment_slope": THIN_AIRFOIL_MOMENT_SLOPE,
+        },
+    )
+    name = f"slopes_plate_a{first.flow.alpha0_deg:g}_{first.preset}.nc"
+    return ds.assign_attrs(netcdf=str(write_dataset(ds, Path(out) / name)))
+
+
+# --- thresholds along U* ---------------------------------------------------------------------------
+
+
+def critical_points(
+    case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, progress: Progress = None
+) -> xr.Dataset:
+    """Every threshold along U* at one mass ratio (MODEL.md §8): branch tracking over the sweep,
+    Newton on the augmented system at each crossing, divergence from the static system. U* in the
+    body's convention (×2π for the cylinder, MODEL.md §10)."""
+    from fsistab.critical import find_thresholds
+    from fsistab.linalg import FactorCounter
+
+    say = _say(progress)
+    scale = body_velocity_scale(case.kind)
+    velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
+    solid = replace(solid, reduced_velocity=float(velocities[0]))
+    counter = FactorCounter()
+    _, fluid = _fluid(case, cache_dir, say)
+
+    def tracking(i: int, velocity: float) -> None:
+        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
+
+    thresholds, _ = find_thresholds(
+        fluid, solid, velocities, wake_shift=sweep.wake_shift, counter=counter, progress=tracking
+    )
+    return xr.Dataset(
+        {
+            "kind": ("threshold", np.array([t.kind for t in thresholds], dtype=str)),
+            "boundary": ("threshold", np.array([t.boundary for t in thresholds], dtype=str)),
+            "reduced_velocity": ("threshold", np.array([t.reduced_velocity * scale for t in thresholds])),
+            "frequency": ("threshold", np.array([t.frequency for t in thresholds])),
+        },
+        attrs={
+            "body": case.kind,
+            "reynolds": case.flow.reynolds,
+            "mass_ratio": sweep.mass_ratio,
+            "velocity_range": list(sweep.velocity_range),
+            "points": sweep.points,
+            "factorisations": counter.count,
+            "conventions": "U* and m in the body's conventions (MODEL.md §2, §10); frequency in U/L",
+        },
+    )
+
+
+# --- stability map in (m, U*) ----------------------------------------------------------------------
+
+
+def _solid_attrs(case: Case, solid: Solid) -> dict:
+    """What a saved curve or map depends on besides its own parameters (checked on reuse)."""
+    return {
+        "reynolds": case.flow.reynolds,
+        "alpha0_deg": case.flow.alpha0_deg,
+        "mesh_key": _mesh_spec(case).key(),
+        "freq_ratio": solid.freq_ratio,
+        "zeta_h": solid.zeta_h,
+        "zeta_theta": solid.zeta_theta,
+        "r_theta": solid.r_theta,
+    }
+
+
+def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say):
+    """The map by the chosen method; ``(NeutralMap, TransferMap or None)``."""
+    from fsistab.neutral import map_seeds, trace_neutral_map
+    from fsistab.transfer_map import as_neutral_map, default_frequency_range, transfer_neutral_map
+
+    wake = attrs["wake_frequency"]
+    wake = None if not math.isfinite(wake) else wake
+    if settings.method == "continuation":
+        seeds = map_seeds(
+            settings.template_mass,
+            settings.velocity_range,
+            settings.points,
+            list(settings.seeds),
+            wake,
+            settings.mass_range[0],
+            template.freq_ratio,
+        )
+        result = trace_neutral_map(
+            fluid,
+            template,
+            seeds,
+            out,
+            case.tag,
+            _solid_attrs(case, template),
+            mass_range=settings.mass_range,
+            max_points=settings.max_points,
+            counter=counter,
+            progress=say,
+        )
+        return result, None
+    tmap = transfer_neutral_map(
+        fluid,
+        template,
+        mass_range=settings.mass_range,
+        omega_range=settings.frequency_range or default_frequency_range(wake),
+        wake_frequency=wake,
+        tolerance=settings.tolerance,
+        max_samples=settings.max_frequencies,
+        samples_path=out / f"transfer_{case.tag}_samples.nc",
+        reduced=reduced,
+        counter=counter,
+        progress=say,
+    )
+    return as_neutral_map(tmap, template), tmap
+
+
+def stability_map(
+    case: Case,
+    template: Solid,
+    settings: MapSettings,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """The stability map of the plate in ``(m, U*)`` (MODEL.md §8): flutter and VIV neutral curves,
+    the divergence curve ``U*_D = √(m r_θ²/(dC_M/dθ))``, turning points and codimension-two
+    crossings, by the transfer function (default) or by continuation (settings.method).
+
+    Saves ``neutral_{tag}_map.nc`` (read back by :func:`theodorsen_comparison`) and
+    ``neutral_{tag}_divergence.nc``; the samples, reduced models and curves saved on the way make a
+    rerun resume. The returned map dataset also has each curve's seed mass and stops, the
+    frequency at each turning point, and (transfer) the count of unstable eigenvalues on a grid.
+    """
+    from fsistab.critical import wake_mode_near
+    from fsistab.linalg import FactorCounter
+    from fsistab.neutral import neutral_map_dataset
+    from fsistab.reduced_model import ReducedModels
+    from fsistab.store import write_dataset
+
+    say = _say(progress)
+    out = Path(out)
+    template = replace(
+        template,
+        mass_ratio=settings.template_mass,
+        reduced_velocity=settings.velocity_range[0],
+        dofs=("heave", "pitch"),
+    )
+    counter = FactorCounter()
+    _, fluid = _fluid(case, cache_dir, say)
+    wake = settings.wake_frequency
+    if wake is not None:
+        say("wake mode of the fixed body")
+        wake = wake_mode_near(fluid, wake, counter=counter).frequency
+    reduced = None
+    if settings.method == "transfer" and settings.reduced_blocks:
+        reduced = ReducedModels(
+            fluid,
+            tolerance=settings.reduced_tolerance,
+            blocks=settings.reduced_blocks,
+            path=out / f"reduced_{case.tag}_models.nc",
+            counter=counter,
+            progress=say,
+        )
+    attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
+    result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say)
+    map_attrs = {**attrs, "method": settings.method}
+    if tmap is not None:
+        map_attrs["frequencies"] = len(tmap.frequencies)
+        map_attrs["unresolved_intervals"] = len(tmap.unresolved)
+        map_attrs["reduced_models"] = len(reduced.models) if reduced else 0
+    ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
+    ds.attrs["factorisations_this_run"] = counter.count
+    ds.attrs["reduced_models"] = len(reduced.models) if reduced else 0
+    data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
+    divergence = xr.Dataset(
+        {"reduced_velocity": ("mass_ratio", result.divergence_velocities)},
+        coords={"mass_ratio": result.divergence_mass_ratios},
+        attrs={**_solid_attrs(case, template), "moment_slope": result.moment_slope},
+    )
+    write_dataset(divergence, out / f"neutral_{case.tag}_divergence.nc")
+    return ds.assign_attrs(data=str(data_path))
+
+
+def _map_details(ds: xr.Dataset, result, tmap, settings: MapSettings) -> xr.Dataset:
+    """What the JSON and the figure need beyond :func:`fsistab.neutral.neutral_map_dataset`."""
+    from fsistab.transfer_map import unstable_grid
+
+    curves = result.curves
+    ds = ds.assign(
+        curve_seed_mass_ratio=("curve_index", np.array([c.seed_mass_ratio for c in curves], dtype=float)),
+        curve_stop_low=("curve_index", np.array([c.stops[0] for c in curves], dtype=str)),
+        curve_stop_high=("curve_index", np.array([c.stops[1] for c in curves], dtype=str)),
+        fold_frequency=(
+            "fold",
+            np.array([t.frequency for c in curves for t in c.turning_points], dtype=float),
+        ),
+    )
+    if tmap is not None:  # exact unstable regions from the signed crossings
+        grid_m = np.geomspace(*settings.mass_range, 100)
+        all_u = [p.reduced_velocity for c in curves for p in c.points] + [1.0]
+        grid_u = np.geomspace(min(all_u) / 1.5, max(all_u) * 1.5, 150)
+        ds = ds.assign(
+            unstable_count=(
+                ("grid_reduced_velocity", "grid_mass_ratio"),
+                unstable_grid(tmap, grid_m, grid_u)[0],
+            )
+        ).assign_coords(grid_mass_ratio=grid_m, grid_reduced_velocity=grid_u)
+    return ds
+
+
+def divergence_coefficient(ds: xr.Dataset) -> float:
+    """``U*_D/√m = √(r_θ²/(dC_M/dθ))`` of a map (inf without divergence)."""
+    return float(_divergence_velocity(float(ds.attrs["moment_slope"]), float(ds.attrs["r_theta"]), 1.0))
+
+
+# --- neutral curves in the flow plane --------------------------------------------------------------
+
+
+def flow_neutral_curves(
+    case: Case,
+    solid: Solid,
+    settings: FlowNeutralSettings,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """Neutral curves in ``(Re, U*)`` or ``(α0, U*)`` at one mass ratio (MODEL.md §8): the flutter
+    thresholds of a sweep in U* at the case's flow, each continued both ways by pseudo-arclength.
+    Each half is saved as ``flow_neutral_{tag}_{parameter}_m{m}_curve{k}_{down|up}.nc`` and reused
+    by a rerun with the same parameters. Returns the halves stacked along ``point`` (index
+    ``curve``), turning points along ``fold``, and per half ``kind``, ``direction``, ``stop``."""
+    from fsistab.critical import find_thresholds
+    from fsistab.flow_neutral import continue_flow_neutral_curve, flow_curve_dataset, stack_flow_curves
+    from fsistab.linalg import FactorCounter
+    from fsistab.store import read_dataset, read_resumable, write_dataset
+
+    say = _say(progress)
+    out = Path(out)
+    mass = solid.mass_ratio
+    counter = FactorCounter()
+    attrs = {
+        **_solid_attrs(case, solid),
+        "mass_ratio": mass,
+        "range_low": settings.parameter_range[0],
+        "range_high": settings.parameter_range[1],
+    }
+    _, fluid = _fluid(case, cache_dir, say)
+    say(f"sweep in U* at m = {mass:g}")
+    velocities = np.geomspace(*settings.velocity_range, settings.points)
+    solid = replace(solid, reduced_velocity=float(velocities[0]), dofs=("heave", "pitch"))
+
+    def tracking(i: int, velocity: float) -> None:
+        say(f"tracking branches: point {i + 1}/{settings.points}, {counter.count} factorisations")
+
+    thresholds, _ = find_thresholds(fluid, solid, velocities, counter=counter, progress=tracking)
+    dynamic = [t for t in thresholds if t.kind != "divergence"]
+    halves = []
+    for k, threshold in enumerate(dynamic):
+        for direction in (-1, 1):
+            side = "down" if direction < 0 else "up"
+            path = out / f"flow_neutral_{case.tag}_{settings.parameter}_m{mass:g}_curve{k}_{side}.nc"
+            wanted = {
+                **attrs,
+                "kind": threshold.kind,
+                "direction": direction,
+                "max_points": settings.max_points,
+            }
+            if read_resumable(path, wanted) is None:  # none yet, or damaged: reported, recomputed
+                say(f"curve {k + 1}/{len(dynamic)} towards {side} {settings.parameter}")
+                curve = continue_flow_neutral_curve(
+                    _mesh_spec(case),
+                    case.flow,
+                    replace(solid, reduced_velocity=threshold.reduced_velocity),
+                    threshold.frequency,
+                    settings.parameter,
+                    settings.parameter_range,
+                    direction=direction,
+                    max_points=settings.max_points,
+                    cache_dir=cache_dir,
+                    fluid=fluid,
+                    counter=counter,
+                )
+                write_dataset(flow_curve_dataset(curve, wanted), path)
+            halves.append(read_dataset(path, expect=wanted))
+    return stack_flow_curves(halves, settings.parameter, {**attrs, "factorisations": counter.count})
+
+
+# --- Theodorsen typical section --------------------------------------------------------------------
+
+
+def typical_section(solid: Solid, settings: TheodorsenSettings):
+    """The typical section of MODEL.md §9 (thin-airfoil slopes until :func:`section_slopes`): the
+    settings' m, elastic axis and static unbalance with ``solid``'s other parameters. Cheap: it
+    validates the section before any work."""
+    from fsistab.theodorsen import TypicalSection
+
+    solid = replace(
+        solid,
+        mass_ratio=settings.mass_ratio,
+        reduced_velocity=settings.velocity_range[0],
+        dofs=("heave", "pitch"),
+    )
+    return TypicalSection(solid, settings.elastic_axis, settings.static_unbalance)
+
+
+def section_slopes(
+    section, settings: TheodorsenSettings, case: Case, cache_dir: Path, progress: Progress = None
+):
+    """``section`` with the settings' slopes: thin airfoil, given, or the viscous static slopes at
+    the case's Re (``calibrated``, MODEL.md §9: cached steady state, one linear solve)."""
+    from fsistab.theodorsen import AirfoilSlopes
+
+    if settings.slopes == "thin-airfoil":
+        return replace(section, slopes=AirfoilSlopes.thin_airfoil())
+    if settings.slopes == "given":
+        airfoil = AirfoilSlopes.from_alpha(settings.lift_slope_alpha, settings.moment_slope_alpha)
+        return replace(section, slopes=airfoil)
+    from fsistab.slopes import static_slopes
+
+    say = _say(progress)
+    say(f"viscous static slopes at Re = {case.flow.reynolds:g} (steady state, one linear solve)")
+    _, fluid = _fluid(case, cache_dir, say)
+    return replace(section, slopes=AirfoilSlopes.from_static(static_slopes(fluid)))
+
+
+def _slope_attrs(section) -> dict:
+    airfoil = section.slopes
+    return {
+        "slopes_source": airfoil.source,
+        "lift_slope_alpha": airfoil.lift_slope_alpha,
+        "moment_slope_alpha": airfoil.moment_slope_alpha,
+        "moment_slope_elastic_axis": section.moment_slope_elastic_axis,
+        "elastic_axis": section.elastic_axis,
+        "static_unbalance": section.static_unbalance,
+    }
+
+
+def theodorsen_points(section, settings: TheodorsenSettings) -> xr.Dataset:
+    """Every flutter boundary and the divergence of the typical section at its m (MODEL.md §9)."""
+    from fsistab.theodorsen import critical_points as section_points
+
+    found = section_points(section, settings.velocity_range)
+    return xr.Dataset(
+        {
+            "kind": ("threshold", np.array([p.kind for p in found], dtype=str)),
+            "boundary": ("threshold", np.array([p.boundary for p in found], dtype=str)),
+            "reduced_velocity": ("threshold", np.array([p.reduced_velocity for p in found], dtype=float)),
+            "frequency": ("threshold", np.array([p.frequency for p in found], dtype=float)),
+            "frequency_ratio": ("threshold", np.array([p.frequency_ratio for p in found], dtype=float)),
+        },
+        attrs={
+            "mass_ratio": section.mass_ratio,
+            "velocity_range": list(settings.velocity_range),
+            **_slope_attrs(section),
+        },
+    )
+
+
+def viscous_map_curves(out: Path, tag: str, section):
+    """The viscous neutral curves of ``fsistab neutral`` for ``tag`` in ``out`` (the map dataset
+    ``neutral_{tag}_map.nc`` that both of its methods write), if they were computed with the
+    section's solid parameters: ``({"flutter": [(m, U*), ...], "divergence": (m, U*)}, note)`` or
+    ``(None, why not)``."""
+    from fsistab.errors import CacheError
+    from fsistab.store import read_dataset
+
+    path = Path(out) / f"neutral_{tag}_map.nc"
+    if not path.is_file():
+        return None, f"no {path.name} in {out}: no viscous comparison"
+    if section.elastic_axis != 0 or section.static_unbalance != 0:
+        return None, "the viscous plate has a = 0 and x_θ = 0: no viscous comparison"
+    try:
+        ds = read_dataset(path)
+    except CacheError as exc:
+        return None, f"{exc}: no viscous comparison"
+    solid = section.solid
+    wanted = {"freq_ratio": solid.freq_ratio, "zeta_h": solid.zeta_h, "zeta_theta": solid.zeta_theta}
+    wanted["r_theta"] = solid.r_theta
+    if any(not math.isclose(float(ds.attrs.get(k, math.nan)), v) for k, v in wanted.items()):
+        return None, f"{path.name} has other solid parameters: no viscous comparison"
+    from fsistab.neutral import map_curves
+
+    flutter = [(m, u) for kind, m, u, _ in map_curves(ds) if kind == "flutter" and len(m)]
+    divergence = (ds.mass_ratio.values, ds.divergence_reduced_velocity.values)
+    return {"flutter": flutter, "divergence": divergence}, f"viscous neutral curves from {path}"
+
+
+def theodorsen_comparison(
+    section, settings: TheodorsenSettings, case: Case, out: Path, progress: Progress = None
+) -> xr.Dataset:
+    """Neutral curves ``U*(m)`` of the typical section over the settings' mass range (MODEL.md §9),
+    with the viscous map of ``fsistab neutral`` for the plate at the case's Re and α0 if it is in ``out``
+    (:func:`viscous_map_curves`) and the relative error of the lowest flutter boundary against it.
+    Saved as ``theodorsen_{tag}_{slopes}.nc``."""
+    from fsistab.store import write_dataset
+    from fsistab.theodorsen import lower_envelope, lowest_flutter_velocity, neutral_curves
+
+    say = _say(progress)
+    masses = np.geomspace(*settings.mass_range, settings.points)
+    say(f"Theodorsen neutral curves at {settings.points} mass ratios")
+    ds = neutral_curves(section, masses, settings.velocity_range)
+    ds.attrs.update(_slope_attrs(section))
+    ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
+    tag = f"plate_Re{case.flow.reynolds:g}_a{case.flow.alpha0_deg:g}"
+    viscous, note = viscous_map_curves(out, tag, section)
+    ds.attrs["viscous_comparison"] = note
+    if viscous:
+        say("lowest flutter boundary against the viscous map")
+        for i, (m, u) in enumerate(viscous["flutter"]):
+            ds[f"viscous_flutter{i}_mass_ratio"] = (f"viscous_point{i}", np.asarray(m, dtype=float))
+            ds[f"viscous_flutter{i}_reduced_velocity"] = (f"viscous_point{i}", np.asarray(u, dtype=float))
+        ds["viscous_divergence_mass_ratio"] = ("viscous_divergence", viscous["divergence"][0])
+        ds["viscous_divergence_reduced_velocity"] = ("viscous_divergence", viscous["divergence"][1])
+        lowest = lower_envelope(viscous["flutter"]) if viscous["flutter"] else []
+        theodorsen = [
+            lowest_flutter_velocity(section.with_mass_ratio(m), settings.velocity_range) for m, _ in lowest
+        ]
+        ds["comparison_mass_ratio"] = ("comparison", np.array([m for m, _ in lowest], dtype=float))
+        ds["comparison_viscous"] = ("comparison", np.array([u for _, u in lowest], dtype=float))
+        ds["comparison_theodorsen"] = ("comparison", np.array(theodorsen, dtype=float))
+        ds["comparison_relative_error"] = (
+            ds.comparison_theodorsen - ds.comparison_viscous
+        ) / ds.comparison_viscous
+    ds.attrs["viscous_flutter_curves"] = len(viscous["flutter"]) if viscous else 0
+    path = write_dataset(ds, Path(out) / f"theodorsen_{tag}_{settings.slopes}.nc")
+    return ds.assign_attrs(netcdf=str(path))
+
+
+# --- viscous Theodorsen function -------------------------------------------------------------------
+
+
+def transfer_function(
+    case: Case, settings: TransferSettings, cache_dir: Path, out: Path, progress: Progress = None
+) -> xr.Dataset:
+    """The viscous Theodorsen function ``G(ik)`` beside Theodorsen's model (MODEL.md §9), at
+    ``k = ω L/(2U∞)`` log-spaced; samples kept in the cache as they come (a rerun resumes);
+    saved as ``transfer_{tag}_{preset}.nc``."""
+    from fsistab.store import write_dataset
+    from fsistab.transfer import viscous_theodorsen_dataset
+
+    say = _say(progress)
+    omega = 2 * np.geomspace(*settings.k_range, settings.points)
+    _, fluid = _fluid(case, cache_dir, say)
+
+    def count(done: int, total: int) -> None:
+        say(f"G(iω): {done}/{total} frequencies ({fluid.n_fluid} fluid unknowns)")
+
+    samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).key()}_{case.tag}.nc"
+    ds = viscous_theodorsen_dataset(fluid, omega, progress=count, samples_path=samples_path)
+    ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
+    path = write_dataset(ds, Path(out) / f"transfer_{case.tag}_{case.preset}.nc")
+    return ds.assign_attrs(netcdf=str(path))
+
+
+# --- JSON payloads (README.md, "Command line") -----------------------------------------------------
+
+
+def _pair(z) -> list[float]:
+    return [float(z.real), float(z.imag)]
+
+
+def payload(command: str, ds: xr.Dataset) -> dict:
+    """The JSON object a command prints, from the Dataset its workflow returned (and the figure
+    path the command added as the ``figure`` attribute)."""
+    return _PAYLOADS[command](ds)
+
+
+def _mesh_payload(ds):
+    keys = ("triangles", "vertices", "ndof", "h_min", "h_max", "preset", "mesh_key", "figure")
+    return {k: _plain(ds.attrs[k]) for k in keys}
+
+
+def _plain(value):
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _steady_payload(ds):
+    a = ds.attrs
+    keys = ("body", "reynolds", "alpha0_deg", "lift_coefficient", "moment_coefficient", "drag_coefficient")
+    keys += ("recirculation_length", "ndof", "newton_iterations")
+    result = {k: _plain(a[k]) for k in keys}
+    result["newton_residuals"] = ds.newton_residual.values.tolist()
+    result["continuation"] = [
+        {"reynolds": float(r), "alpha0_deg": float(al), "iterations": int(n)}
+        for r, al, n in zip(
+            ds.path_reynolds.values, ds.path_alpha0_deg.values, ds.path_iterations.values, strict=True
+        )
+    ]
+    result.update(
+        factorisations=_plain(a["factorisations"]),
+        from_cache=bool(a["from_cache"]),
+        seconds=_plain(a["seconds"]),
+        figure=a["figure"],
+    )
+    return result
+
+
+def _spectrum_payload(ds):
+    return {
+        "eigenvalues": [
+            {
+                "growth_rate": float(g),
+                "frequency": float(w),
+                "label": str(label),
+                "residual": float(r),
+            }
+            for g, w, label, r in zip(
+                ds.growth_rate.values, ds.frequency.values, ds.label.values, ds.residual.values, strict=True
+            )
+        ],
+        "ndof": int(ds.attrs["ndof"]),
+        "netcdf": ds.attrs["netcdf"],
+        "figure": ds.attrs["figure"],
+        "vtk": ds.attrs["vtk"] or None,
+        "mode_figures": json.loads(ds.attrs["mode_figures"]),
+    }
+
+
+def _slopes_payload(ds):
+    return {
+        "alpha0_deg": float(ds.attrs["alpha0_deg"]),
+        "slopes": [
+            {"reynolds": float(r), "lift_slope_alpha": float(lift), "moment_slope_alpha": float(moment)}
+            for r, lift, moment in zip(
+                ds.reynolds.values, ds.lift_slope_alpha.values, ds.moment_slope_alpha.values, strict=True
+            )
+        ],
+        "netcdf": ds.attrs["netcdf"],
+        "figure": ds.attrs["figure"],
+    }
+
+
+def _thresholds(ds) -> list[dict]:
+    return [
+        {"kind": str(k), "reduced_velocity": float(u), "frequency": float(w), "boundary": str(b)}
+        for k, u, w, b in zip(
+            ds.kind.values, ds.reduced_velocity.values, ds.frequency.values, ds.boundary.values, strict=True
+        )
+    ]
+
+
+def _critical_payload(ds):
+    return {
+        "mass_ratio": float(ds.attrs["mass_ratio"]),
+        "critical_points": _thresholds(ds),
+        "factorisations": int(ds.attrs["factorisations"]),
+    }
+
+
+def _neutral_payload(ds):
+    from fsistab.neutral import map_curve_names, map_curves
+
+    names = map_curve_names(ds)
+    curves = []
+    for i, (kind, m, u, w) in enumerate(map_curves(ds)):
+        fold = ds.fold_curve.values == i
+        seed = float(ds.curve_seed_mass_ratio.values[i])
+        curves.append(
+            {
+                "kind": kind,
+                "seed_mass_ratio": seed if math.isfinite(seed) else None,
+                "mass_ratio": m.tolist(),
+                "reduced_velocity": u.tolist(),
+                "frequency": w.tolist(),
+                "turning_points": [
+                    {"mass_ratio": float(a), "reduced_velocity": float(b), "frequency": float(c)}
+                    for a, b, c in zip(
+                        ds.fold_mass_ratio.values[fold],
+                        ds.fold_reduced_velocity.values[fold],
+                        ds.fold_frequency.values[fold],
+                        strict=True,
+                    )
+                ],
+                "stops": [str(ds.curve_stop_low.values[i]), str(ds.curve_stop_high.values[i])],
+            }
+        )
+
+    def name_of(index: int) -> str:
+        return "divergence" if index < 0 else names[index]
+
+    wake = float(ds.attrs["wake_frequency"])
+    return {
+        "curves": curves,
+        "divergence": {
+            "mass_ratio": ds.mass_ratio.values.tolist(),
+            "reduced_velocity": ds.divergence_reduced_velocity.values.tolist(),
+            "moment_slope": float(ds.attrs["moment_slope"]),
+        },
+        "codimension_two": [
+            {
+                "curves": [name_of(int(a)), name_of(int(b))],
+                "mass_ratio": float(m),
+                "reduced_velocity": float(u),
+            }
+            for a, b, m, u in zip(
+                ds.crossing_first.values,
+                ds.crossing_second.values,
+                ds.crossing_mass_ratio.values,
+                ds.crossing_reduced_velocity.values,
+                strict=True,
+            )
+        ],
+        "wake_frequency": wake if math.isfinite(wake) else None,
+        "method": ds.attrs["method"],
+        "factorisations": int(ds.attrs["factorisations_this_run"]),
+        "reduced_models": int(ds.attrs["reduced_models"]),
+        "data": ds.attrs["data"],
+        "figure": ds.attrs["figure"],
+    }
+
+
+def _flow_neutral_payload(ds):
+    from fsistab.flow_neutral import flow_curves
+
+    parameter = ds.attrs["parameter"]
+    return {
+        "parameter": parameter,
+        "mass_ratio": float(ds.attrs["mass_ratio"]),
+        "curves": [
+            {
+                "kind": kind,
+                "direction": "decreasing" if direction < 0 else "increasing",
+                parameter: values.tolist(),
+                "reduced_velocity": u.tolist(),
+                "frequency": w.tolist(),
+                "turning_points": [
+                    {parameter: float(p), "reduced_velocity": float(v)} for p, v in zip(fp, fu, strict=True)
+                ],
+                "stop": stop,
+            }
+            for kind, direction, values, u, w, fp, fu, stop in flow_curves(ds)
+        ],
+        "factorisations": int(ds.attrs["factorisations"]),
+        "figure": ds.attrs["figure"],
+    }
+
+
+def _slopes_info(ds) -> dict:
+    a = ds.attrs
+    return {
+        "source": a["slopes_source"],
+        "lift_slope_alpha": float(a["lift_slope_alpha"]),
+        "moment_slope_alpha": float(a["moment_slope_alpha"]),
+        "moment_slope_elastic_axis": float(a["moment_slope_elastic_axis"]),
+    }
+
+
+def _theodorsen_points_payload(ds):
+    return {
+        "mass_ratio": float(ds.attrs["mass_ratio"]),
+        "critical_points": _thresholds(ds),
+        "slopes": _slopes_info(ds),
+    }
+
+
+def _theodorsen_map_payload(ds):
+    comparison = None
+    if "comparison_mass_ratio" in ds and ds.sizes.get("comparison", 0):
+        comparison = [
+            {
+                "mass_ratio": float(m),
+                "viscous": float(u),
+                "theodorsen": t,
+                "relative_error": e,
+            }
+            for m, u, t, e in zip(
+                ds.comparison_mass_ratio.values,
+                ds.comparison_viscous.values,
+                _finite_or_none(ds.comparison_theodorsen.values),
+                _finite_or_none(ds.comparison_relative_error.values),
+                strict=True,
+            )
+        ]
+    return {
+        "mass_ratio": ds.mass_ratio.values.tolist(),
+        "flutter": {
+            "reduced_velocity": [_finite_or_none(row) for row in ds.reduced_velocity.values],
+            "frequency": [_finite_or_none(row) for row in ds.frequency.values],
+        },
+        "divergence": _finite_or_none(ds.divergence_velocity.values),
+        "slopes": _slopes_info(ds),
+        "comparison": comparison,
+        "netcdf": ds.attrs["netcdf"],
+        "figure": ds.attrs["figure"],
+    }
+
+
+def _transfer_payload(ds):
+    from fsistab.transfer import from_parts
+
+    loads = from_parts(ds.viscous_loads)
+    return {
+        "reynolds": float(ds.attrs["reynolds"]),
+        "alpha0_deg": float(ds.attrs["alpha0_deg"]),
+        "ndof": int(ds.attrs["ndof_fluid"]),
+        "factorisations": int(ds.attrs["factorisations"]),
+        "lift_slope_alpha": float(ds.attrs["lift_slope_alpha"]),
+        "moment_slope_alpha": float(ds.attrs["moment_slope_alpha"]),
+        "samples": [
+            {
+                "frequency": float(w),
+                "reduced_frequency": float(w / 2),
+                "lift_per_pitch": _pair(loads[i, 0, 1]),
+                "moment_per_pitch": _pair(loads[i, 1, 1]),
+                "lift_per_heave": _pair(loads[i, 0, 0]),
+                "moment_per_heave": _pair(loads[i, 1, 0]),
+            }
+            for i, w in enumerate(ds.frequency.values)
+        ],
+        "netcdf": ds.attrs["netcdf"],
+        "figure": ds.attrs["figure"],
+    }
+
+
+_PAYLOADS = {
+    "mesh": _mesh_payload,
+    "steady": _steady_payload,
+    "spectrum": _spectrum_payload,
+    "slopes": _slopes_payload,
+    "critical": _critical_payload,
+    "neutral": _neutral_payload,
+    "flow-neutral": _flow_neutral_payload,
+    "theodorsen-points": _theodorsen_points_payload,
+    "theodorsen-map": _theodorsen_map_payload,
+    "transfer": _transfer_payload,
+}

@@ -1,0 +1,414 @@
+"""The store (fsistab.store): checksummed datasets, damaged entries reported and recomputed, one
+encoding of complex data, atomic writes, recorded writes, writable directories, resumable tables.
+
+Cached kinds checked here: transfer samples, reduced models, resumable neutral curves, and any
+dataset; steady states and meshes in test_steady / test_mesh. The fluid is the coarse cylinder at
+Re 40 (a few seconds).
+"""
+
+import logging
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from damage import KINDS, damage
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from fsistab import store
+from fsistab.errors import CacheError, InputError
+from fsistab.linalg import FactorCounter
+
+LOGGER = "fsistab"
+CHECKSUM = store.CHECKSUM_ATTR
+
+
+def _dataset() -> xr.Dataset:
+    rng = np.random.default_rng(3)
+    return xr.Dataset(
+        {
+            "state": ("dof", rng.standard_normal(3000)),
+            "count": ("dof", np.arange(3000)),
+            "label": ("mode", ["fluid", "solid"]),
+            "mode": store.complex_variable("mode", [1 + 2j, -0.5j]),
+        },
+        coords={"frequency": ("mode", [0.1, 0.2])},
+        # a one-element list comes back from NetCDF as a scalar: the checksum is of what is read
+        attrs={"reynolds": 40.0, "case": "cylinder", "ndof": 3000, "shifts": [1.0, 2.0], "one": [0.5]},
+    )
+
+
+# --- checksums ---------------------------------------------------------------------------------
+
+
+def test_a_dataset_round_trips_with_its_checksum(tmp_path):
+    ds = _dataset()
+    path = store.write_dataset(ds, tmp_path / "a.nc")
+    back = store.read_dataset(path, expect={"case": "cylinder", "reynolds": 40.0})
+    assert CHECKSUM in back.attrs and CHECKSUM not in ds.attrs  # the caller's dataset is not changed
+    assert np.array_equal(back.state.values, ds.state.values)
+    assert list(back.label.values) == ["fluid", "solid"]
+    with pytest.raises(CacheError, match="does not match the request: case"):
+        store.read_dataset(path, expect={"case": "plate"})
+
+
+def test_the_checksum_depends_on_every_value_name_dtype_and_attribute():
+    ds = _dataset()
+    base = store.dataset_checksum(ds)
+    changed = [
+        ds.assign(state=ds.state.copy(data=np.where(np.arange(3000) == 7, 0.0, ds.state.values))),
+        ds.assign(count=ds["count"].astype(np.int32)),
+        ds.rename({"state": "state2"}),
+        ds.assign_attrs(reynolds=41.0),
+        ds.assign_coords(frequency=("mode", [0.1, 0.3])),
+        ds.assign(label=("mode", ["fluid", "solld"])),
+    ]
+    for other in changed:
+        assert store.dataset_checksum(other) != base
+    # the checksum attribute itself does not enter
+    assert store.dataset_checksum(ds.assign_attrs({CHECKSUM: "x"})) == base
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_damaged_dataset_is_refused_in_one_line(tmp_path, kind):
+    path = store.write_dataset(_dataset(), tmp_path / "a.nc")
+    damage(path, kind, variable="state")
+    with pytest.raises(CacheError) as error:
+        store.read_dataset(path)
+    message = str(error.value)
+    assert "\n" not in message and str(path) in message and "delete it" in message
+
+
+def test_a_dataset_without_checksum_is_refused(tmp_path):
+    path = tmp_path / "plain.nc"
+    _dataset().to_netcdf(path, engine=store.NETCDF_ENGINE)
+    with pytest.raises(CacheError, match="no content checksum"):
+        store.read_dataset(path)
+
+
+def test_a_damaged_cache_entry_is_reported_moved_aside_and_not_used(tmp_path, caplog):
+    path = store.write_dataset(_dataset(), tmp_path / "a.nc")
+    assert store.read_cached(path) is not None
+    damage(path, "edited", variable="state")
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        assert store.read_cached(path) is None
+    (record,) = caplog.records
+    assert str(path) in record.getMessage() and "recomputing" in record.getMessage()
+    assert not path.exists() and (tmp_path / "a.nc.damaged").exists()
+    assert store.read_cached(path) is None  # missing: nothing to report
+    assert len(caplog.records) == 1
+
+
+# --- complex data ------------------------------------------------------------------------------
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(
+        np.complex128,
+        st.tuples(st.integers(0, 4), st.integers(1, 3)),
+        elements=st.builds(complex, finite, finite),
+    )
+)
+def test_complex_values_round_trip_through_a_file(tmp_path_factory, values):
+    path = tmp_path_factory.mktemp("complex") / "c.nc"
+    array = store.complex_variable(("row", "column"), values, {"units": "1"})
+    assert array.dims == ("row", "column", "part") and array.attrs == {"units": "1"}
+    assert np.array_equal(store.complex_values(array), values)
+    store.write_dataset(xr.Dataset({"z": array}), path)
+    back = store.read_dataset(path)["z"]
+    assert np.array_equal(store.complex_values(back), values)
+    # the part order is read from the coordinate, not assumed
+    assert np.array_equal(store.complex_values(back.isel(part=[1, 0])), values)
+
+
+def test_complex_values_refuses_real_data():
+    with pytest.raises(CacheError, match="no 'part' dimension"):
+        store.complex_values(xr.DataArray(np.zeros(3), dims="x", name="x"))
+    with pytest.raises(ValueError, match="do not fit"):
+        store.complex_variable(("a", "b"), np.zeros(3, complex))
+
+
+def test_the_old_name_from_parts_decodes_the_store_encoding():
+    from fsistab.transfer import from_parts
+
+    assert np.array_equal(from_parts(store.complex_variable("x", [1j, 2.0])), np.array([1j, 2.0]))
+
+
+# --- atomic writes, recording ------------------------------------------------------------------
+
+
+def test_an_exception_inside_a_write_leaves_no_file_and_no_temporary(tmp_path):
+    target = tmp_path / "out" / "a.bin"
+    with pytest.raises(RuntimeError), store.atomic_path(target) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("interrupted")
+    assert list((tmp_path / "out").iterdir()) == []
+    # an older file stays as it was
+    store.atomic_write_bytes(target, b"old")
+    with pytest.raises(RuntimeError), store.atomic_path(target) as tmp:
+        tmp.write_bytes(b"new")
+        raise RuntimeError("interrupted")
+    assert target.read_bytes() == b"old" and [p.name for p in target.parent.iterdir()] == ["a.bin"]
+    # a dataset NetCDF cannot hold (boolean attribute): no file, no temporary
+    with pytest.raises(Exception, match="boolean"):
+        store.write_dataset(xr.Dataset(attrs={"flag": True}), tmp_path / "b" / "b.nc")
+    assert list((tmp_path / "b").iterdir()) == []
+
+
+def test_a_failed_figure_leaves_no_file(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from fsistab.plots import save_figure
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    path = save_figure(fig, tmp_path / "fig.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from matplotlib.artist import Artist
+
+    class Broken(Artist):  # fails half-way through the drawing, as an interrupted savefig would
+        def draw(self, renderer):
+            raise RuntimeError("drawing failed")
+
+    fig, ax = plt.subplots()
+    ax.add_artist(Broken())
+    with pytest.raises(RuntimeError, match="drawing failed"):
+        save_figure(fig, tmp_path / "bad.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png"]
+    assert not plt.fignum_exists(fig.number)  # closed all the same
+
+
+def test_recording_collects_the_paths_written(tmp_path):
+    store.write_dataset(_dataset(), tmp_path / "before.nc")
+    with store.recording() as outer:
+        store.write_dataset(_dataset(), tmp_path / "a.nc")
+        with store.recording() as inner:
+            store.atomic_write_bytes(tmp_path / "b.bin", b"b")
+        with pytest.raises(RuntimeError), store.atomic_path(tmp_path / "c.bin") as tmp:
+            tmp.write_bytes(b"c")
+            raise RuntimeError("not written")
+    store.atomic_write_bytes(tmp_path / "after.bin", b"x")
+    assert outer == [tmp_path / "a.nc", tmp_path / "b.bin"]
+    assert inner == [tmp_path / "b.bin"]
+
+
+def test_recording_is_per_thread(tmp_path):
+    import threading
+
+    seen = []
+    with store.recording() as mine:
+
+        def other():
+            seen.append(store.atomic_write_bytes(tmp_path / "x", b"x"))
+
+        thread = threading.Thread(target=other)
+        thread.start()
+        thread.join()
+    assert seen and mine == []
+
+
+# --- writable directories ----------------------------------------------------------------------
+
+
+def test_a_writable_directory_is_created(tmp_path):
+    path = store.ensure_writable_dir(tmp_path / "a" / "b", "--out")
+    assert path.is_dir() and list(path.iterdir()) == []  # the probe file is gone
+
+
+@pytest.mark.parametrize("where", ["file", "under_file", "proc"])
+def test_an_unwritable_directory_is_refused_in_one_line(tmp_path, where):
+    regular = tmp_path / "regular"
+    regular.write_text("x")
+    path = {"file": regular, "under_file": regular / "sub", "proc": Path("/proc/x")}[where]
+    with pytest.raises(InputError) as error:
+        store.ensure_writable_dir(path, "--out")
+    message = str(error.value)
+    assert message.startswith(f"--out {path} is not a writable directory: ") and "\n" not in message
+    assert regular.read_text() == "x"
+
+
+# --- resumable tables --------------------------------------------------------------------------
+
+
+def test_a_resumable_table_resumes_its_records(tmp_path):
+    path = tmp_path / "t.nc"
+    identity = {"reynolds": 40.0, "mesh_key": "abc"}
+    table = store.ResumableTable(path, identity)
+    assert table.records == []
+    records = [{"frequency": w, "transfer": np.full((2, 3), w * (1 + 1j))} for w in (0.5, 0.1, 2.0)]
+    for record in records[:2]:
+        table.append(record)
+    again = store.ResumableTable(path, identity)
+    assert len(again) == 2
+    for got, want in zip(again.records, records[:2], strict=True):
+        assert got["frequency"] == want["frequency"] and np.array_equal(got["transfer"], want["transfer"])
+    again.append(records[2])
+    assert [r["frequency"] for r in store.ResumableTable(path, identity).records] == [0.5, 0.1, 2.0]
+    with pytest.raises(CacheError, match="another computation") as error:
+        store.ResumableTable(path, {**identity, "reynolds": 41.0})
+    assert "\n" not in str(error.value) and path.exists()  # refused, not overwritten
+
+
+@pytest.mark.parametrize("kind", ["truncated", "edited"])
+def test_a_damaged_resumable_table_starts_afresh(tmp_path, caplog, kind):
+    path = tmp_path / "t.nc"
+    table = store.ResumableTable(path, {"case": "x"})
+    table.append({"value": np.arange(600.0)})
+    damage(path, kind, variable="value")
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        fresh = store.ResumableTable(path, {"case": "x"})
+    assert len(fresh) == 0 and "recomputing" in caplog.text and str(path) in caplog.text
+
+
+# --- cached kinds on a real fluid: transfer samples, reduced models ----------------------------
+
+
+@pytest.fixture(scope="module")
+def cylinder_fluid(cylinder_coarse_40):
+    from fsistab.operators import fluid_operators
+
+    return fluid_operators(cylinder_coarse_40)
+
+
+def test_modes_vtk_is_written_atomically_under_its_full_name(cylinder_coarse_40, cylinder_fluid, tmp_path):
+    """VTKOutput appends ".vtu" itself: the file is written under a temporary name and renamed; a
+    name with a dot (α0 = 2.5) keeps it."""
+    from fsistab.plots import write_modes_vtk
+
+    mode = np.exp(1j * np.arange(len(cylinder_fluid.free_dofs)) / 7.0)
+    with store.recording() as written:
+        path = write_modes_vtk(
+            cylinder_coarse_40, cylinder_fluid.free_dofs, {"m0": mode}, tmp_path / "modes_a2.5"
+        )
+    assert path == tmp_path / "modes_a2.5.vtu" and written == [path]
+    assert [p.name for p in tmp_path.iterdir()] == ["modes_a2.5.vtu"]  # no temporary left
+    data = path.read_bytes()  # XML header, binary appended data
+    assert data.startswith(b"<?xml") and b"m0_velocity_re" in data and b"m0_pressure_im" in data
+    assert data.rstrip().endswith(b"</VTKFile>")
+
+
+OMEGA = (0.1, 0.5)
+
+
+@pytest.fixture(scope="module")
+def transfer_reference(cylinder_fluid, tmp_path_factory):
+    """``G(iω)`` computed once with its samples file, and how many factorisations that took."""
+    from fsistab.transfer import viscous_theodorsen_dataset
+
+    path = tmp_path_factory.mktemp("transfer") / "samples.nc"
+    counter = FactorCounter()
+    ds = viscous_theodorsen_dataset(cylinder_fluid, OMEGA, counter=counter, samples_path=path)
+    return ds, path.read_bytes(), counter.count
+
+
+@pytest.mark.parametrize("kind", ["truncated", "flipped", "edited"])
+def test_damaged_transfer_samples_are_recomputed(cylinder_fluid, transfer_reference, tmp_path, caplog, kind):
+    """The issue's example: samples shifted by 1 would change the loads by 50 %."""
+    from fsistab.transfer import viscous_theodorsen_dataset
+
+    first, saved, factorisations = transfer_reference
+    path = tmp_path / "transfer" / "samples.nc"
+    path.parent.mkdir()
+    path.write_bytes(saved)
+    repeat_count, damaged_count = FactorCounter(), FactorCounter()
+    repeat = viscous_theodorsen_dataset(cylinder_fluid, OMEGA, counter=repeat_count, samples_path=path)
+    assert repeat_count.count == factorisations - len(OMEGA)  # the samples were reused
+    damage(path, kind, variable="transfer")
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        again = viscous_theodorsen_dataset(cylinder_fluid, OMEGA, counter=damaged_count, samples_path=path)
+    assert damaged_count.count == factorisations  # every sample recomputed
+    assert str(path) in caplog.text and "recomputing" in caplog.text
+    for name in ("transfer", "viscous_loads"):
+        want = store.complex_values(first[name])
+        assert np.allclose(store.complex_values(repeat[name]), want, rtol=1e-12, atol=0)
+        assert np.allclose(store.complex_values(again[name]), want, rtol=1e-10, atol=1e-14)
+
+
+def test_transfer_samples_of_another_flow_are_refused(cylinder_fluid, tmp_path):
+    from fsistab.transfer import viscous_theodorsen_dataset
+
+    path = tmp_path / "samples.nc"
+    store.ResumableTable(path, {"reynolds": 100.0, "alpha0_deg": 0.0, "mesh_key": "x"}).save()
+    counter = FactorCounter()
+    with pytest.raises(CacheError, match="another computation"):
+        viscous_theodorsen_dataset(cylinder_fluid, [0.1], counter=counter, samples_path=path)
+    assert counter.count == 0
+
+
+@pytest.mark.parametrize("kind", ["truncated", "edited"])
+def test_damaged_reduced_models_are_rebuilt(cylinder_fluid, tmp_path, caplog, kind):
+    from fsistab.reduced_model import ReducedModels
+
+    path = tmp_path / "models.nc"
+    settings_ = dict(tolerance=1e-4, blocks=8, path=path)
+    model = ReducedModels(cylinder_fluid, **settings_).build(0.5)
+    reused = ReducedModels(cylinder_fluid, **settings_).models
+    assert len(reused) == 1 and np.array_equal(reused[0].jr, model.jr) and reused[0].shift == 0.5j
+    damage(path, kind, variable="jr")
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        models = ReducedModels(cylinder_fluid, **settings_)
+    assert models.models == [] and str(path) in caplog.text and "recomputing" in caplog.text
+    if kind == "edited":  # the rebuilt model is the original (once is enough: a few seconds)
+        rebuilt = models.build(0.5)
+        assert rebuilt.interval == model.interval
+        assert np.allclose(rebuilt.jr, model.jr, rtol=1e-10, atol=1e-12 * np.abs(model.jr).max())
+
+
+# --- resumable neutral curves ------------------------------------------------------------------
+
+
+def _curve_points():
+    from fsistab.neutral import NeutralPoint
+
+    mode = np.array([1 + 2j, -0.5j, 3.0])
+    return [NeutralPoint(m, 5.0 + m / 100, 0.2, mode * m, 2) for m in (10.0, 20.0, 30.0)]
+
+
+def test_a_finished_curve_is_read_back_with_its_complex_mode(tmp_path):
+    from fsistab.neutral import curve_dataset, trace_curve_resumable
+
+    path = tmp_path / "curve.nc"
+    points = _curve_points()
+    store.write_dataset(curve_dataset(points, {"case": "a", "stop": "mass_range"}, complete=True), path)
+    # complete: nothing is computed (no fluid needed), the last mode decoded from its ``part`` encoding
+    back = trace_curve_resumable(None, None, None, path, {"case": "a"})
+    assert [p.mass_ratio for p in back] == [10.0, 20.0, 30.0]
+    assert np.array_equal(back[-1].mode, points[-1].mode)
+    with pytest.raises(CacheError, match="another computation"):
+        trace_curve_resumable(None, None, None, path, {"case": "b"})
+
+
+@pytest.mark.parametrize("kind", ["truncated", "edited"])
+def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeypatch, kind):
+    """The damaged file is not resumed: tracing restarts from the given start point."""
+    import fsistab.neutral as neutral
+    from fsistab.critical import CriticalPoint
+
+    path = tmp_path / "curve.nc"
+    points = _curve_points()
+    attrs = {"case": "a"}
+    store.write_dataset(neutral.curve_dataset(points, attrs, complete=False), path)
+    damage(path, kind, variable="mass_ratio")
+    started = []
+
+    class Curve:
+        stop = "mass_range"
+
+    def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
+        started.append(start)
+        on_point(neutral.NeutralPoint(start.mass_ratio * 2, 6.0, 0.3, start.mode, 1))
+        return Curve()
+
+    monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)
+    start = CriticalPoint("flutter", 7.0, 4.0, 0.25, np.array([1j, 2.0]), (), 0)
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        traced = neutral.trace_curve_resumable(None, start, None, path, attrs)
+    assert started == [start] and str(path) in caplog.text and "recomputing" in caplog.text
+    assert [p.mass_ratio for p in traced] == [7.0, 14.0]
+    saved = store.read_dataset(path, expect=attrs)
+    assert saved.mass_ratio.values.tolist() == [7.0, 14.0] and saved.attrs["complete"] == 1
