@@ -338,6 +338,75 @@ def test_newton_reports_failures_instead_of_raising():
         assert "non-finite" in newton(singular, [0.5]).reason
 
 
+def test_newton_small_step_with_final_residual_records_the_residual_of_the_returned_point():
+    """``y² - 2 = 0`` from 1 stopped by the step size only (``tol = 0``): with ``final_residual`` the
+    same iterates, plus ``|y² - 2|`` at the returned point (≤ the round-off of ``y²`` near 2)."""
+    problem = SquareProblem(lambda y: np.array([y[0] ** 2 - 2]), lambda y, rhs, reuse: rhs / (2 * y))
+    by_step = newton(problem, [1.0], tol=0.0, small_step=lambda d, y: abs(d[0]) < 1e-12)
+    final = newton(problem, [1.0], tol=0.0, small_step=lambda d, y: abs(d[0]) < 1e-12, final_residual=True)
+    assert final.converged and final.iterations == by_step.iterations
+    assert final.point[0] == by_step.point[0] == pytest.approx(math.sqrt(2), rel=1e-15)
+    assert final.residuals[:-1] == by_step.residuals and len(final.residuals) == final.iterations + 1
+    assert final.residuals[-1] <= 4.5e-16 and len(final.path) == len(final.residuals)
+    assert final.path[-1][0] == final.point[0]
+    # the final evaluation counts: if it fails, the step criterion alone does not converge
+    calls = []
+
+    def residual_failing_second(y):
+        calls.append(y[0])
+        if len(calls) > 1:
+            raise ConvergenceError("left the admissible region")
+        return np.array([y[0] ** 2 - 2])
+
+    failing = SquareProblem(residual_failing_second, problem.solve)
+    assert newton(failing, [1.0], tol=0.0, small_step=lambda d, y: True).converged
+    calls.clear()
+    result = newton(failing, [1.0], tol=0.0, small_step=lambda d, y: True, final_residual=True)
+    assert not result.converged and "admissible" in result.reason and calls == [1.0, 1.5]
+    with pytest.raises(InputError, match="small_step"):
+        newton(problem, [1.0], final_residual=True)
+
+
+def _affine_static_problem(singular_is_root: bool) -> SquareProblem:
+    """``A(κ) q = 0`` with ``A(κ) = [[κ - 1, 1], [1, 2]]`` and ``q₀ = 1``, in ``y = (q₀, q₁, κ)``:
+    the second row gives ``q₁ = -1/2``, the first ``κ = 3/2``, where ``det A = 2κ - 3 = 0``. Like
+    the static problem of :mod:`fsistab.critical`, affine in ``κ`` and solved through ``A(κ)⁻¹``
+    (``δq = a + δκ c``, ``A a = r_q``, ``A c = -∂A/∂κ q``), which fails at the root only."""
+
+    def matrix(kappa):
+        return np.array([[kappa - 1.0, 1.0], [1.0, 2.0]])
+
+    def residual(y):
+        return np.append(matrix(y[2]) @ y[:2], y[0] - 1.0)
+
+    def solve(y, rhs, reuse):
+        a = np.linalg.solve(matrix(y[2]), rhs[:2])
+        c = np.linalg.solve(matrix(y[2]), [-y[0], 0.0])
+        d_kappa = (rhs[2] - a[0]) / c[0]
+        return np.append(a + d_kappa * c, d_kappa)
+
+    return SquareProblem(residual, solve, singular_is_root=singular_is_root)
+
+
+def test_newton_stops_converged_where_a_singular_is_root_problem_is_singular():
+    """From ``(1, 0, 1)``: ``a = (-1, 0)``, ``c = (2, -1)``, ``δκ = 1/2``, so one step lands on the
+    root ``(1, -1/2, 3/2)`` exactly (``G = 0``). With ``tol = 0`` the next solve is attempted and
+    ``A(3/2)`` is singular: converged there if the problem says so, a failure otherwise."""
+    result = newton(_affine_static_problem(True), [1.0, 0.0, 1.0], tol=0.0)
+    assert result.converged and result.iterations == 1 and result.reason == ""
+    assert result.point.tolist() == [1.0, -0.5, 1.5]
+    assert result.residuals == (1.0, 0.0)
+    assert result.last_step.tolist() == [0.0, -0.5, 0.5]
+    plain = newton(_affine_static_problem(False), [1.0, 0.0, 1.0], tol=0.0)
+    assert not plain.converged and "singular" in plain.reason.lower()
+    assert plain.point.tolist() == [1.0, -0.5, 1.5]
+    # from elsewhere, q₁ = 0.3 and κ = 0: a = (-1, -0.3), c = (2/3, -1/3), δκ = 3/2, one step to the
+    # root (up to round-off)
+    other = newton(_affine_static_problem(True), [1.0, 0.3, 0.0], tol=1e-14)
+    assert other.converged and other.iterations == 1
+    assert other.point == pytest.approx([1.0, -0.5, 1.5], abs=1e-15)
+
+
 def test_pinned_curve_problem_is_a_point_of_the_curve():
     """The circle x² + p² = 1 with p held at 0.6: x = 0.8 (from 1), p exactly 0.6 throughout."""
     pinned = circle().pinned(1, 0.6)

@@ -8,7 +8,7 @@ import pytest
 from fsistab.coupled import CoupledSystem, stiffness_derivative
 from fsistab.critical import divergence_point, flutter_point
 from fsistab.eigen import eigenpairs_near
-from fsistab.errors import InputError
+from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.operators import fluid_operators
 from fsistab.params import Solid
@@ -45,6 +45,24 @@ def test_divergence_is_the_torsional_formula(plate_operators):
         assert point.kind == "divergence" and point.frequency == 0
         assert _quadratic(point.history)
     assert counter.count == 2  # one real factorisation of J_ff per call
+
+
+def test_divergence_mode_is_static_and_failure_is_reported(plate_operators):
+    """The returned pair solves the static problem: θ̂ = 1 exactly, ḣ = θ' = 0 (the kinematic rows
+    of MODEL.md §7), ``J(U*_D) q̂ ≈ 0`` at the returned U*_D; without a Newton step the start
+    (``q̂ = J⁻¹ e_θ``, ``‖J q̂‖ = 1/|(J⁻¹ e_θ)_θ|``) is not a root and the error says where."""
+    solid = Solid(mass_ratio=1000, reduced_velocity=7.0)
+    point = divergence_point(plate_operators, solid)
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000, reduced_velocity=point.reduced_velocity))
+    labels = system.state_labels()
+    mode = point.mode
+    assert mode[labels.index("theta")] == 1.0
+    assert np.max(np.abs(mode[[labels.index("hdot"), labels.index("thetadot")]])) < 1e-12
+    assert np.linalg.norm(system.jacobian @ mode) < 1e-10
+    with pytest.raises(
+        ConvergenceError, match=r"divergence Newton did not converge near U\* = 7 \(residuals"
+    ):
+        divergence_point(plate_operators, solid, maxit=0)
 
 
 def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):

@@ -8,7 +8,12 @@ import pytest
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
-from fsistab.flow_neutral import _FlowDeterminant, continue_flow_neutral_curve, flow_curve_dataset
+from fsistab.flow_neutral import (
+    _FlowDeterminant,
+    continue_flow_neutral_curve,
+    flow_curve_table,
+    record_flow_curve,
+)
 from fsistab.linalg import FactorCounter
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
@@ -33,7 +38,7 @@ def test_determinant_derivatives_match_finite_differences(plate_2900, plate_coar
         assert abs(fd - exact) < 1e-6 * abs(exact)
 
 
-def test_points_along_reynolds_are_neutral(plate_2900, plate_coarse_spec, cache_dir):
+def test_points_along_reynolds_are_neutral(plate_2900, plate_coarse_spec, cache_dir, tmp_path):
     """Two steps down in Re from the m = 1000 flutter onset: at each point, the full eigen-solver
     on that flow's steady state has an eigenvalue λ = 0 (1e-7) at ω = ω_c."""
     counter = FactorCounter()
@@ -61,8 +66,11 @@ def test_points_along_reynolds_are_neutral(plate_2900, plate_coarse_spec, cache_
         )
         pair = min(eigenpairs_near(system, [1j * point.frequency], 4), key=lambda p: abs(p.value.real))
         assert abs(pair.value.real) < 1e-7 and pair.frequency == pytest.approx(point.frequency, rel=1e-6)
-    ds = flow_curve_dataset(curve, {"mass_ratio": 1000.0})
+    ds = record_flow_curve(flow_curve_table(tmp_path / "half.nc", {"mass_ratio": 1000.0}), curve)
     assert ds.attrs["parameter"] == "reynolds" and ds.sizes["point"] == 3
+    saved = flow_curve_table(tmp_path / "half.nc", {"mass_ratio": 1000.0})  # what a rerun reads
+    assert saved.complete and saved.final_attrs["stop"] == "max_points"
+    assert [r["reynolds"] for r in saved.records_of("point")] == reynolds.tolist()
 
 
 def test_bad_flow_continuation_input(plate_coarse_spec):

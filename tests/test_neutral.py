@@ -182,15 +182,19 @@ def test_a_folded_curve_crosses_twice_and_failed_refinements_are_kept():
 
 
 def test_turning_points_are_stored_with_the_curve(tmp_path):
-    from fsistab.neutral import NeutralPoint, TurningPoint, _turning_points_of, curve_dataset
-    from fsistab.store import read_dataset, write_dataset
+    from fsistab.neutral import TurningPoint, curve_table, saved_turning_points
+    from fsistab.store import read_dataset
 
-    points = [NeutralPoint(m, 5.0, 0.2, np.ones(3) * (1 + 1j), 2) for m in (3.0, 2.0, 2.5)]
-    folds = [TurningPoint(1.9, 4.9, 0.21, 1, True)]
-    write_dataset(curve_dataset(points, {"case": "plate"}, True, folds), tmp_path / "c.nc")
-    ds = read_dataset(tmp_path / "c.nc", expect={"case": "plate"})
-    assert ds.attrs["n_folds"] == 1 and _turning_points_of(ds) == folds
-    assert curve_dataset(points, {}, False).attrs["n_folds"] == 0
+    folds = [TurningPoint(1.9, 4.9, 0.21, 1, True), TurningPoint(2.6, 5.2, 0.22, 4, False)]
+    table = curve_table(tmp_path / "c.nc", {"case": "plate"})
+    for fold in folds:
+        record = {"fold_mass_ratio": fold.mass_ratio, "fold_reduced_velocity": fold.reduced_velocity}
+        record |= {"fold_frequency": fold.frequency, "fold_index": fold.index}
+        table.append({**record, "fold_localised": int(fold.localised)}, kind="fold")
+    table.finish({"stop": "mass_range"})
+    assert saved_turning_points(curve_table(tmp_path / "c.nc", {"case": "plate"})) == folds
+    ds = read_dataset(tmp_path / "c.nc", expect={"case": "plate", "stop": "mass_range"})
+    assert ds.fold_mass_ratio.values.tolist() == [1.9, 2.6] and ds.sizes["point"] == 0
 
 
 def test_a_threshold_on_a_traced_curve_is_recognised():

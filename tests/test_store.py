@@ -265,6 +265,83 @@ def test_a_damaged_resumable_table_starts_afresh(tmp_path, caplog, kind):
     assert len(fresh) == 0 and "recomputing" in caplog.text and str(path) in caplog.text
 
 
+def test_records_of_several_kinds_state_and_finish_survive_a_rerun(tmp_path):
+    """A curve-like table: points and folds along their own dimensions, the last mode replaced (not
+    appended), ``finish`` marks it complete with its stop; appending again reopens it."""
+    path = tmp_path / "t.nc"
+    fields = {"point": ("mass", "velocity"), "fold": ("fold_mass", "fold_index")}
+    table = store.ResumableTable(path, {"case": "x"}, fields, state=("mode",))
+    for i, m in enumerate((1.0, 2.0, 3.0)):
+        table.append({"mass": m, "velocity": 10 * m}, kind="point", state={"mode": np.full(4, m * 1j)})
+        if i == 1:
+            table.append({"fold_mass": 2.5, "fold_index": 1}, kind="fold", save=False)
+    assert not store.ResumableTable(path, {"case": "x"}, fields, state=("mode",)).complete
+    table.finish({"stop": "max_points"})
+    again = store.ResumableTable(path, {"case": "x"}, fields, state=("mode",))
+    assert again.complete and again.final_attrs == {"stop": "max_points"} and len(again) == 4
+    assert [(r["mass"], r["velocity"]) for r in again.records_of("point")] == [(1, 10), (2, 20), (3, 30)]
+    assert [(r["fold_mass"], r["fold_index"]) for r in again.records_of("fold")] == [(2.5, 1)]
+    assert np.array_equal(again.state["mode"], np.full(4, 3j))
+    ds = store.read_dataset(path, expect={"case": "x", "complete": 1, "stop": "max_points"})
+    assert ds.sizes["point"] == 3 and ds.sizes["fold"] == 1 and ds["mass"].dims == ("point",)
+    again.append({"mass": 4.0, "velocity": 40.0}, kind="point")
+    reopened = store.ResumableTable(path, {"case": "x"}, fields, state=("mode",))
+    assert not reopened.complete and reopened.final_attrs == {} and len(reopened.records_of("point")) == 4
+    assert np.array_equal(reopened.state["mode"], np.full(4, 3j))  # not given: kept
+    with pytest.raises(ValueError, match="record names"):
+        again.append({"mass": 5.0}, kind="point")
+    with pytest.raises(ValueError, match="kind"):
+        again.append({"mass": 5.0, "velocity": 1.0}, kind="other")
+    with pytest.raises(ValueError, match="state"):
+        again.append({"mass": 5.0, "velocity": 1.0}, kind="point", state={"speed": 1.0})
+    with pytest.raises(ValueError, match="clash"):
+        again.finish({"case": "y"})
+
+
+@given(
+    shapes=st.lists(st.tuples(st.integers(0, 4), st.integers(1, 3)), min_size=1, max_size=4),
+    complex_=st.booleans(),
+)
+@settings(max_examples=15, deadline=None)
+def test_ragged_records_come_back_with_their_own_shapes(tmp_path_factory, shapes, complex_):
+    """Fields whose shape differs between records (reduced models' matrices) are padded on disk
+    and cut back on reading: every value equal to what was appended, dtype kind included."""
+    path = tmp_path_factory.mktemp("ragged") / "t.nc"
+    rng = np.random.default_rng(len(shapes))
+    records = []
+    for n, k in shapes:
+        matrix = rng.standard_normal((n, k)) + (1j * rng.standard_normal((n, k)) if complex_ else 0)
+        records.append({"matrix": matrix, "ends": np.arange(1, k + 1), "size": n})
+    table = store.ResumableTable(path, {"case": "ragged"}, {"model": ("matrix", "ends", "size")})
+    for record in records:
+        table.append(record)
+    back = store.ResumableTable(path, {"case": "ragged"}, {"model": ("matrix", "ends", "size")}).records
+    for got, want in zip(back, records, strict=True):
+        assert got["matrix"].shape == want["matrix"].shape and np.array_equal(got["matrix"], want["matrix"])
+        assert np.iscomplexobj(got["matrix"]) == complex_
+        assert np.array_equal(got["ends"], want["ends"]) and got["size"] == want["size"]
+
+
+def test_a_table_of_another_layout_is_refused_and_an_older_file_recomputed(tmp_path, caplog):
+    """Same identity, other fields: another computation's table (CacheError, kept). A checksummed
+    file with no table layout (written before the tables) is reported and started afresh."""
+    path = tmp_path / "t.nc"
+    store.ResumableTable(path, {"case": "x"}, {"point": ("mass",)}).append({"mass": 1.0})
+    with pytest.raises(CacheError, match="another computation") as error:
+        store.ResumableTable(path, {"case": "x"}, {"point": ("mass", "velocity")})
+    assert "\n" not in str(error.value) and path.exists()
+    old = tmp_path / "old.nc"
+    store.write_dataset(xr.Dataset({"mass": ("point", [1.0, 2.0])}, attrs={"case": "x"}), old)
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        fresh = store.ResumableTable(old, {"case": "x"}, {"point": ("mass",)})
+    assert len(fresh) == 0 and "older layout" in caplog.text and "recomputing" in caplog.text
+    assert not old.exists() and (tmp_path / "old.nc.damaged").exists()
+    with pytest.raises(ValueError):
+        store.ResumableTable(path, {"complete": 1})
+    with pytest.raises(ValueError):
+        store.ResumableTable(path, {"case": "x"}, {"point": ("mass",), "fold": ("mass",)})
+
+
 # --- cached kinds on a real fluid: transfer samples, reduced models ----------------------------
 
 
@@ -369,18 +446,69 @@ def _curve_points():
     return [NeutralPoint(m, 5.0 + m / 100, 0.2, mode * m, 2) for m in (10.0, 20.0, 30.0)]
 
 
+def _saved_curve(path, attrs, points, stop=None, folds=()):
+    """A curve table as trace_curve_resumable leaves it: finished with ``stop``, or interrupted."""
+    from fsistab.neutral import curve_table
+
+    table = curve_table(path, attrs)
+    for point in points:
+        record = {"mass_ratio": point.mass_ratio, "reduced_velocity": point.reduced_velocity}
+        table.append({**record, "frequency": point.frequency}, kind="point", state={"last_mode": point.mode})
+    for fold in folds:
+        record = {"fold_mass_ratio": fold.mass_ratio, "fold_reduced_velocity": fold.reduced_velocity}
+        record |= {"fold_frequency": fold.frequency, "fold_index": fold.index, "fold_localised": 1}
+        table.append(record, kind="fold")
+    if stop is not None:
+        table.finish({"stop": stop})
+
+
 def test_a_finished_curve_is_read_back_with_its_complex_mode(tmp_path):
-    from fsistab.neutral import curve_dataset, trace_curve_resumable
+    from fsistab.neutral import trace_curve_resumable
 
     path = tmp_path / "curve.nc"
     points = _curve_points()
-    store.write_dataset(curve_dataset(points, {"case": "a", "stop": "mass_range"}, complete=True), path)
+    _saved_curve(path, {"case": "a"}, points, stop="mass_range")
     # complete: nothing is computed (no fluid needed), the last mode decoded from its ``part`` encoding
     back = trace_curve_resumable(None, None, None, path, {"case": "a"})
     assert [p.mass_ratio for p in back] == [10.0, 20.0, 30.0]
     assert np.array_equal(back[-1].mode, points[-1].mode)
     with pytest.raises(CacheError, match="another computation"):
         trace_curve_resumable(None, None, None, path, {"case": "b"})
+
+
+def test_an_interrupted_curve_continues_from_its_last_point(tmp_path, monkeypatch):
+    """The continuation restarts at the last saved point with its mode, in the direction of the
+    last step, for the points still wanted; its turning points are numbered along the whole curve
+    and the table ends complete with the new stop."""
+    import fsistab.neutral as neutral
+
+    path, attrs = tmp_path / "curve.nc", {"case": "a"}
+    points = _curve_points()
+    fold = neutral.TurningPoint(9.0, 5.05, 0.2, 0, True)
+    _saved_curve(path, attrs, points, folds=[fold])
+    calls = []
+
+    class Curve:
+        stop = "max_points"
+
+    def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
+        calls.append((start, options))
+        on_fold(neutral.TurningPoint(35.0, 5.4, 0.2, 1, False))
+        on_point(neutral.NeutralPoint(40.0, 5.4, 0.2, start.mode * 2, 3))
+        return Curve()
+
+    monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)
+    traced = neutral.trace_curve_resumable(None, None, None, path, attrs, max_points=5)
+    ((start, options),) = calls
+    assert (start.mass_ratio, start.reduced_velocity) == (30.0, 5.3)
+    assert np.array_equal(start.mode, points[-1].mode)
+    assert options["max_points"] == 3  # 5 wanted, 3 saved: the last one is the new start
+    assert options["initial_direction"] == pytest.approx((0.1, np.log(1.5)))
+    assert [p.mass_ratio for p in traced] == [10.0, 20.0, 30.0, 40.0]
+    table = neutral.curve_table(path, attrs)
+    assert table.complete and table.final_attrs["stop"] == "max_points"
+    assert [t.index for t in neutral.saved_turning_points(table)] == [0, 3]
+    assert np.array_equal(table.state["last_mode"], points[-1].mode * 2)
 
 
 @pytest.mark.parametrize("kind", ["truncated", "edited"])
@@ -392,7 +520,7 @@ def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeyp
     path = tmp_path / "curve.nc"
     points = _curve_points()
     attrs = {"case": "a"}
-    store.write_dataset(neutral.curve_dataset(points, attrs, complete=False), path)
+    _saved_curve(path, attrs, points)  # interrupted
     damage(path, kind, variable="mass_ratio")
     started = []
 

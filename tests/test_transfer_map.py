@@ -5,11 +5,13 @@ full eigen-solver, the tangents by finite differences, completeness against a br
 and a small map against the Newton thresholds of the continuation method.
 """
 
+import logging
 import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from damage import damage
 
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import divergence_point, flutter_point
@@ -17,15 +19,18 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.params import Solid
-from fsistab.store import write_dataset
+from fsistab.store import ResumableTable
 from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
+    SAMPLE_FIELDS,
     AxisSample,
     _swept,
     characteristic_function,
     neutral_roots,
+    read_samples,
     roots_from_loads,
-    samples_dataset,
+    sample_record,
+    samples_table,
     second_order_loads,
     transfer_neutral_map,
     unstable_counts,
@@ -149,11 +154,11 @@ def test_roots_are_complete_against_a_brute_force_scan(seed):
     assert len(roots) == count
 
 
-def test_map_thresholds_agree_with_newton_and_counts_with_the_eigen_solver(fluid, tmp_path):
+def test_map_thresholds_agree_with_newton_and_counts_with_the_eigen_solver(fluid, tmp_path, caplog):
     """A map over m ∈ [300, 3000], ω ∈ [0.05, 0.5]: U*_F(1000) equal to the augmented Newton's
     (continuation method) to 1e-6, U*_D to the static Newton's, the number of unstable modes between
     and beyond them equal to the eigen-solver's; a second run from the saved samples factorises
-    nothing."""
+    nothing, and a damaged samples file is reported and not used."""
     path = tmp_path / "samples.nc"
     counter = FactorCounter()
     settings_ = dict(mass_range=(300.0, 3000.0), omega_range=(0.05, 0.5), initial=16, samples_path=path)
@@ -182,6 +187,12 @@ def test_map_thresholds_agree_with_newton_and_counts_with_the_eigen_solver(fluid
     again = FactorCounter()
     repeat = transfer_neutral_map(fluid, Solid(), counter=again, **settings_)
     assert again.count == 0 and len(repeat.curves) == len(tmap.curves)
+    saved = read_samples(samples_table(path, fluid))  # every sampled frequency, ω = 0 included
+    assert list(saved) == tmap.frequencies.tolist() and not any(x.reduced for x in saved.values())
+    damage(path, "edited", variable="transfer")
+    with caplog.at_level(logging.WARNING, logger="fsistab"):
+        assert read_samples(samples_table(path, fluid)) == {}  # reported, moved aside: recomputed
+    assert str(path) in caplog.text and "recomputing" in caplog.text
 
 
 def test_bad_input_is_refused_before_any_factorisation(fluid, tmp_path):
@@ -195,9 +206,11 @@ def test_bad_input_is_refused_before_any_factorisation(fluid, tmp_path):
     ):
         with pytest.raises(InputError):
             transfer_neutral_map(fluid, Solid(), counter=counter, **kwargs)
-    bad = tmp_path / "samples.nc"  # samples of another flow (a damaged file is recomputed: test_store)
+    bad = tmp_path / "samples.nc"  # samples of another flow (a damaged file: test_map_thresholds...)
     other_flow = {"reynolds": 100.0, "alpha0_deg": 0.0, "mesh_key": "x"}
-    write_dataset(samples_dataset([AxisSample(0.5, np.ones((3, 4)), np.ones((3, 4)))], other_flow), bad)
+    ResumableTable(bad, other_flow, SAMPLE_FIELDS).append(
+        sample_record(AxisSample(0.5, np.ones((3, 4)), np.ones((3, 4))))
+    )
     with pytest.raises(CacheError, match="another computation"):
         transfer_neutral_map(fluid, Solid(), samples_path=bad, counter=counter)
     assert counter.count == 0

@@ -65,10 +65,16 @@ _SOLVE_ERRORS = (ConvergenceError, np.linalg.LinAlgError, FloatingPointError)
 @dataclass(frozen=True)
 class SquareProblem:
     """A square system ``G(y) = 0``, ``G: R^N → R^N``, and ``solve(y, rhs, reuse)`` returning ``δ``
-    with ``G_y(y) δ = rhs`` (``reuse`` as for :class:`CurveProblem`)."""
+    with ``G_y(y) δ = rhs`` (``reuse`` as for :class:`CurveProblem`).
+
+    ``singular_is_root`` says that a ``LinAlgError`` of ``solve`` at ``y`` means that ``y`` is a
+    root: for a solver that eliminates through a block which is exactly singular at the root only
+    (e.g. ``J(U*)`` in the static problem of :mod:`fsistab.critical`, affine in ``1/U*²``, where a
+    Newton step can land on the root exactly). :func:`newton` then stops there, converged."""
 
     residual: Residual
     solve: SquareSolve
+    singular_is_root: bool = False
 
 
 @dataclass(frozen=True)
@@ -95,20 +101,27 @@ def newton(
     max_iterations: int = 10,
     chord: bool = False,
     small_step: Callable[[np.ndarray, np.ndarray], bool] | None = None,
+    final_residual: bool = False,
 ) -> NewtonResult:
     """Newton's method on ``G(y) = 0`` from ``start``: converged when ``‖G(y)‖ < tol`` or, if given,
     when ``small_step(δ, y_new)`` holds after a step (a step-size criterion evaluates ``G`` once
-    less). With ``chord`` the solver may reuse its factorisation (``reuse=True``) while the residual
-    falls at least tenfold per iteration. Never raises for a failed iteration: an exception of the
-    residual (:class:`ConvergenceError`, ``FloatingPointError``, ``ValueError``) or of the solve
-    (:class:`ConvergenceError`, ``LinAlgError``, ``FloatingPointError``), a non-finite value, or
-    ``max_iterations`` steps without convergence return ``converged=False`` with the reason.
+    less; with ``final_residual`` it does not: ``G`` is evaluated and recorded at ``y_new``, which
+    is then returned converged unless that evaluation fails), or at a singular point of a problem
+    whose ``singular_is_root`` (:class:`SquareProblem`). With ``chord`` the solver may reuse its
+    factorisation (``reuse=True``) while the residual falls at least tenfold per iteration. Never
+    raises for a failed iteration: an exception of the residual (:class:`ConvergenceError`,
+    ``FloatingPointError``, ``ValueError``) or of the solve (:class:`ConvergenceError`,
+    ``LinAlgError``, ``FloatingPointError``), a non-finite value, or ``max_iterations`` steps
+    without convergence return ``converged=False`` with the reason.
     """
+    if final_residual and small_step is None:
+        raise InputError("final_residual applies to a small_step criterion: give one")
     y = np.array(start, dtype=float)
     residuals: list[float] = []
     path: list[np.ndarray] = []
     step: np.ndarray | None = None
     previous = math.inf
+    stepped_small = False
 
     def result(converged: bool, iterations: int, reason: str = "") -> NewtonResult:
         return NewtonResult(y, converged, iterations, tuple(residuals), step, reason, tuple(path))
@@ -123,7 +136,7 @@ def newton(
         path.append(y)
         if not math.isfinite(norm):
             return result(False, iteration, "non-finite residual")
-        if norm < tol:
+        if norm < tol or stepped_small:
             return result(True, iteration)
         if iteration == max_iterations:
             break
@@ -131,13 +144,17 @@ def newton(
         previous = norm
         try:
             step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
+        except np.linalg.LinAlgError as error:
+            return result(problem.singular_is_root, iteration, "" if problem.singular_is_root else str(error))
         except _SOLVE_ERRORS as error:
             return result(False, iteration, str(error))
         if not np.all(np.isfinite(step)):
             return result(False, iteration, "non-finite Newton step")
         y = y + step
         if small_step is not None and small_step(step, y):
-            return result(True, iteration + 1)
+            if not final_residual:
+                return result(True, iteration + 1)
+            stepped_small = True  # converged once G at y is recorded
     return result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
 
 

@@ -10,8 +10,9 @@ of :mod:`fsistab.neutral` continue the same problem), solved by the one Newton
 (for a pitch-only system the phase is fixed on ``θ̂``). Each Newton step solves three systems with
 the same matrix ``iωM + J(U*)`` — one factorisation of the fluid block at ``iω`` (independent of
 ``U*``) reused through the bordered solver of :mod:`fsistab.linalg` — and a 2×2 real system for
-``(δω, δU*)``. Static instability: ``J(U*) q̂ = 0`` with ``θ̂ = 1``, real, where the fluid block
-``J_ff`` is factorised once for all iterations.
+``(δω, δU*)``. Static instability: ``J(U*) q̂ = 0`` with ``θ̂ = 1``, real (:class:`DivergenceProblem`,
+unknowns ``(q̂, 1/U*²)``), solved by the same Newton, where the fluid block ``J_ff`` is factorised
+once for all iterations.
 
 ``U*`` enters ``J`` only through the in-vacuo solid rows, so ``∂J/∂U*`` is explicit.
 """
@@ -234,6 +235,71 @@ def flutter_point(
     )
 
 
+class DivergenceProblem:
+    """Static instability (``ω_c = 0``, MODEL.md §8) as a real square system in ``y = (q̂, κ)``,
+    ``κ = 1/U*²``, for the solid parameters of ``solid`` otherwise::
+
+        J(U*) q̂ = 0,     θ̂ = 1
+
+    ``U*`` enters ``J`` only through the in-vacuo solid rows (stiffness ``∝ κ``; damping ``∝ √κ``
+    multiplies ``ḣ = θ' = 0`` in a static mode), so the system is affine in ``κ`` and a Newton
+    step can land on the root exactly, where ``J(U*)`` is singular: the problem says so
+    (``singular_is_root``). A step eliminates ``δq̂ = a + δκ c`` with
+    ``J(a, c) = (r_q, -∂J/∂κ q̂)`` — the one real factorisation of ``J_ff`` (``fluid_factor``) and
+    the solid Schur complement (:class:`~fsistab.linalg.ShiftedSolver`) — and fixes ``δκ`` by the
+    row ``θ̂ = 1``, held exactly (so ``‖G‖ = ‖J q̂‖``)."""
+
+    def __init__(self, fluid: FluidOperators, solid: Solid, fluid_factor: FluidFactor):
+        if "pitch" not in solid.dofs:
+            raise InputError("divergence needs the pitch degree of freedom")
+        self.fluid, self.solid, self.fluid_factor = fluid, solid, fluid_factor
+        self._initial = CoupledSystem(fluid, solid)
+        self.n, self.pitch = self._initial.size, self._initial.state_labels().index("theta")
+        self._system: tuple[float, CoupledSystem] | None = None
+
+    @staticmethod
+    def velocity(kappa: float) -> float:
+        """``U* = 1/√κ``; a step past ``U* = ∞`` (``κ ≤ 0``) is held at ``U* = 10¹⁵⁰``, where the
+        residual is still recorded and the next step is not finite: the Newton fails there."""
+        return float(1.0 / np.sqrt(max(kappa, 1e-300)))
+
+    def system(self, kappa: float) -> CoupledSystem:
+        if self._system is None or self._system[0] != kappa:
+            solid = _with_velocity(self.solid, self.velocity(kappa))
+            self._system = (kappa, CoupledSystem(self.fluid, solid))
+        return self._system[1]
+
+    def start(self) -> np.ndarray:
+        """``y`` at ``solid.reduced_velocity``: ``q̂ = J⁻¹ e_θ`` (one inverse-iteration step towards
+        the null vector), scaled to ``θ̂ = 1``."""
+        unit = np.zeros(self.n)
+        unit[self.pitch] = 1.0
+        q = ShiftedSolver(self._initial, 0.0, fluid_factor=self.fluid_factor).solve(unit)
+        return np.append(q / q[self.pitch], float(self.solid.reduced_velocity) ** -2)
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        q = y[:-1]
+        return np.append(self.system(y[-1]).jacobian @ q, q[self.pitch] - 1.0)
+
+    def solve(self, y: np.ndarray, rhs: np.ndarray, reuse: bool) -> np.ndarray:
+        q, kappa, k = y[:-1], y[-1], self.pitch
+        system = self.system(kappa)
+        # LinAlgError where J(U*) is exactly singular: at the root (singular_is_root)
+        solver = ShiftedSolver(system, 0.0, fluid_factor=self.fluid_factor)
+        # ∂J/∂κ q̂ = ∂J/∂U* q̂ dU*/dκ; not finite near U* = ∞ (overflow): a failed step for newton
+        with np.errstate(over="ignore", invalid="ignore"):
+            d_kappa_q = velocity_derivative(system, q) * (-(np.float64(self.velocity(kappa)) ** 3) / 2)
+        a = solver.solve(rhs[:-1])
+        c = solver.solve(-d_kappa_q)
+        d_kappa = (rhs[-1] - a[k]) / c[k]
+        delta = np.append(a + d_kappa * c, d_kappa)
+        delta[k] = rhs[-1]  # θ̂ = 1 held exactly, without round-off drift
+        return delta
+
+    def square(self) -> SquareProblem:
+        return SquareProblem(self.residual, self.solve, singular_is_root=True)
+
+
 def divergence_point(
     fluid: FluidOperators,
     solid: Solid,
@@ -243,51 +309,40 @@ def divergence_point(
     counter: FactorCounter | None = None,
     fluid_factor: FluidFactor | None = None,
 ) -> CriticalPoint:
-    """Static instability ``J(U*) q̂ = 0`` (``θ̂ = 1``) by Newton in ``(q̂, 1/U*²)``.
+    """Static instability ``J(U*) q̂ = 0`` (``θ̂ = 1``): :func:`fsistab.continuation.newton` on
+    :class:`DivergenceProblem` in ``(q̂, 1/U*²)`` from ``solid.reduced_velocity``.
 
-    One real factorisation of ``J_ff`` (pass ``fluid_factor`` to share it between mass ratios).
+    Converged when ``‖J q̂‖ < tol``, after a step in ``κ = 1/U*²`` below ``1e-13 κ`` (the residual
+    at the new point is recorded) or on a point where ``J(U*)`` is exactly singular. One real
+    factorisation of ``J_ff`` (pass ``fluid_factor`` to share it between mass ratios).
     """
     counter = counter if counter is not None else FactorCounter()
     start = counter.count
     if "pitch" not in solid.dofs:
         raise InputError("divergence needs the pitch degree of freedom")
-    factor = fluid_factor or FluidFactor(fluid, 0.0, counter)
-    system = CoupledSystem(fluid, solid)
-    k = system.state_labels().index("theta")
-    unit = np.zeros(system.size)
-    unit[k] = 1.0
-    q = ShiftedSolver(system, 0.0, fluid_factor=factor).solve(unit)
-    q /= q[k]
-    velocity = float(solid.reduced_velocity)
-    history: list[float] = []
-    d_kappa = np.inf
-    for _ in range(maxit + 1):
-        system = CoupledSystem(fluid, _with_velocity(solid, velocity))
-        residual = system.jacobian @ q
-        history.append(float(np.linalg.norm(residual)))
-        point = CriticalPoint(
-            "divergence", solid.mass_ratio, velocity, 0.0, q, tuple(history), counter.count - start
+    problem = DivergenceProblem(fluid, solid, fluid_factor or FluidFactor(fluid, 0.0, counter))
+    result = newton(
+        problem.square(),
+        problem.start(),
+        tol=tol,
+        max_iterations=maxit,
+        small_step=lambda d, y: abs(d[-1]) < 1e-13 * y[-1],
+        final_residual=True,
+    )
+    velocity = problem.velocity(result.point[-1])
+    if result.converged:
+        return CriticalPoint(
+            "divergence",
+            solid.mass_ratio,
+            velocity,
+            0.0,
+            result.point[:-1].copy(),
+            result.residuals,
+            counter.count - start,
         )
-        if history[-1] < tol or abs(d_kappa) < 1e-13 * velocity**-2:
-            return point
-        if len(history) > maxit:
-            break
-        try:
-            solver = ShiftedSolver(system, 0.0, fluid_factor=factor)
-        except np.linalg.LinAlgError:
-            # the problem is affine in κ: a step can land on the root, where J(U*) is exactly singular
-            return point
-        d_jss = velocity_derivative(system, q)
-        # Newton in κ = 1/U*²: the static problem is affine in κ (ḣ = θ' = 0 in the mode)
-        d_jss *= -(velocity**3) / 2  # ∂J/∂κ q
-        a = solver.solve(-residual)
-        c = solver.solve(-d_jss)
-        d_kappa = -(q[k] + a[k] - 1.0) / c[k]
-        q = q + a + d_kappa * c
-        velocity = 1.0 / np.sqrt(max(velocity**-2 + d_kappa, 1e-300))
     raise ConvergenceError(
         f"divergence Newton did not converge near U* = {velocity:.4g} "
-        f"(residuals {', '.join(f'{r:.1e}' for r in history[-4:])}); try another starting U*"
+        f"(residuals {', '.join(f'{r:.1e}' for r in result.residuals[-4:])}); try another starting U*"
     )
 
 

@@ -250,31 +250,45 @@ def continue_flow_neutral_curve(
     return FlowNeutralCurve(parameter, points, tuple(turning), stop, counter.count - first)
 
 
-def flow_curve_dataset(curve: FlowNeutralCurve, attrs: dict):
-    """The curve as an xarray Dataset (``point`` and ``fold`` dimensions)."""
-    import xarray as xr
+FLOW_CURVE_FIELDS = {
+    "point": ("reynolds", "alpha0_deg", "reduced_velocity", "frequency"),
+    "fold": ("fold_reynolds", "fold_alpha0_deg", "fold_reduced_velocity", "fold_frequency"),
+}
 
-    def columns(points, dim, prefix=""):
+
+def flow_curve_table(path, attrs: dict):
+    """The resumable table (:class:`fsistab.store.ResumableTable`) of one half-curve of identity
+    ``attrs``: its points along ``point``, its turning points along ``fold`` (fields
+    ``FLOW_CURVE_FIELDS``); complete once :func:`record_flow_curve` has finished it."""
+    from fsistab.store import ResumableTable
+
+    return ResumableTable(path, attrs, FLOW_CURVE_FIELDS)
+
+
+def record_flow_curve(table, curve: FlowNeutralCurve):
+    """Record ``curve`` in ``table`` (:func:`flow_curve_table`, emptied first) and finish it with
+    attributes ``parameter``, ``stop`` and ``factorisations``; returns the table's dataset, the
+    input of :func:`stack_flow_curves`."""
+
+    def columns(point, prefix=""):
         return {
-            f"{prefix}reynolds": (dim, np.array([p.reynolds for p in points])),
-            f"{prefix}alpha0_deg": (dim, np.array([p.alpha0_deg for p in points])),
-            f"{prefix}reduced_velocity": (dim, np.array([p.reduced_velocity for p in points])),
-            f"{prefix}frequency": (dim, np.array([p.frequency for p in points])),
+            f"{prefix}reynolds": point.reynolds,
+            f"{prefix}alpha0_deg": point.alpha0_deg,
+            f"{prefix}reduced_velocity": point.reduced_velocity,
+            f"{prefix}frequency": point.frequency,
         }
 
-    return xr.Dataset(
-        {**columns(curve.points, "point"), **columns(curve.turning_points, "fold", "fold_")},
-        attrs={
-            **attrs,
-            "parameter": curve.parameter,
-            "stop": curve.stop,
-            "factorisations": curve.factorisations,
-        },
-    )
+    table.clear()
+    for point in curve.points:
+        table.append(columns(point), kind="point", save=False)
+    for point in curve.turning_points:
+        table.append(columns(point, "fold_"), kind="fold", save=False)
+    table.finish({"parameter": curve.parameter, "stop": curve.stop, "factorisations": curve.factorisations})
+    return table.dataset()
 
 
 def stack_flow_curves(halves, parameter: str, attrs: dict):
-    """The half-curves of :func:`flow_curve_dataset` (each continued from one threshold in one
+    """The half-curves of :func:`record_flow_curve` (each continued from one threshold in one
     direction) stacked in one Dataset: points along ``point`` with a ``curve`` index, turning points
     along ``fold``, each half's kind, direction and stop along ``curve_index``."""
     import xarray as xr

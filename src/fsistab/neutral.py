@@ -247,49 +247,63 @@ def curve_crossings(
     return tuple(crossings)
 
 
-def curve_dataset(
-    curve_points: list[NeutralPoint],
-    attrs: dict,
-    complete: bool,
-    turning_points: Sequence[TurningPoint] = (),
-):
-    """Points of a neutral curve (and the last point's mode, to resume) as an xarray Dataset, with
-    its turning points in m (``fold_*`` variables along ``fold``; attribute ``n_folds``)."""
-    import xarray as xr
+CURVE_FIELDS = {
+    "point": ("mass_ratio", "reduced_velocity", "frequency"),
+    "fold": ("fold_mass_ratio", "fold_reduced_velocity", "fold_frequency", "fold_index", "fold_localised"),
+}
 
-    from fsistab.store import complex_variable
 
-    last = curve_points[-1]
-    variables = {
-        "mass_ratio": ("point", np.array([p.mass_ratio for p in curve_points])),
-        "reduced_velocity": ("point", np.array([p.reduced_velocity for p in curve_points])),
-        "frequency": ("point", np.array([p.frequency for p in curve_points])),
-        "last_mode": complex_variable("unknown", last.mode),
+def curve_table(path, attrs: dict):
+    """The resumable table (:class:`fsistab.store.ResumableTable`) of one neutral curve of identity
+    ``attrs``: its points along ``point``, its turning points in m along ``fold``, the last point's
+    mode as state ``last_mode`` (to resume), finished with attribute ``stop``."""
+    from fsistab.store import ResumableTable
+
+    return ResumableTable(path, attrs, CURVE_FIELDS, state=("last_mode",))
+
+
+def _point_record(point: NeutralPoint | CriticalPoint) -> dict:
+    return {
+        "mass_ratio": point.mass_ratio,
+        "reduced_velocity": point.reduced_velocity,
+        "frequency": point.frequency,
     }
-    if turning_points:
-        variables |= {
-            "fold_mass_ratio": ("fold", np.array([t.mass_ratio for t in turning_points])),
-            "fold_reduced_velocity": ("fold", np.array([t.reduced_velocity for t in turning_points])),
-            "fold_frequency": ("fold", np.array([t.frequency for t in turning_points])),
-            "fold_index": ("fold", np.array([t.index for t in turning_points])),
-            "fold_localised": ("fold", np.array([int(t.localised) for t in turning_points])),
-        }
-    return xr.Dataset(variables, attrs={**attrs, "complete": int(complete), "n_folds": len(turning_points)})
 
 
-def _turning_points_of(ds) -> list[TurningPoint]:
-    if "fold_mass_ratio" not in ds:
-        return []
-    return [
-        TurningPoint(float(m), float(u), float(w), int(i), bool(ok))
-        for m, u, w, i, ok in zip(
-            ds.fold_mass_ratio.values,
-            ds.fold_reduced_velocity.values,
-            ds.fold_frequency.values,
-            ds.fold_index.values,
-            ds.fold_localised.values,
-            strict=True,
+def _fold_record(fold: TurningPoint) -> dict:
+    return {
+        "fold_mass_ratio": fold.mass_ratio,
+        "fold_reduced_velocity": fold.reduced_velocity,
+        "fold_frequency": fold.frequency,
+        "fold_index": fold.index,
+        "fold_localised": int(fold.localised),
+    }
+
+
+def saved_points(table) -> list[NeutralPoint]:
+    """The points of a curve table; only the last one carries its mode (the others an empty one)."""
+    points = [
+        NeutralPoint(
+            float(r["mass_ratio"]), float(r["reduced_velocity"]), float(r["frequency"]), np.zeros(0), 0
         )
+        for r in table.records_of("point")
+    ]
+    if points and "last_mode" in table.state:
+        points[-1] = replace(points[-1], mode=table.state["last_mode"])
+    return points
+
+
+def saved_turning_points(table) -> list[TurningPoint]:
+    """The turning points of a curve table."""
+    return [
+        TurningPoint(
+            float(r["fold_mass_ratio"]),
+            float(r["fold_reduced_velocity"]),
+            float(r["fold_frequency"]),
+            int(r["fold_index"]),
+            bool(r["fold_localised"]),
+        )
+        for r in table.records_of("fold")
     ]
 
 
@@ -301,30 +315,19 @@ def trace_curve_resumable(
     attrs: dict,
     **options,
 ) -> list[NeutralPoint]:
-    """:func:`continue_neutral_curve` writing ``path`` (NetCDF) after every point.
+    """:func:`continue_neutral_curve` saving its table (:func:`curve_table`) at ``path`` after every
+    point.
 
     If ``path`` holds a curve with the same ``attrs`` that was interrupted, or stopped at fewer
     than ``max_points`` points, it continues from its last point in the direction of its last
     step (so a resumed curve keeps going past a turning point); a damaged file (checksum) is
     reported and the curve restarts, a file of other ``attrs`` is refused (CacheError).
-    Turning points in m are stored with the curve (:func:`curve_dataset`)."""
-    from fsistab.store import complex_values, read_resumable, write_dataset
-
-    points: list[NeutralPoint] = []
-    turning: list[TurningPoint] = []
-    ds = read_resumable(path, attrs)
-    if ds is not None:
-        points = [
-            NeutralPoint(m, u, w, np.zeros(0), 0)
-            for m, u, w in zip(
-                ds.mass_ratio.values, ds.reduced_velocity.values, ds.frequency.values, strict=True
-            )
-        ]
-        turning = _turning_points_of(ds)
-        mode = complex_values(ds["last_mode"])
-        points[-1] = replace(points[-1], mode=mode)
+    Turning points in m are stored with the curve."""
+    table = curve_table(path, attrs)
+    points = saved_points(table)
+    if points:
         wanted = options.get("max_points", 200)
-        if ds.attrs.get("complete") and (ds.attrs.get("stop") != "max_points" or len(points) >= wanted):
+        if table.complete and (table.final_attrs.get("stop") != "max_points" or len(points) >= wanted):
             return points
         options = {**options, "max_points": wanted - len(points) + 1}
         last = points[-1]
@@ -334,22 +337,23 @@ def trace_curve_resumable(
                 last.reduced_velocity - before.reduced_velocity,
                 math.log(last.mass_ratio / before.mass_ratio),
             )
-        start = CriticalPoint("flutter", last.mass_ratio, last.reduced_velocity, last.frequency, mode, (), 0)
+        start = CriticalPoint(
+            "flutter", last.mass_ratio, last.reduced_velocity, last.frequency, last.mode, (), 0
+        )
     else:
         points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
+        table.append(_point_record(start), kind="point", state={"last_mode": start.mode}, save=False)
     offset = len(points) - 1
 
     def save(point: NeutralPoint) -> None:
         points.append(point)
-        write_dataset(curve_dataset(points, attrs, complete=False, turning_points=turning), path)
+        table.append(_point_record(point), kind="point", state={"last_mode": point.mode})
 
-    def save_fold(fold: TurningPoint) -> None:
-        turning.append(replace(fold, index=fold.index + offset))
+    def save_fold(fold: TurningPoint) -> None:  # saved with the next point
+        table.append(_fold_record(replace(fold, index=fold.index + offset)), kind="fold", save=False)
 
     curve = continue_neutral_curve(fluid, start, template, on_point=save, on_fold=save_fold, **options)
-    write_dataset(
-        curve_dataset(points, {**attrs, "stop": curve.stop}, complete=True, turning_points=turning), path
-    )
+    table.finish({"stop": curve.stop})
     return points
 
 
@@ -473,7 +477,6 @@ def trace_neutral_map(
 
     from fsistab.critical import find_thresholds
     from fsistab.slopes import static_slopes
-    from fsistab.store import read_dataset
 
     out_dir = Path(out_dir)
     counter = counter if counter is not None else FactorCounter()
@@ -501,22 +504,23 @@ def trace_neutral_map(
             for direction in (-1, 1):
                 name = "down" if direction < 0 else "up"
                 path = out_dir / f"neutral_{tag}_curve{k}_{name}.nc"
+                identity = {**attrs, "kind": threshold.kind, "direction": direction}
                 say(f"curve {k} ({threshold.kind} from m = {seed.mass_ratio:g}) towards {name}")
                 traced = trace_curve_resumable(
                     fluid,
                     threshold.point,
                     solid,
                     path,
-                    {**attrs, "kind": threshold.kind, "direction": direction},
+                    identity,
                     direction=direction,
                     mass_range=mass_range,
                     max_points=max_points,
                     counter=counter,
                 )
-                ds = read_dataset(path)
+                table = curve_table(path, identity)  # the saved half: its turning points and stop
                 halves.append(traced)
-                turning.extend(_turning_points_of(ds))
-                stops.append(str(ds.attrs.get("stop", "")))
+                turning.extend(saved_turning_points(table))
+                stops.append(str(table.final_attrs.get("stop", "")))
             ordered = tuple(reversed(halves[0])) + tuple(halves[1][1:])
             curves.append(
                 MapCurve(

@@ -34,29 +34,20 @@ cylinder, MODEL.md §2, §10); loads as in :func:`fsistab.transfer.exact_transfe
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
-import xarray as xr
 
 from fsistab.coupled import active_states, solid_blocks
-from fsistab.errors import CacheError, ConvergenceError, InputError
+from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
-from fsistab.store import (
-    complex_values,
-    complex_variable,
-    discard_damaged,
-    json_attr,
-    read_resumable,
-    write_dataset,
-)
+from fsistab.store import ResumableTable
 from fsistab.transfer import flow_identity
 
 DEFLATION = 1e-10  # a new Krylov direction smaller than this (relative) is dropped as dependent
@@ -235,11 +226,11 @@ class ReducedModels:
         self.counter = counter if counter is not None else FactorCounter()
         self._say = progress or (lambda message: None)
         self.identity = {**flow_identity(fluid), "blocks": self.blocks, "tolerance": self.tolerance}
-        self.models: list[KrylovModel] = []
-        if self.path is not None and self.path.is_file():
-            self.models = read_models(self.path, self.identity)
-            if self.models:
-                self._say(f"{len(self.models)} reduced models reused from {self.path}")
+        # models saved before (checksummed; a damaged file is reported and rebuilt, another run's refused)
+        self._table = models_table(self.path, self.identity) if self.path is not None else None
+        self.models: list[KrylovModel] = read_models(self._table) if self._table is not None else []
+        if self.models:
+            self._say(f"{len(self.models)} reduced models reused from {self.path}")
 
     def covering(self, omega: float) -> KrylovModel | None:
         """The model whose certified interval contains ``omega`` (closest shift), or None."""
@@ -273,8 +264,8 @@ class ReducedModels:
             )
         model = replace(model, interval=(float(lo), float(hi)))
         self.models.append(model)
-        if self.path is not None:
-            write_dataset(models_dataset(self.models, self.identity), self.path)
+        if self._table is not None:
+            self._table.append(model_record(model))
         interval = f"[{lo:.5g}, {hi:.5g}]"
         self._say(
             f"reduced model {len(self.models)} at ω = {omega:.5g}: size {model.size}, certified {interval}"
@@ -364,86 +355,32 @@ def reduced_cover(
     return models
 
 
-def models_dataset(models: Sequence[KrylovModel], identity: dict) -> xr.Dataset:
-    """The reduced models as one NetCDF-ready dataset (matrices padded to the largest basis)."""
-    k = max(m.size for m in models)
-    n = len(models)
-
-    def padded(name: str, shape_of) -> np.ndarray:
-        out = np.zeros((n, *shape_of(k)), dtype=complex)
-        for i, m in enumerate(models):
-            value = getattr(m, name)
-            out[(i, *tuple(slice(0, d) for d in value.shape))] = value
-        return out
-
-    arrays = {
-        "jr": padded("jr", lambda k: (k, k)),
-        "mr": padded("mr", lambda k: (k, k)),
-        "br0": padded("br0", lambda k: (k, 4)),
-        "br1": padded("br1", lambda k: (k, 4)),
-        "lf": padded("lf", lambda k: (3, k)),
-        "lm": padded("lm", lambda k: (3, k)),
-    }
-    dims = {
-        "jr": ("model", "row", "column"),
-        "mr": ("model", "row", "column"),
-        "br0": ("model", "row", "state"),
-        "br1": ("model", "row", "state"),
-        "lf": ("model", "load", "column"),
-        "lm": ("model", "load", "column"),
-    }
-    data = {name: complex_variable(dims[name], a) for name, a in arrays.items()}
-    ends = np.full((n, max(len(m.ends) for m in models)), -1, dtype=int)
-    for i, m in enumerate(models):
-        ends[i, : len(m.ends)] = m.ends
-    data["ends"] = (("model", "block"), ends)
-    data["shift"] = complex_variable("model", [m.shift for m in models])
-    data["interval"] = (("model", "edge"), np.array([m.interval for m in models]))
-    return xr.Dataset(
-        data,
-        coords={"part": ["real", "imag"], "edge": ["low", "high"]},
-        attrs={
-            **identity,
-            "load_s": json_attr(models[0].load_s.tolist()),
-            "load_mass_s": json_attr(models[0].load_mass_s.tolist()),
-            "conventions": "Galerkin reduced fluid models K_r(s) = jr + s mr around shift; G(s) = load_s + "
-            "s load_mass_s - (lf + s lm) K_r^-1 (br0 + s br1); certified on interval (frequency, L/U)",
-        },
-    )
+MODEL_FIELDS = {
+    "model": ("shift", "jr", "mr", "br0", "br1", "lf", "lm", "load_s", "load_mass_s", "ends", "interval")
+}
 
 
-def read_models(path: Path, identity: dict) -> list[KrylovModel]:
-    """Models saved by :func:`reduced_cover` for the same mesh, flow, blocks and tolerance: none if
-    there is no file; a damaged one (checksum) is reported, moved aside and recomputed (none);
-    another computation's raises CacheError."""
-    ds = read_resumable(path, identity)
-    if ds is None:
-        return []
-    try:
-        load_s = np.array(json.loads(ds.attrs["load_s"]))
-        load_mass_s = np.array(json.loads(ds.attrs["load_mass_s"]))
-        parts = {name: complex_values(ds[name]) for name in ("jr", "mr", "br0", "br1", "lf", "lm")}
-        shifts = complex_values(ds["shift"])
-        models = []
-        for i in range(ds.sizes["model"]):
-            ends = tuple(int(e) for e in ds["ends"].values[i] if e > 0)
-            k = ends[-1]
-            models.append(
-                KrylovModel(
-                    shift=complex(shifts[i]),
-                    jr=parts["jr"][i, :k, :k],
-                    mr=parts["mr"][i, :k, :k],
-                    br0=parts["br0"][i, :k],
-                    br1=parts["br1"][i, :k],
-                    lf=parts["lf"][i, :, :k],
-                    lm=parts["lm"][i, :, :k],
-                    load_s=load_s,
-                    load_mass_s=load_mass_s,
-                    ends=ends,
-                    interval=tuple(float(x) for x in ds["interval"].values[i]),
-                )
-            )
-    except (KeyError, AttributeError, ValueError, IndexError, CacheError) as exc:
-        discard_damaged(path, f"{path} is not a reduced-model file ({exc})")
-        return []
-    return models
+def models_table(path: Path, identity: dict) -> ResumableTable:
+    """The resumable table of reduced models of identity ``identity`` (mesh, flow, blocks,
+    tolerance): one record per :class:`KrylovModel`, its fields by name (the matrices' sizes differ
+    from model to model: ragged fields). Conventions: ``K_r(s) = jr + s mr`` around ``shift``;
+    ``G(s) = load_s + s load_mass_s - (lf + s lm) K_r⁻¹ (br0 + s br1)``; certified on ``interval``
+    (frequency, time unit L/U)."""
+    return ResumableTable(path, identity, MODEL_FIELDS)
+
+
+def model_record(model: KrylovModel) -> dict:
+    return {name: getattr(model, name) for name in MODEL_FIELDS["model"]}
+
+
+def read_models(table: ResumableTable) -> list[KrylovModel]:
+    """The models of a :func:`models_table`, in the order they were built."""
+    return [
+        KrylovModel(
+            **{name: r[name] for name in ("jr", "mr", "br0", "br1", "lf", "lm", "load_s", "load_mass_s")},
+            shift=complex(r["shift"]),
+            ends=tuple(int(e) for e in r["ends"]),
+            interval=tuple(float(x) for x in r["interval"]),
+        )
+        for r in table.records
+    ]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import gzip
 import hashlib
 import json
@@ -21,7 +22,7 @@ import logging
 import os
 import tempfile
 import zlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -372,70 +373,228 @@ def verify_sidecar(path: Path) -> None:
 
 # --- resumable tables --------------------------------------------------------------------------
 
+TABLE_ATTR = "fsistab_table"  # the layout of a resumable table (JSON): kinds, their fields, state, ragged
+COMPLETE_ATTR = "complete"
+DEFAULT_KIND = "record"
+_RESERVED = {"part", COMPLETE_ATTR, TABLE_ATTR, CHECKSUM_ATTR}
+
 
 class ResumableTable:
-    """A dataset of finished records, saved atomically after each one, that a rerun resumes.
+    """The one resumable dataset: finished records, saved atomically as they come, that a rerun
+    resumes (every resumed computation of fsistab: transfer samples, reduced models, neutral curves).
 
     ``identity`` (flat JSON-able attributes) says what the table is a table of: an existing file at
-    ``path`` is resumed only if its identity attributes match — else :class:`CacheError` (one line,
-    the file named) — and only if its checksum holds — else a warning and a fresh start. Records are
-    dicts of names to scalars or arrays (complex allowed), all records having the same names and
-    shapes; they are stacked along dimension ``record``.
+    ``path`` is resumed only if its identity attributes and its layout match — else
+    :class:`CacheError` (one line, the file named) — and only if its checksum holds and it is a
+    table — else a warning and a fresh start (a file of an older layout counts as damaged).
+
+    ``fields`` maps each kind of record (e.g. ``point`` and ``fold`` of a curve) to the names of its
+    fields; field names are unique across kinds, and a kind's records are stacked along a dimension
+    named after it. Without ``fields`` the table has one kind, ``record``, whose fields are those
+    of its first record. A field's values are scalars or arrays, complex allowed; when their shapes
+    differ between records (a reduced model's matrices) they are padded and each record's shape is
+    kept (variable ``<field>_shape``), so records come back exactly as appended. ``state`` names
+    arrays that are replaced rather than appended (the last point's mode, to resume a curve).
+    :meth:`finish` marks the table complete with the run's final attributes (how it stopped);
+    appending to a finished table reopens it.
     """
 
-    def __init__(self, path: Path, identity: Mapping):
+    def __init__(
+        self,
+        path: Path,
+        identity: Mapping,
+        fields: Mapping[str, Sequence[str]] | None = None,
+        state: Sequence[str] = (),
+    ):
         self.path = Path(path)
         self.identity = {str(k): _plain(v) for k, v in identity.items()}
-        self._records: list[dict[str, np.ndarray]] = []
+        self.fields = None if fields is None else {str(k): tuple(map(str, v)) for k, v in fields.items()}
+        self.state_names = tuple(map(str, state))
+        _check_layout(self.identity, self.fields, self.state_names)
+        self.clear()
         if self.path.exists():
-            self._records = self._load()
+            self._load()
 
-    def _load(self) -> list[dict[str, np.ndarray]]:
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        return tuple(self.fields) if self.fields is not None else (DEFAULT_KIND,)
+
+    def clear(self) -> None:
+        """Forget every record, the state and the final attributes (the file is untouched until the
+        next save): the computation restarts."""
+        self._records: dict[str, list[dict[str, np.ndarray]]] = {kind: [] for kind in self.kinds}
+        self._state: dict[str, np.ndarray] = {}
+        self._final: dict | None = None
+
+    def _load(self) -> None:
         ds = read_resumable(self.path, self.identity)
-        return [] if ds is None else table_records(ds)
+        if ds is None:
+            return
+        try:
+            layout = json.loads(ds.attrs[TABLE_ATTR])
+            stored_fields = {str(k): tuple(v) for k, v in layout["fields"].items()}
+            stored_state, ragged = tuple(layout["state"]), set(layout["ragged"])
+        except (KeyError, ValueError, TypeError, AttributeError):
+            discard_damaged(self.path, f"{self.path} is not a resumable table (an older layout)")
+            return
+        if (
+            stored_state != self.state_names
+            or set(stored_fields) != set(self.kinds)  # the layout's JSON has its kinds sorted
+            or (self.fields is not None and stored_fields != self.fields)
+        ):
+            raise CacheError(
+                f"{self.path} does not match this run, it holds another computation (records "
+                f"{stored_fields}, state {list(stored_state)}); move it away or choose another output"
+            )
+        for kind, names in stored_fields.items():
+            columns = {name: _stored_column(ds, name, name in ragged) for name in names}
+            count = ds.sizes.get(kind, 0)
+            self._records[kind] = [
+                {name: column[i] for name, column in columns.items()} for i in range(count)
+            ]
+        self._state = {name: _stored_values(ds[name]) for name in self.state_names if name in ds}
+        if ds.attrs.get(COMPLETE_ATTR):
+            skip = {*self.identity, *_RESERVED}
+            self._final = {str(k): _plain(v) for k, v in ds.attrs.items() if k not in skip}
 
     @property
     def records(self) -> list[dict[str, np.ndarray]]:
-        """The finished records, in order (copies)."""
-        return [dict(r) for r in self._records]
+        """The finished records of the first kind, in order (copies)."""
+        return self.records_of(self.kinds[0])
+
+    def records_of(self, kind: str) -> list[dict[str, np.ndarray]]:
+        """The finished records of ``kind``, in order (copies)."""
+        return [dict(r) for r in self._records[kind]]
+
+    @property
+    def state(self) -> dict[str, np.ndarray]:
+        return dict(self._state)
+
+    @property
+    def complete(self) -> bool:
+        """Whether :meth:`finish` was called after the last record."""
+        return self._final is not None
+
+    @property
+    def final_attrs(self) -> dict:
+        """The attributes given to :meth:`finish` (empty while the table is not complete)."""
+        return dict(self._final or {})
 
     def __len__(self) -> int:
-        return len(self._records)
+        return sum(len(records) for records in self._records.values())
 
-    def append(self, record: Mapping, *, save: bool = True) -> None:
+    def append(
+        self, record: Mapping, *, kind: str | None = None, state: Mapping | None = None, save: bool = True
+    ) -> None:
+        """Add a finished record of ``kind`` (the first kind by default), replace the ``state``
+        arrays given, and save (atomically) unless ``save`` is False."""
+        kind = self.kinds[0] if kind is None else kind
+        if kind not in self._records:
+            raise ValueError(f"unknown record kind {kind!r}, expected one of {list(self.kinds)}")
         record = {str(k): np.asarray(v) for k, v in record.items()}
-        if self._records and set(record) != set(self._records[0]):
-            raise ValueError(f"record names {sorted(record)} differ from {sorted(self._records[0])}")
-        self._records.append(record)
+        names = self.fields[kind] if self.fields is not None else None
+        if names is None and self._records[kind]:
+            names = tuple(self._records[kind][0])
+        if names is not None and set(record) != set(names):
+            raise ValueError(f"record names {sorted(record)} differ from {sorted(names)}")
+        if state:
+            unknown = set(map(str, state)) - set(self.state_names)
+            if unknown:
+                raise ValueError(
+                    f"unknown state {sorted(unknown)}, expected some of {list(self.state_names)}"
+                )
+            self._state |= {str(k): np.asarray(v) for k, v in state.items()}
+        self._records[kind].append(record)
+        self._final = None
         if save:
             self.save()
 
+    def finish(self, attrs: Mapping | None = None) -> Path:
+        """Mark the table complete with ``attrs`` (how the run ended, e.g. ``stop``) and save it."""
+        final = {str(k): _plain(v) for k, v in (attrs or {}).items()}
+        clash = set(final) & {*self.identity, *_RESERVED}
+        if clash:
+            raise ValueError(f"final attributes {sorted(clash)} clash with the identity or the layout")
+        self._final = final
+        return self.save()
+
     def dataset(self) -> xr.Dataset:
-        return records_dataset(self._records, self.identity)
+        """The table as a dataset: each kind's fields along a dimension named after the kind (complex
+        values encoded by :func:`complex_variable`, attribute ``complex = 1``), the state, and the
+        attributes: identity, final attributes, ``complete`` (0/1) and the layout."""
+        variables, ragged = {}, []
+        fields = {}
+        for kind, records in self._records.items():
+            names = self.fields[kind] if self.fields is not None else tuple(records[0]) if records else ()
+            fields[kind] = list(names)
+            for name in names:
+                column, shapes = _padded_column([r[name] for r in records])
+                variables[name] = _array_variable(
+                    (kind, *(f"{name}_{i}" for i in range(column.ndim - 1))), column
+                )
+                if shapes is not None:
+                    ragged.append(name)
+                    variables[f"{name}_shape"] = xr.DataArray(shapes, dims=(kind, f"{name}_axis"))
+        for name, value in self._state.items():
+            variables[name] = _array_variable(tuple(f"{name}_{i}" for i in range(value.ndim)), value)
+        layout = {"fields": fields, "state": list(self.state_names), "ragged": ragged}
+        attrs = {
+            **self.identity,
+            **(self._final or {}),
+            COMPLETE_ATTR: int(self._final is not None),
+            TABLE_ATTR: json_attr(layout),
+        }
+        return xr.Dataset(variables, attrs=attrs)
 
     def save(self) -> Path:
         return write_dataset(self.dataset(), self.path)
 
 
-def records_dataset(records: list[Mapping], attrs: Mapping) -> xr.Dataset:
-    """Stack records (dicts of equal-shaped arrays) along ``record``; complex values are encoded by
-    :func:`complex_variable` and marked with attribute ``complex = 1``."""
-    variables = {}
-    names = list(records[0]) if records else []
-    for name in names:
-        stacked = np.stack([np.asarray(r[name]) for r in records])
-        dims = ("record", *(f"{name}_{i}" for i in range(stacked.ndim - 1)))
-        if np.iscomplexobj(stacked):
-            variables[name] = complex_variable(dims, stacked, {"complex": 1})
-        else:
-            variables[name] = xr.DataArray(stacked, dims=dims)
-    return xr.Dataset(variables, attrs=dict(attrs))
+def _check_layout(identity: dict, fields: dict | None, state: tuple[str, ...]) -> None:
+    clash = set(identity) & _RESERVED
+    if clash:
+        raise ValueError(f"identity attributes {sorted(clash)} are reserved by the table")
+    kinds = list(fields) if fields is not None else [DEFAULT_KIND]
+    names = [name for names in (fields or {}).values() for name in names] + list(state)
+    taken = {*kinds, "part"}
+    if len(set(names)) != len(names) or taken & set(names) or not kinds or "part" in kinds:
+        raise ValueError(
+            f"table fields {fields} and state {state} must be distinct from each other and the kinds"
+        )
 
 
-def table_records(ds: xr.Dataset) -> list[dict[str, np.ndarray]]:
-    """The records of a dataset written by :func:`records_dataset`."""
-    columns = {}
-    for name, array in ds.data_vars.items():
-        columns[str(name)] = complex_values(array) if array.attrs.get("complex") else array.values
-    count = ds.sizes.get("record", 0)
-    return [{name: values[i] for name, values in columns.items()} for i in range(count)]
+def _padded_column(values: list) -> tuple[np.ndarray, np.ndarray | None]:
+    """The values stacked along a new first axis; values of different shapes (same number of
+    dimensions) padded with zeros to the largest, with their shapes (else None)."""
+    values = [np.asarray(v) for v in values]
+    if not values:
+        return np.zeros(0), None
+    shapes = {v.shape for v in values}
+    if len(shapes) == 1:
+        return np.stack(values), None
+    if len({len(s) for s in shapes}) != 1:
+        raise ValueError(f"record values of shapes {sorted(shapes)} differ in their number of dimensions")
+    dtype = functools.reduce(np.promote_types, {v.dtype for v in values})  # result_type takes ≤ 32
+    out = np.zeros((len(values), *np.max([v.shape for v in values], axis=0)), dtype=dtype)
+    for i, v in enumerate(values):
+        out[(i, *(slice(0, d) for d in v.shape))] = v
+    return out, np.array([v.shape for v in values], dtype=np.int64)
+
+
+def _array_variable(dims: tuple[str, ...], values: np.ndarray) -> xr.DataArray:
+    if np.iscomplexobj(values):
+        return complex_variable(dims, values, {"complex": 1})
+    return xr.DataArray(values, dims=dims)
+
+
+def _stored_values(array: xr.DataArray) -> np.ndarray:
+    return complex_values(array) if array.attrs.get("complex") else array.values
+
+
+def _stored_column(ds: xr.Dataset, name: str, ragged: bool) -> list[np.ndarray]:
+    """The values of field ``name`` per record, cut back to their own shapes when ``ragged``."""
+    values = _stored_values(ds[name])
+    if not ragged:
+        return list(values)
+    shapes = ds[f"{name}_shape"].values
+    return [v[tuple(slice(0, int(d)) for d in shape)] for v, shape in zip(values, shapes, strict=True)]

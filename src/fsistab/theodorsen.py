@@ -686,7 +686,7 @@ def neutral_curves(
     Returns an xarray Dataset on the coordinate ``mass_ratio``: ``reduced_velocity`` and
     ``frequency`` of the flutter boundaries (dim ``boundary``, sorted by U* at each m, NaN-padded;
     ``onset`` = 1 where the boundary is an onset, 0 a restabilisation), ``divergence_velocity``
-    (closed form) and, as in :func:`fsistab.neutral.curve_dataset`, names ``mass_ratio``,
+    (closed form) and, as in :func:`fsistab.neutral.curve_table`, names ``mass_ratio``,
     ``reduced_velocity``, ``frequency``; attributes state the conventions and parameters.
     """
     import xarray as xr

@@ -60,17 +60,16 @@ from pathlib import Path
 
 import numpy as np
 import numpy.polynomial.polynomial as npoly
-import xarray as xr
 
 from fsistab.continuation import newton
 from fsistab.coupled import active_states
-from fsistab.errors import CacheError, ConvergenceError, InputError
+from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.reduced_model import ReducedModels
-from fsistab.store import complex_values, complex_variable, discard_damaged, read_resumable, write_dataset
+from fsistab.store import ResumableTable
 from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity
 
 VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
@@ -478,49 +477,35 @@ def unstable_counts(
     return np.array([base + sum(1 if rate > 0 else -1 for u, rate in crossings if u < v) for v in velocities])
 
 
-def samples_dataset(samples: Sequence[AxisSample], attrs: dict) -> xr.Dataset:
-    """``G(iω)`` and ``dG/ds`` at the sampled frequencies (complex as a ``part`` dimension): the
-    fluid's whole contribution to the map, reusable for any solid parameters."""
-    samples = sorted(samples, key=lambda s: s.frequency)
-    dims = ("frequency", "load", "state")
-    return xr.Dataset(
-        {
-            "transfer": complex_variable(dims, np.array([s.transfer for s in samples])),
-            "transfer_rate": complex_variable(dims, np.array([s.rate for s in samples])),
-            "reduced": ("frequency", np.array([s.reduced for s in samples], dtype=np.int8)),
-        },
-        coords={
-            "frequency": [s.frequency for s in samples],
-            "load": ["force_x", "force_y", "moment"],
-            "state": ["h", "theta", "hdot", "thetadot"],
-            "part": ["real", "imag"],
-        },
-        attrs={
-            **attrs,
-            "conventions": "G(s) body-axis loads (F_x, F_y, M) [rho U^2 L] per unit (h, theta, hdot, "
-            "thetadot) ~ e^{st}, s = i*frequency, time unit L/U; transfer_rate = dG/ds; reduced = 1 "
-            "where G comes from a certified reduced model (fsistab.reduced_model)",
-        },
-    )
+SAMPLE_FIELDS = {"sample": ("frequency", "transfer", "transfer_rate", "reduced")}
 
 
-def read_samples(path: Path, fluid: FluidOperators) -> dict[float, AxisSample]:
-    """Samples saved by :func:`transfer_neutral_map` for the same mesh and flow: none if there is no
-    file; a damaged one (checksum) is reported, moved aside and recomputed (none); another flow's
-    raises CacheError."""
-    ds = read_resumable(path, flow_identity(fluid))
-    if ds is None:
-        return {}
-    try:
-        values, rates = complex_values(ds["transfer"]), complex_values(ds["transfer_rate"])
-    except (CacheError, KeyError) as exc:
-        discard_damaged(path, f"{path} is not a transfer-sample file ({exc})")
-        return {}
-    reduced = ds["reduced"].values.astype(bool) if "reduced" in ds else np.zeros(ds.sizes["frequency"], bool)
+def samples_table(path: Path, fluid: FluidOperators) -> ResumableTable:
+    """The resumable table of ``G(iω)`` and ``dG/ds`` at the sampled frequencies of one mesh and
+    flow (:func:`fsistab.transfer.flow_identity`): the fluid's whole contribution to the map,
+    reusable for any solid parameters. Fields of each ``sample``: ``frequency``, ``transfer`` (G:
+    body-axis loads (F_x, F_y, M) [ρ U² L] per unit (h, θ, ḣ, θ̇) ~ e^{st}, s = i·frequency, time
+    unit L/U), ``transfer_rate`` (dG/ds), ``reduced`` (1 where G comes from a certified reduced
+    model, :mod:`fsistab.reduced_model`)."""
+    return ResumableTable(path, flow_identity(fluid), SAMPLE_FIELDS)
+
+
+def sample_record(sample: AxisSample) -> dict:
     return {
-        float(w): AxisSample(float(w), g, dg, bool(r))
-        for w, g, dg, r in zip(ds.frequency.values, values, rates, reduced, strict=True)
+        "frequency": sample.frequency,
+        "transfer": sample.transfer,
+        "transfer_rate": sample.rate,
+        "reduced": int(sample.reduced),
     }
+
+
+def read_samples(table: ResumableTable) -> dict[float, AxisSample]:
+    """The samples of a :func:`samples_table`, by frequency in increasing order."""
+    samples = [
+        AxisSample(float(r["frequency"]), r["transfer"], r["transfer_rate"], bool(r["reduced"]))
+        for r in table.records
+    ]
+    return {s.frequency: s for s in sorted(samples, key=lambda s: s.frequency)}
 
 
 def _match(
@@ -621,8 +606,9 @@ def transfer_neutral_map(
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     start = counter.count
-    stored = read_samples(samples_path, fluid) if samples_path else {}
-    identity = flow_identity(fluid)
+    # finished samples (checksummed; a damaged file is reported and recomputed, another flow's refused)
+    table = samples_table(Path(samples_path), fluid) if samples_path is not None else None
+    stored = read_samples(table) if table is not None else {}
     wide = (low / 4, high * 4)  # roots followed; those in mass_range must be matched
     inner = (low, high)
     theta0, loads0 = fluid.theta0, fluid.loads0
@@ -632,9 +618,16 @@ def transfer_neutral_map(
         radius = 2 * (reduced.half_width() or REFINEMENT_RADIUS)
         return any(0 < w and abs(w - omega) <= radius for w, x in stored.items() if not x.reduced)
 
+    def keep(sample: AxisSample) -> AxisSample:
+        """Store a new sample; an exact one is saved at once, a reduced one with the next save."""
+        stored[sample.frequency] = sample
+        if table is not None:
+            table.append(sample_record(sample), save=not sample.reduced)
+        return sample
+
     def save() -> None:
-        if samples_path is not None:
-            write_dataset(samples_dataset(list(stored.values()), identity), Path(samples_path))
+        if table is not None:
+            table.save()
 
     def sample(omega: float) -> AxisSample:
         if omega not in stored and reduced is not None:
@@ -646,11 +639,10 @@ def transfer_neutral_map(
                     say(str(error))
             if model is not None:  # saved with the next exact sample or at the end of the round
                 g, dg = model.transfer(1j * omega if omega > 0 else 0.0, derivative=True)
-                stored[omega] = AxisSample(omega, g, dg, reduced=True)
+                keep(AxisSample(omega, g, dg, reduced=True))
         if omega not in stored:
             g, dg = exact_transfer(fluid, 1j * omega if omega > 0 else 0.0, counter, derivative=True)
-            stored[omega] = AxisSample(omega, g, dg)
-            save()
+            keep(AxisSample(omega, g, dg))
         return stored[omega]
 
     roots: dict[float, list[NeutralRoot]] = {}

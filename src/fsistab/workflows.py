@@ -451,9 +451,13 @@ def flow_neutral_curves(
     by a rerun with the same parameters. Returns the halves stacked along ``point`` (index
     ``curve``), turning points along ``fold``, and per half ``kind``, ``direction``, ``stop``."""
     from fsistab.critical import find_thresholds
-    from fsistab.flow_neutral import continue_flow_neutral_curve, flow_curve_dataset, stack_flow_curves
+    from fsistab.flow_neutral import (
+        continue_flow_neutral_curve,
+        flow_curve_table,
+        record_flow_curve,
+        stack_flow_curves,
+    )
     from fsistab.linalg import FactorCounter
-    from fsistab.store import read_dataset, read_resumable, write_dataset
 
     say = _say(progress)
     out = Path(out)
@@ -486,7 +490,10 @@ def flow_neutral_curves(
                 "direction": direction,
                 "max_points": settings.max_points,
             }
-            if read_resumable(path, wanted) is None:  # none yet, or damaged: reported, recomputed
+            table = flow_curve_table(path, wanted)  # damaged: reported and traced again
+            if table.complete:
+                halves.append(table.dataset())
+            else:
                 say(f"curve {k + 1}/{len(dynamic)} towards {side} {settings.parameter}")
                 curve = continue_flow_neutral_curve(
                     _mesh_spec(case),
@@ -501,8 +508,7 @@ def flow_neutral_curves(
                     fluid=fluid,
                     counter=counter,
                 )
-                write_dataset(flow_curve_dataset(curve, wanted), path)
-            halves.append(read_dataset(path, expect=wanted))
+                halves.append(record_flow_curve(table, curve))
     return stack_flow_curves(halves, settings.parameter, {**attrs, "factorisations": counter.count})
 
 
