@@ -182,7 +182,7 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     }
     assert all((c["mass_ratio"], c["viscous"]) in map_points for c in comparison)
     near = min(comparison, key=lambda c: abs(math.log(c["mass_ratio"] / 1000)))
-    # thin airfoil 4.61 against the viscous onset 4.39 near m = 1000 (README): about +5 %
+    # thin airfoil 4.61 against the viscous onset 4.39 near m = 1000 (docs/cli.md): about +5 %
     assert 0.02 < near["relative_error"] < 0.08
     exact_args = [
         *args[:-4],
@@ -284,7 +284,7 @@ def test_interruption_says_what_was_saved_and_how_to_resume(tmp_path, monkeypatc
 
 def test_theodorsen_tables(tmp_path):
     """The typical section of MODEL.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
-    ω_F/ω_θ = 0.83, U*_D = 7.29 (README); the map without a viscous map in --out says so."""
+    ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in --out says so."""
     result = _run(["theodorsen", "--mass-ratio", "1000"], tmp_path)
     assert result.exit_code == 0, result.output
     flutter = next(line for line in result.stdout.splitlines() if "flutter" in line)

@@ -78,7 +78,7 @@ def test_theodorsen_comparison_reads_the_map_of_either_method(tmp_path, method):
     # the lower envelope of the flutter curves only (the VIV curve is lower but not flutter)
     np.testing.assert_array_equal(ds.comparison_mass_ratio.values, [m for m, _ in FLUTTER])
     np.testing.assert_array_equal(ds.comparison_viscous.values, [u for _, u in FLUTTER])
-    # thin airfoil at m = 1000: U*_F = 4.61 (README, Theodorsen typical section)
+    # thin airfoil at m = 1000: U*_F = 4.61 (docs/cli.md, Theodorsen typical section)
     assert ds.comparison_theodorsen.values[1] == pytest.approx(4.61, abs=5e-3)
     error = ds.comparison_relative_error.values[1]
     assert error == pytest.approx((ds.comparison_theodorsen.values[1] - 4.4) / 4.4, rel=1e-12)

@@ -6,7 +6,7 @@ that need the fields themselves, such as meshes and modes, are drawn here too) a
 callback taking one message string. Each returns an :class:`xarray.Dataset` holding the results
 with their units and conventions in attributes; the figures of the results are drawn by
 :mod:`fsistab.plots` from that Dataset, and :func:`payload` turns it into the JSON object the
-command prints (keys documented in README.md, "Command line"). Nothing here prints.
+command prints (keys documented in docs/cli.md). Nothing here prints.
 
 Lengths, times and coefficients follow the body's conventions (MODEL.md §1, §10): chord-based for
 the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), MODEL.md §10).
@@ -679,7 +679,7 @@ def transfer_function(
     return ds.assign_attrs(netcdf=str(path))
 
 
-# --- JSON payloads (README.md, "Command line") -----------------------------------------------------
+# --- JSON payloads (docs/cli.md) -----------------------------------------------------
 
 
 def _pair(z) -> list[float]:
