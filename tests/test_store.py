@@ -133,10 +133,8 @@ def test_complex_values_refuses_real_data():
         store.complex_variable(("a", "b"), np.zeros(3, complex))
 
 
-def test_the_old_name_from_parts_decodes_the_store_encoding():
-    from fsistab.transfer import from_parts
-
-    assert np.array_equal(from_parts(store.complex_variable("x", [1j, 2.0])), np.array([1j, 2.0]))
+def test_complex_values_decode_exactly_what_was_encoded():
+    assert np.array_equal(store.complex_values(store.complex_variable("x", [1j, 2.0])), np.array([1j, 2.0]))
 
 
 # --- atomic writes, recording ------------------------------------------------------------------

@@ -26,10 +26,7 @@ import typer.core
 
 from fsistab import params
 from fsistab.errors import FsistabError, InputError
-
-
-def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+from fsistab.progress import one_line
 
 
 def _fail(message: str) -> None:
@@ -37,7 +34,7 @@ def _fail(message: str) -> None:
     from rich.text import Text
 
     console = Console(stderr=True, soft_wrap=True, highlight=False)
-    console.print(Text.assemble(("error:", "bold red"), " ", _one_line(message)))
+    console.print(Text.assemble(("error:", "bold red"), " ", one_line(message)))
     raise typer.Exit(code=2)
 
 
@@ -47,7 +44,7 @@ class _PlainWarnings(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            sys.stderr.write(f"warning: {_one_line(record.getMessage())}\n")
+            sys.stderr.write(f"warning: {one_line(record.getMessage())}\n")
             sys.stderr.flush()
         except Exception:  # a warning must never end the run
             self.handleError(record)
@@ -828,7 +825,7 @@ def transfer(
     settings = params.TransferSettings(k_range, points)
     out, cache = _prepare(opts, [case])
     from fsistab import plots, workflows
-    from fsistab.transfer import from_parts
+    from fsistab.store import complex_values
 
     with _running() as progress:
         ds = workflows.transfer_function(case, settings, cache, out, progress)
@@ -838,7 +835,8 @@ def transfer(
     if opts.as_json:
         return _emit(p)
     loads = [
-        from_parts(ds[name]) for name in ("viscous_loads", "theodorsen_thin_airfoil", "theodorsen_calibrated")
+        complex_values(ds[name])
+        for name in ("viscous_loads", "theodorsen_thin_airfoil", "theodorsen_calibrated")
     ]
 
     def fmt(z) -> str:

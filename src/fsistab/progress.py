@@ -31,7 +31,7 @@ _ANSI = re.compile(r"\x1b\[[0-9;?]*[ -/]*[@-~]|\x1b\][^\x07]*\x07")
 _SHOWN_FILES = 5
 
 
-def _one_line(message: str) -> str:
+def one_line(message: str) -> str:
     """``message`` without control sequences or line breaks (a log line stays one line)."""
     return " ".join(_ANSI.sub("", str(message)).split())
 
@@ -57,7 +57,7 @@ class Reporter:
     def __init__(self, stream: TextIO | None = None, interactive: bool | None = None, label: str = ""):
         self._stream = stream
         self._interactive = interactive
-        self._label = _one_line(label)
+        self._label = one_line(label)
         self._start: float | None = None
         self._last: str | None = None
         self._status = None
@@ -98,7 +98,7 @@ class Reporter:
             self._status = None
 
     def _text(self, message: str) -> str:
-        message = _one_line(message)
+        message = one_line(message)
         return f"{self._label}: {message}" if self._label else message
 
     def _line(self, text: str) -> None:
@@ -153,7 +153,7 @@ class Reporter:
 
     def count(self, what: str) -> Callable[[int, int], None]:
         """Callback ``progress(done, total)`` (transfer samples, points of a list): ``what done/total``."""
-        return self.step(f"{_one_line(what)} {{0}}/{{1}}")
+        return self.step(f"{one_line(what)} {{0}}/{{1}}")
 
     def tracking(self, total: int, counter=None) -> Callable[[int, float], None]:
         """Callback ``progress(i, velocity)`` of the branch tracking (``i`` from 0), with the
@@ -244,7 +244,7 @@ def interruptible(
     try:
         files = list(saved())
     except Exception as exc:  # the report must not hide the interruption behind a traceback
-        files = f"unknown (could not list the files: {_one_line(exc)})"
+        files = f"unknown (could not list the files: {one_line(exc)})"
     out = stream if stream is not None else sys.stderr
     out.write(interruption_message(elapsed, files, resume_hint) + "\n")
     out.flush()

@@ -56,7 +56,7 @@ from fsistab.continuation import newton
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.neutral_point import DeterminantProblem
 from fsistab.neutral_point import divergence_velocity as divergence_velocity_formula
-from fsistab.params import SOLID_DOFS, Solid, _finite
+from fsistab.params import SOLID_DOFS, Solid, _finite, _interval, _positive
 
 THIN_AIRFOIL_LIFT_SLOPE = -2 * math.pi  # dC_L/dθ (α = -θ: dC_L/dα = 2π)
 THIN_AIRFOIL_MOMENT_SLOPE = math.pi / 2  # dC_M/dθ about mid-chord (d(-C_M)/dα = π/2)
@@ -249,20 +249,11 @@ class TypicalSection:
 
 
 def _positive_velocity(value) -> float:
-    value = _finite("reduced velocity", value)
-    if value <= 0:
-        raise InputError(f"reduced velocity must be positive, got {value}")
-    return value
+    return _positive("reduced velocity", value)
 
 
 def _velocity_range(velocity_range) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in velocity_range)
-    except (TypeError, ValueError):
-        raise InputError(f"reduced-velocity range must be two numbers, got {velocity_range!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
-        raise InputError(f"reduced-velocity range must be 0 < low < high (finite), got {lo:g} {hi:g}")
-    return lo, hi
+    return _interval("reduced-velocity range", velocity_range, math.inf)
 
 
 def load_matrices(section: TypicalSection, theodorsen_value):

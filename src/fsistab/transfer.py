@@ -50,7 +50,7 @@ from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.neutral_point import DeterminantProblem
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
-from fsistab.store import ResumableTable, complex_values, complex_variable
+from fsistab.store import ResumableTable, complex_variable
 
 LOADS = ("force_x", "force_y", "moment")
 
@@ -238,11 +238,6 @@ def transfer_flutter_point(
 
 MOTIONS = ("heave", "pitch")
 COEFFICIENTS = ("lift", "moment")
-
-
-# complex data has one encoding, the store's (trailing ``part`` dimension); the old name stays for
-# the modules that import it
-from_parts = complex_values
 
 
 def flow_identity(fluid: FluidOperators) -> dict:

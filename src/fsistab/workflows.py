@@ -913,9 +913,9 @@ def _theodorsen_map_payload(ds):
 
 
 def _transfer_payload(ds):
-    from fsistab.transfer import from_parts
+    from fsistab.store import complex_values
 
-    loads = from_parts(ds.viscous_loads)
+    loads = complex_values(ds.viscous_loads)
     return {
         "reynolds": float(ds.attrs["reynolds"]),
         "alpha0_deg": float(ds.attrs["alpha0_deg"]),
