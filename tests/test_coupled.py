@@ -93,19 +93,39 @@ def test_bordered_umfpack_equals_superlu_on_coupled_matrix(plate_system):
     assert np.linalg.norm(residual) < 1e-9 * np.linalg.norm(b)
 
 
+@pytest.mark.parametrize("backend", ["umfpack", "ngsolve"])
 @pytest.mark.parametrize("shift", [0.0, 0.3, 0.05 + 0.2j])
-def test_fluid_factor_inverts_the_assembled_blocks(plate_system, shift):
-    """The factorised ``J_ff + s M_f`` (assembled by operators.shifted_fluid_matrix, real for a real
-    shift) is the matrix of the SciPy blocks of fluid_operators: its solution has a residual at
-    round-off level in them."""
+def test_fluid_factor_inverts_the_assembled_blocks(plate_system, shift, backend):
+    """The factorised ``J_ff + s M_f`` (from the SciPy blocks through fsistab.umfpack, or assembled
+    anew by operators.shifted_fluid_matrix for NGSolve's solver; real for a real shift) is the
+    matrix of the SciPy blocks of fluid_operators: its solution has a residual at round-off level
+    in them."""
     system, _ = plate_system
     fluid = system.fluid
-    factor = FluidFactor(fluid, shift)
+    factor = FluidFactor(fluid, shift, backend=backend)
     assert factor.dtype is (complex if complex(shift).imag else float)
     b = np.random.default_rng(5).standard_normal(fluid.n_fluid)
     x = factor.solve(b)
     residual = (fluid.jff + shift * fluid.mff) @ x - b
     assert np.linalg.norm(residual) < 1e-9 * np.linalg.norm(b)
+
+
+def test_eigenvalues_equal_with_either_umfpack(plate_system):
+    """The shift-invert Arnoldi on unrefined ctypes-UMFPACK solves (the default) finds the
+    eigenvalues that NGSolve's UMFPACK, with its iterative refinement, finds (to 1e-10)."""
+    system, _ = plate_system
+    shift = 0.01 + 0.2j
+    pairs = {
+        backend: eigenpairs_near(
+            system, [shift], 6, fluid_factors={shift: FluidFactor(system.fluid, shift, backend=backend)}
+        )
+        for backend in ("umfpack", "ngsolve")
+    }
+    ours = sorted((p.value for p in pairs["umfpack"]), key=lambda z: (z.imag, z.real))
+    theirs = sorted((p.value for p in pairs["ngsolve"]), key=lambda z: (z.imag, z.real))
+    assert len(ours) == len(theirs) >= 4
+    for a, b in zip(ours, theirs, strict=True):
+        assert abs(a - b) < 1e-10 * abs(b)
 
 
 def test_unknown_backend_refused(plate_system):

@@ -301,3 +301,161 @@ def test_determinant_formulation_points_and_curve():
     branch = continuation(problem.curve(), at_p.point, [0.0, 0.0, 1.0], step=0.2, max_points=15)
     omega, v, p = branch.points.T
     assert p[-1] > 6 and np.allclose(omega**2, p, rtol=1e-9) and np.allclose(v * omega, 1.0, rtol=1e-9)
+
+
+# --- map outputs (issue 14, item 4) ----------------------------------------------------------------
+
+
+def _curve(kind, pairs, frequencies):
+    from fsistab.neutral import MapCurve, NeutralPoint
+
+    points = tuple(
+        NeutralPoint(m, u, w, np.zeros(0), 0) for (m, u), w in zip(pairs, frequencies, strict=True)
+    )
+    return MapCurve(kind, math.nan, "onset", points, (), ("", ""))
+
+
+def test_crossings_of_known_lines_are_found_at_the_analytic_points():
+    """In (log m, U*): a flutter line U* = 4 and the divergence curve U*_D = r_θ √(m/s) cross at
+    log m = 2 log(4 √s/r_θ) (exact with the divergence formula, whatever the grid); a VIV line
+    U* = 1 + (log m)/4 crosses the flutter line at log m = 12 and divergence where
+    1 + μ/4 = r_θ e^{μ/2}/√s; a curve folded in m (a V opening to larger m) crosses divergence
+    twice; a loop crosses itself. Each crossing carries both kinds' frequencies, interpolated
+    (0 on divergence)."""
+    from fsistab.neutral import map_crossings
+
+    slope, r_theta = math.pi / 2, 0.289
+    masses = np.geomspace(1.0, 1e7, 40)  # a coarse grid: the refinement puts crossings on the formula
+    divergence = divergence_curve(slope, r_theta, masses)
+    mu = np.linspace(0.0, 16.0, 9)
+    flutter = _curve("flutter", [(math.exp(x), 4.0) for x in mu], 0.2 + 0.01 * mu)
+    viv = _curve("viv", [(math.exp(x), 1 + x / 4) for x in mu], 10.8 + 0.001 * mu)
+    # folded in m: from (e^6, 1) back to (e^2, 2) and out again to (e^6, 3) (turning point in m)
+    folded = _curve("flutter", [(math.exp(6), 1.0), (math.exp(2), 2.0), (math.exp(6), 3.0)], [0.3, 0.4, 0.5])
+    loop = _curve("flutter", [(1e2, 30.0), (1e4, 40.0), (1e4, 30.0), (1e2, 40.0)], [1.0, 2.0, 3.0, 4.0])
+    crossings = map_crossings([flutter, viv, folded, loop], masses, divergence, r_theta, slope)
+    by_pair = {}
+    for c in crossings:
+        by_pair.setdefault((c.first, c.second), []).append(c)
+    (fd,) = by_pair[(0, -1)]
+    exact = 2 * math.log(4 * math.sqrt(slope) / r_theta)
+    assert math.log(fd.crossing.mass_ratio) == pytest.approx(exact, abs=1e-12) and fd.crossing.refined
+    assert fd.frequencies == pytest.approx((0.2 + 0.01 * exact, 0.0), abs=1e-12)
+    (fv,) = by_pair[(0, 1)]
+    assert math.log(fv.crossing.mass_ratio) == pytest.approx(12.0, abs=1e-12)
+    assert fv.crossing.reduced_velocity == pytest.approx(4.0, abs=1e-12)
+    assert fv.frequencies == pytest.approx((0.32, 10.812), abs=1e-12)
+    (vd,) = by_pair[(1, -1)]
+    x = math.log(vd.crossing.mass_ratio)
+    assert 1 + x / 4 == pytest.approx(r_theta * math.exp(x / 2) / math.sqrt(slope), abs=1e-12)
+    twice = by_pair[(2, -1)]
+    assert len(twice) == 2
+    for c in twice:
+        x = math.log(c.crossing.mass_ratio)
+        assert c.crossing.reduced_velocity == pytest.approx(r_theta * math.exp(x / 2) / math.sqrt(slope))
+    (own,) = by_pair[(3, 3)]
+    assert own.crossing.mass_ratio == pytest.approx(1e3) and own.crossing.reduced_velocity == pytest.approx(
+        35.0
+    )
+    assert own.frequencies == pytest.approx((1.5, 3.5))
+    assert (1, 0) not in by_pair and (0, 0) not in by_pair  # each pair once, no self-crossing of a line
+
+
+def test_unstable_sides_follow_the_role_through_a_turning_point():
+    """Synthetic growth rate Re σ = μ − (U* − 2)² (μ = log m): the neutral curve μ = (U* − 2)²
+    turns in m at U* = 2. Traced from U* = 3.5 down to 0.5 with its seed on the lower branch
+    (an onset: unstable above it), the sides from the role are, at every point, the change of the
+    number of unstable modes (1 where Re σ > 0) across the curve along U*: −1 on the upper branch,
+    +1 on the lower one."""
+    from fsistab.neutral import sides_from_role
+
+    velocities = np.linspace(3.5, 0.5, 31)
+    velocities = velocities[np.abs(velocities - 2) > 1e-9]  # not the turning point itself
+    plane = np.column_stack([(velocities - 2) ** 2, velocities])
+    seed = int(np.argmin(np.abs(velocities - 1.0)))
+
+    def count(log_mass, velocity):
+        return int(log_mass - (velocity - 2) ** 2 > 0)
+
+    sides = sides_from_role(plane, seed, "onset")
+    expected = [count(x, u + 1e-6) - count(x, u - 1e-6) for x, u in plane]
+    assert list(sides) == expected and set(expected) == {-1, 1}
+    assert sides_from_role(plane, seed, "restabilisation") == tuple(-s for s in sides)
+    upper = int(np.argmin(np.abs(velocities - 3.0)))  # a seed where log m falls along the order
+    assert sides_from_role(plane, upper, "restabilisation") == sides
+    with pytest.raises(InputError):
+        sides_from_role(plane, seed, "both")
+
+
+def test_curve_kind_needs_no_wake_frequency():
+    """Flutter follows the solid's frequency (heavy: U* = 0.2 √m and ω U* = 0.8 along the curve,
+    following 1); a VIV window stays at the wake frequency while U* grows by 30 % (following 0.1);
+    a lock-in boundary at constant U* whose frequency moves by 1 % while m grows by 60 % is VIV
+    through ½ Δ log m (0.04); the threshold is 1/2; one point cannot be measured: flutter."""
+    from fsistab.neutral import curve_kind, frequency_following
+
+    m = np.geomspace(100.0, 1e4, 10)
+    u = 0.2 * np.sqrt(m)
+    assert frequency_following(m, u, 0.8 / u) == pytest.approx(1.0, rel=1e-12)
+    assert curve_kind(m, u, 0.8 / u) == "flutter"
+    v = np.linspace(0.067, 0.088, 10)
+    w = 10.69 * (v / 0.067) ** -0.1
+    light = np.linspace(1.0, 1.2, 10)  # ½ Δ log m = 0.09 < Δ log U* = 0.27
+    assert frequency_following(light, v, w) == pytest.approx(0.1, rel=1e-12)
+    assert curve_kind(light, v, w) == "viv"
+    boundary = np.geomspace(1.0, 1.6, 10)
+    w = np.geomspace(10.4, 10.4 * 1.01, 10)
+    flat = np.full(10, 0.083)
+    following = frequency_following(boundary, flat, w)
+    assert following == pytest.approx(math.log(1.01) / (0.5 * math.log(1.6)), rel=1e-12)
+    assert curve_kind(boundary, flat, w) == "viv"
+    assert curve_kind(m, u, u**-0.49) == "viv" and curve_kind(m, u, u**-0.51) == "flutter"
+    assert (
+        math.isnan(frequency_following([1.0], [2.0], [3.0])) and curve_kind([1.0], [2.0], [3.0]) == "flutter"
+    )
+
+
+def test_map_outputs_carry_kinds_sides_crossings_and_unresolved_intervals():
+    """The NetCDF dataset and the JSON of a map: per point the unstable side, per curve the kind
+    and frequency following, per crossing both kinds and frequencies, per unresolved interval its
+    range and reason, and their count; a map with none says so."""
+    from fsistab import workflows
+    from fsistab.neutral import NeutralMap, map_crossings, neutral_map_dataset
+    from fsistab.params import MapSettings
+
+    mu = np.linspace(0.0, 8.0, 5)
+    flutter = _curve("flutter", [(math.exp(x), 2.0) for x in mu], [0.3] * 5)
+    viv = _curve("viv", [(math.exp(x), 1 + x / 4) for x in mu], [10.8] * 5)
+    flutter = flutter.__class__(**{**flutter.__dict__, "unstable_sides": (1, 1, 1, -1, -1)})
+    masses = np.geomspace(1.0, 3000.0, 20)
+    divergence = divergence_curve(1.5, 0.289, masses)
+    crossings = map_crossings([flutter, viv], masses, divergence, 0.289, 1.5)
+    attrs = {"wake_frequency": math.nan, "method": "transfer"}
+
+    def outputs(unresolved):
+        result = NeutralMap((flutter, viv), masses, divergence, 1.5, crossings, 3, unresolved)
+        ds = neutral_map_dataset(result, attrs)
+        ds = workflows._map_details(ds, result, None, MapSettings())
+        ds = ds.assign_attrs(factorisations_this_run=3, reduced_models=0, data="m.nc", figure="m.png")
+        return ds, workflows.payload("neutral", ds)
+
+    ds, payload = outputs(((10.5, 10.6, "budget"), (11.0, 11.001, "fold")))
+    assert ds.curve_kind.values.tolist() == ["flutter", "viv"]
+    assert ds.curve_unstable_side.values.tolist() == [1, 1, 1, -1, -1] + [0] * 5
+    assert payload["curves"][0]["unstable_side"] == [1, 1, 1, -1, -1]
+    assert [c["kind"] for c in payload["curves"]] == ["flutter", "viv"]
+    (fv,) = [c for c in payload["codimension_two"] if c["curves"] == ["flutter 0", "viv 1"]]
+    assert fv["kinds"] == ["flutter", "viv"] and fv["frequencies"] == [0.3, 10.8]
+    assert fv["mass_ratio"] == pytest.approx(math.e**4) and fv["reduced_velocity"] == pytest.approx(2.0)
+    assert {tuple(c["kinds"]) for c in payload["codimension_two"]} == {
+        ("flutter", "viv"),
+        ("flutter", "divergence"),
+        ("viv", "divergence"),
+    }
+    assert payload["unresolved"] == [
+        {"frequency_range": [10.5, 10.6], "reason": "budget"},
+        {"frequency_range": [11.0, 11.001], "reason": "fold"},
+    ]
+    assert payload["unresolved_count"] == 2 and ds.unresolved_reason.values.tolist() == ["budget", "fold"]
+    ds, payload = outputs(())
+    assert payload["unresolved"] == [] and payload["unresolved_count"] == 0 and ds.sizes["unresolved"] == 0

@@ -47,7 +47,7 @@ def _has_line(ax, x, y) -> bool:
     return any(
         lx.shape == x.shape
         and np.allclose(lx, x, rtol=1e-12, equal_nan=True)
-        and np.allclose(ly, y, rtol=1e-12)
+        and np.allclose(ly, y, rtol=1e-12, equal_nan=True)
         for lx, ly in _lines(ax)
     )
 
@@ -178,6 +178,14 @@ def test_stability_map_draws_the_curves_turning_points_and_crossings(tmp_path, f
 
 
 def _map_dataset():
+    from fsistab.neutral import neutral_map_dataset
+
+    return neutral_map_dataset(
+        _map_result(), {"r_theta": 0.289, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}
+    )
+
+
+def _map_result():
     from fsistab.neutral import (
         CurveCrossing,
         MapCrossing,
@@ -185,7 +193,6 @@ def _map_dataset():
         NeutralMap,
         NeutralPoint,
         TurningPoint,
-        neutral_map_dataset,
     )
 
     def points(pairs):
@@ -203,16 +210,13 @@ def _map_dataset():
         ),
     )
     masses = np.geomspace(1, 2000, 7)
-    result = NeutralMap(
+    return NeutralMap(
         curves,
         masses,
         0.23 * np.sqrt(masses),
         1.56,
         (MapCrossing(0, -1, CurveCrossing(1500, 5.0, (1, 2), True)),),
         0,
-    )
-    return neutral_map_dataset(
-        result, {"r_theta": 0.289, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}
     )
 
 
@@ -267,3 +271,35 @@ def test_theodorsen_figure_draws_curves_viscous_map_and_errors(tmp_path, figures
         errors, ds.comparison_mass_ratio.values[order], 100 * ds.comparison_relative_error.values[order]
     )
     assert np.isfinite(ds.comparison_relative_error.values).all()
+
+
+def test_map_figure_legend_names_the_kinds_and_ticks_the_unstable_sides(tmp_path, figures):
+    """The legend of the map figure names both families (flutter, viv), the codimension-two points
+    (★) and the unstable-side ticks, which go from a curve point towards larger U* where the side
+    is +1 and towards smaller U* where it is −1."""
+    from fsistab.neutral import NeutralMap, neutral_map_dataset
+
+    ds = _map_dataset()
+    result = NeutralMap(
+        tuple(
+            c.__class__(**{**c.__dict__, "unstable_sides": sides})
+            for c, sides in zip(_map_result().curves, [(1, 1, -1), (-1, 1)], strict=True)
+        ),
+        ds.mass_ratio.values,
+        ds.divergence_reduced_velocity.values,
+        1.56,
+        _map_result().crossings,
+        0,
+    )
+    ds = neutral_map_dataset(result, dict(ds.attrs))
+    plots.plot_map(ds, tmp_path / "map.png")
+    ax = figures[-1].axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert {"flutter", "viv", "codimension two", "unstable side", "divergence"} <= set(labels)
+    step = plots.SIDE_TICK_LENGTH
+    flutter_ticks = (
+        [500, 500, np.nan, 1000, 1000, np.nan, 2000, 2000, np.nan],
+        [3.1, 3.1 * step, np.nan, 4.4, 4.4 * step, np.nan, 6.2, 6.2 / step, np.nan],
+    )
+    viv_ticks = ([1, 1, np.nan, 3, 3, np.nan], [0.07, 0.07 / step, np.nan, 0.08, 0.08 * step, np.nan])
+    assert _has_line(ax, *flutter_ticks) and _has_line(ax, *viv_ticks)

@@ -244,9 +244,144 @@ def test_the_two_branches_of_a_fold_in_frequency_are_joined():
     grid = [0.99, 1.01, 1.02, 1.04]
     roots = {w: [root(s * math.sqrt(w - 1)) for s in (-1, 1)] if w > 1 else [] for w in grid}
     tracks = {w: np.ones((len(roots[w]), 2)) for w in grid}
-    (curve,) = _assemble(roots, tracks, None, (0.5, 2.0))
+    (curve,) = _assemble(roots, tracks, (0.5, 2.0))
     assert len(curve.roots) == 6 and len(curve.folds) == 1
     (crossing,) = curve.crossings_at(1.0)
     assert crossing[0] == pytest.approx(1.0, abs=1e-12) and crossing[2] > 0
-    separate = _assemble(roots, {w: np.ones((2, 2)) for w in grid}, None, (0.5, 2.0))
+    separate = _assemble(roots, {w: np.ones((2, 2)) for w in grid}, (0.5, 2.0))
     assert len(separate) == 2 and not separate[0].crossings_at(1.0)  # no birth seen: no join
+
+
+# --- map outputs (issue 14, item 4) ----------------------------------------------------------------
+
+# quasi-steady loads A(s) = A0 + A1 s + A2 s² (rows C_L, C_M; columns h, θ): stiffness, damping and
+# added mass of the right signs and sizes for a plate; the coupled problem is then a quartic in s
+QS_LOADS = (
+    np.array([[0.0, -6.0], [0.0, 1.5]]),
+    np.array([[-6.0, -3.0], [1.5, -0.4]]),
+    np.array([[-1.6, 0.0], [0.0, -0.02]]),
+)
+
+
+def _quasi_steady_unstable(solid, mass_ratio, reduced_velocity):
+    """Unstable eigenvalues (Re σ > 0, Im σ ≥ 0) of det(m W(σ, 1/U*) − A(σ)) = 0 with the
+    quasi-steady loads: the roots of its quartic, independent of the map's resultant."""
+    from numpy.polynomial import polynomial as poly
+
+    u, r2 = 1 / reduced_velocity, solid.r_theta**2
+    w_h = np.array([(solid.freq_ratio * u) ** 2, 2 * solid.zeta_h * solid.freq_ratio * u, 1.0])
+    w_t = r2 * np.array([u * u, 2 * solid.zeta_theta * u, 1.0])
+    a = [[np.array([QS_LOADS[k][i, j] for k in range(3)]) for j in range(2)] for i in range(2)]
+    det = poly.polysub(
+        poly.polymul(mass_ratio * w_h - a[0][0], mass_ratio * w_t - a[1][1]), poly.polymul(a[0][1], a[1][0])
+    )
+    roots = poly.polyroots(det)
+    return int(np.sum((roots.real > 0) & (roots.imag >= 0)))
+
+
+def _quasi_steady_map(solid, frequencies, mass_range):
+    from fsistab.transfer_map import NeutralRoot, TransferMap, _assemble, resultant_tracks  # noqa: F401
+
+    roots, tracks = {}, {}
+    for omega in frequencies:
+        s = 1j * omega
+        loads = QS_LOADS[0] + QS_LOADS[1] * s + QS_LOADS[2] * s * s
+        rate = QS_LOADS[1] + 2 * QS_LOADS[2] * s
+        roots[omega] = roots_from_loads(loads, rate, omega, solid, (mass_range[0] / 4, mass_range[1] * 4))
+        tracks[omega] = resultant_tracks(loads, omega, solid)
+    curves = _assemble(roots, tracks, mass_range)
+    return TransferMap(tuple(curves), np.zeros(0), np.zeros(0), np.array(frequencies), mass_range, 0, ())
+
+
+def test_unstable_sides_agree_with_the_eigenvalue_count():
+    """Quasi-steady loads: at every point of the map's curves (as_neutral_map, the transfer method)
+    and of the same curve read as a continued one (sides from its role at a seed and its turning
+    points, the continuation method), the unstable side is the change of the number of unstable
+    eigenvalues of the quartic between U*(1 − 1e-6) and U*(1 + 1e-6) at that m; the curves, whose
+    frequency follows the solid's (ω U* ≈ const), are flutter."""
+    from fsistab.neutral import MapCurve, characterised
+    from fsistab.transfer_map import as_neutral_map
+
+    solid = Solid()
+    tmap = _quasi_steady_map(solid, np.geomspace(0.05, 0.7, 60).tolist(), (10.0, 2000.0))
+    result = as_neutral_map(tmap, solid)
+    assert result.curves and all(c.kind == "flutter" for c in result.curves)
+    checked = 0
+    for curve in result.curves:
+        assert curve.frequency_following == pytest.approx(1.0, abs=0.25)
+        for point, side in zip(curve.points, curve.unstable_sides, strict=True):
+            m, u = point.mass_ratio, point.reduced_velocity
+            change = _quasi_steady_unstable(solid, m, u * (1 + 1e-6)) - _quasi_steady_unstable(
+                solid, m, u * (1 - 1e-6)
+            )
+            assert side == change != 0
+            checked += 1
+        # the continuation's rule: a seed where log m grows along the order, its role from the count
+        points, sides = curve.points, curve.unstable_sides
+        if points[-1].mass_ratio < points[0].mass_ratio:  # ordered like a continued curve: m grows
+            points, sides = points[::-1], sides[::-1]
+        seed = len(points) // 2
+        m, u = points[seed].mass_ratio, points[seed].reduced_velocity
+        above = _quasi_steady_unstable(solid, m, u * (1 + 1e-6))
+        role = "onset" if above > _quasi_steady_unstable(solid, m, u * (1 - 1e-6)) else "restabilisation"
+        continued = MapCurve("flutter", m, role, points, (), ("", ""))
+        relabelled = characterised(continued, seed, (10.0, 2000.0))
+        assert relabelled.unstable_sides == sides and relabelled.kind == curve.kind
+    assert checked > 20
+
+
+def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
+    """Plate, Re = 2900, coarse mesh: a map whose frequencies (10.2-11.6) hold only the wake mode
+    of the fixed plate (-0.07 + 10.81i) and the solid frequencies passing it, with no
+    wake_frequency: every curve is VIV (frequency locked while U* varies) in the map, the NetCDF
+    dataset and the JSON; every unresolved interval has a reason, serialised."""
+    from fsistab import workflows
+    from fsistab.neutral import neutral_map_dataset
+    from fsistab.params import MapSettings
+    from fsistab.reduced_model import ReducedModels
+    from fsistab.transfer_map import UNRESOLVED_REASONS, as_neutral_map
+
+    counter = FactorCounter()
+    tmap = transfer_neutral_map(
+        fluid,
+        Solid(),
+        mass_range=(1.0, 10.0),
+        omega_range=(10.2, 11.6),
+        initial=12,
+        reduced=ReducedModels(fluid, counter=counter),
+        counter=counter,
+    )
+    assert len(tmap.curves) >= 2 and {c.kind for c in tmap.curves} == {"viv"}
+    assert {kind for _, _, kind in tmap.crossings_at(3.0)} - {"divergence"} == {"viv"}
+    assert all(u.reason in UNRESOLVED_REASONS and u.low < u.high for u in tmap.unresolved)
+    result = as_neutral_map(tmap, Solid())
+    attrs = {"wake_frequency": math.nan, "method": "transfer"}
+    ds = workflows._map_details(neutral_map_dataset(result, attrs), result, None, MapSettings())
+    ds = ds.assign_attrs(factorisations_this_run=counter.count, reduced_models=0, data="m.nc", figure="m.png")
+    assert set(ds.curve_kind.values) == {"viv"}
+    assert ds.unresolved_reason.values.tolist() == [u.reason for u in tmap.unresolved]
+    payload = workflows.payload("neutral", ds)
+    assert {c["kind"] for c in payload["curves"]} == {"viv"} and payload["wake_frequency"] is None
+    assert payload["unresolved_count"] == len(tmap.unresolved)
+    assert [u["reason"] for u in payload["unresolved"]] == [u.reason for u in tmap.unresolved]
+    assert all(set(c["unstable_side"]) <= {-1, 1} for c in payload["curves"])
+
+
+def test_unresolved_intervals_are_reported_with_their_reasons():
+    """An interval next to a fold in ω (on the fold's side) is a fold, whatever stopped it; the
+    others keep the reason the sampling gave; an unknown reason is refused."""
+    from fsistab.transfer_map import NeutralRoot, TransferCurve, UnresolvedInterval, unresolved_intervals
+
+    roots = tuple(NeutralRoot(1.0, m, 1.0, 1.0, 0.1, 1.0) for m in (1.0, 2.0))
+    curve = TransferCurve("flutter", roots, ((0, -1),))  # two branches born below ω = 1, joined
+    found = unresolved_intervals(
+        {(0.999, 1.0): "min_step", (1.0, 1.001): "budget", (2.0, 2.1): "sweep"}, [curve]
+    )
+    assert found == (
+        UnresolvedInterval(0.999, 1.0, "fold"),
+        UnresolvedInterval(1.0, 1.001, "budget"),
+        UnresolvedInterval(2.0, 2.1, "sweep"),
+    )
+    assert unresolved_intervals({}, [curve]) == ()
+    with pytest.raises(InputError, match="reason"):
+        UnresolvedInterval(0.0, 1.0, "tired")

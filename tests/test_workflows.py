@@ -114,7 +114,13 @@ def test_neutral_payload_carries_the_map(tmp_path):
     assert first["stops"] == ["a", "b"] and viv["stops"] == ["e", "f"]
     assert first["seed_mass_ratio"] == 1000.0 and upper["seed_mass_ratio"] is None
     assert payload["codimension_two"] == [
-        {"curves": ["flutter 0", "divergence"], "mass_ratio": 1500.0, "reduced_velocity": 5.0}
+        {
+            "curves": ["flutter 0", "divergence"],
+            "kinds": ["flutter", "divergence"],
+            "mass_ratio": 1500.0,
+            "reduced_velocity": 5.0,
+            "frequencies": [None, None],
+        }
     ]
     assert payload["wake_frequency"] is None and payload["factorisations"] == 7
     masses = np.geomspace(500, 2000, 5)

@@ -1,12 +1,17 @@
 """Critical Reynolds number of the fixed cylinder's wake (REFERENCE.md §A): λ(Re) = 0 by secant.
 
-One mesh fitted at Re = 47 (medium preset, default domain [-50, 100] × [-50, 50]); each iterate
-continues the steady state from the previous one (``solve_steady(..., initial=previous)``) and
-takes the leading eigenvalue near the previous one (shift-invert Arnoldi). The secant iterations
-stop when |λ| < ``--tol`` or the Re step is below 1e-4; ``ω_c`` is interpolated linearly in Re
-from the last two iterates. Prints a markdown table of the iterates, writes a NetCDF of them.
+A thin driver of :func:`fsistab.onset.critical_onset` (the library code of ``fsistab onset``):
+one mesh fitted at Re = ``--fit`` (default 47; medium preset, default domain [-50, 100] × [-50, 50]);
+each iterate continues the steady state from the previous one and follows the leading eigenvalue
+(shift-invert Arnoldi near the predicted one). The secant starts from the two values of ``--start``
+and stops when |λ| < ``--tol`` or the next Re step is below 1e-6 Re; ``ω_c`` is interpolated
+linearly in Re between the last two iterates. Prints a markdown table of the iterates, writes them
+as NetCDF (``{out}/data/critical_reynolds.nc``).
 
-Usage: python validation/critical_reynolds.py [--preset medium] [--start 46 48] [--cache DIR]
+``fsistab onset --body cylinder --mesh medium --guess 47`` computes the same critical point (the
+mesh fitted to the guess) from the starts 47 and 47.94.
+
+Usage: python validation/critical_reynolds.py [--preset medium] [--start 46 48] [--cache DIR] [--out docs]
 """
 
 import argparse
@@ -14,19 +19,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 from ngsolve import SetNumThreads
 
-from fsistab.coupled import CoupledSystem
-from fsistab.eigen import eigenpairs_near
 from fsistab.mesh import mesh_spec
-from fsistab.operators import fluid_operators
-from fsistab.params import Cylinder, Domain, Flow, Solid
-from fsistab.steady import solve_steady
+from fsistab.onset import critical_onset, onset_dataset
+from fsistab.params import Cylinder, Domain, Flow
 from fsistab.store import default_cache_dir, json_attr, write_dataset
 
 REFERENCE = {"reynolds": (46.6, 46.8), "frequency": (0.733, 0.744)}  # REFERENCE.md §A
-FIT_REYNOLDS = 47.0
 
 
 def main() -> None:
@@ -34,80 +34,61 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--preset", default="medium")
+    parser.add_argument("--fit", type=float, default=47.0, help="Re the mesh is fitted to")
     parser.add_argument("--domain", nargs=3, type=float, default=None, metavar=("UP", "DOWN", "LAT"))
     parser.add_argument("--start", nargs=2, type=float, default=[46.0, 48.0])
+    parser.add_argument("--shift", type=complex, default=0.74j, help="guess of the wake mode's eigenvalue")
     parser.add_argument("--tol", type=float, default=1e-7)
     parser.add_argument("--max-iterations", type=int, default=10)
+    parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--cache", type=Path, default=None)
     parser.add_argument("--out", type=Path, default=Path("docs"))
     args = parser.parse_args()
-    SetNumThreads(2)
+    SetNumThreads(args.threads)
     cache = args.cache or default_cache_dir()
-    spec = mesh_spec(Cylinder(), args.preset, FIT_REYNOLDS, Domain(*args.domain) if args.domain else None)
+    spec = mesh_spec(Cylinder(), args.preset, args.fit, Domain(*args.domain) if args.domain else None)
     d = spec.domain
     print(
-        f"mesh {args.preset} fitted at Re = {FIT_REYNOLDS:g} (wall {spec.sizes.wall:.4f} D), domain "
+        f"mesh {args.preset} fitted at Re = {args.fit:g} (wall {spec.sizes.wall:.4f} D), domain "
         f"[-{d.upstream:g}, {d.downstream:g}] × [-{d.lateral:g}, {d.lateral:g}]",
         flush=True,
     )
     t_start = time.perf_counter()
-    iterates: list[tuple[float, complex, float, int]] = []  # (Re, σ, seconds, unknowns)
-    previous, guess = None, 0.0 + 0.74j
-    reynolds = args.start[0]
+    first, second = args.start
+    result = critical_onset(
+        spec,
+        Flow(first),
+        "reynolds",
+        first,
+        args.shift,
+        step=second - first,
+        tol=args.tol,
+        max_iterations=args.max_iterations,
+        cache_dir=cache,
+    )
+    total = time.perf_counter() - t_start
     print("| iterate | Re | σ = λ + iω | unknowns | steady [s] | eigen [s] |")
     print("|---|---|---|---|---|---|")
-    for k in range(args.max_iterations):
-        t0 = time.perf_counter()
-        steady = solve_steady(spec, Flow(reynolds), cache_dir=cache, initial=previous)
-        t_steady = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        system = CoupledSystem(fluid_operators(steady), Solid(dofs=()))
-        pairs = eigenpairs_near(system, [guess + (0.0013 + 0.0017j)], 3)
-        sigma = max((p for p in pairs if p.frequency > 0.3), key=lambda p: p.growth_rate).value
-        t_eigen = time.perf_counter() - t0
-        iterates.append((reynolds, sigma, t_steady + t_eigen, system.size))
+    for k, it in enumerate(result.iterates):
         print(
-            f"| {k} | {reynolds:.6f} | {sigma.real:+.3e} + {sigma.imag:.5f}i | {system.size} | "
-            f"{t_steady:.0f} | {t_eigen:.0f} |",
-            flush=True,
+            f"| {k} | {it.value:.6f} | {it.growth_rate:+.3e} + {it.frequency:.5f}i | {it.unknowns} | "
+            f"{it.steady_seconds:.0f} | {it.eigen_seconds:.0f} |"
         )
-        previous, guess = steady, sigma
-        if abs(sigma.real) < args.tol:
-            break
-        if len(iterates) == 1:
-            reynolds = args.start[1]
-            continue
-        (r0, s0, _, _), (r1, s1, _, _) = iterates[-2], iterates[-1]
-        step = -s1.real * (r1 - r0) / (s1.real - s0.real)
-        reynolds = r1 + step
-        # predict the eigenvalue at the next Re for the shift
-        guess = s1 + (s1 - s0) * step / (r1 - r0)
-        if abs(step) < 1e-4:
-            break
-
-    (r0, s0, _, _), (r1, s1, _, _) = iterates[-2], iterates[-1]
-    re_c = r1 - s1.real * (r1 - r0) / (s1.real - s0.real)
-    omega_c = s1.imag + (s0.imag - s1.imag) * (re_c - r1) / (r0 - r1)
-    total = time.perf_counter() - t_start
     lo, hi = REFERENCE["reynolds"]
     print(
-        f"Re_c = {re_c:.4f}, ω_c = {omega_c:.5f} (Strouhal {omega_c / (2 * np.pi):.5f}); reference Re_c "
-        f"{lo}-{hi}, ω_c {REFERENCE['frequency'][0]}-{REFERENCE['frequency'][1]}; {len(iterates)} iterates, "
-        f"{total:.0f} s",
+        f"Re_c = {result.critical_value:.4f}, ω_c = {result.frequency:.5f} (Strouhal "
+        f"{result.frequency / (2 * np.pi):.5f}); reference Re_c {lo}-{hi}, ω_c "
+        f"{REFERENCE['frequency'][0]}-{REFERENCE['frequency'][1]}; {result.iterations} iterates, "
+        f"{result.factorisations} factorisations, {total:.0f} s",
         flush=True,
     )
-    ds = xr.Dataset(
+    ds = onset_dataset(
+        result,
         {
-            "growth_rate": ("iterate", np.array([s.real for _, s, _, _ in iterates])),
-            "frequency": ("iterate", np.array([s.imag for _, s, _, _ in iterates])),
-            "seconds": ("iterate", np.array([t for _, _, t, _ in iterates])),
-        },
-        coords={"iterate": np.arange(len(iterates)), "reynolds": ("iterate", [r for r, _, _, _ in iterates])},
-        attrs={
             "case": "fixed cylinder, critical Reynolds number of the wake (REFERENCE.md §A)",
-            "critical_reynolds": re_c,
-            "critical_frequency": omega_c,
-            "ndof": iterates[-1][3],
+            "critical_reynolds": result.critical_value,
+            "critical_frequency": result.frequency,
+            "ndof": result.iterates[-1].unknowns,
             "mesh": json_attr(spec.describe()),
             "total_seconds": total,
         },

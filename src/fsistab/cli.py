@@ -188,10 +188,10 @@ class Options(SimpleNamespace):
         )
 
 
-def command(*groups: dict, name: str | None = None):
+def command(*groups: dict, name: str | None = None, **settings):
     """Register ``func(opts, **own_options)`` as a command whose options are its own plus those of
     ``groups``; their values reach it as ``opts`` (:class:`Options`). Errors of fsistab (and
-    failed writes) become one line and exit status 2."""
+    failed writes) become one line and exit status 2. ``settings`` go to ``app.command``."""
 
     def decorate(func):
         own = [p for p in inspect.signature(func).parameters.values() if p.name != "opts"]
@@ -215,7 +215,7 @@ def command(*groups: dict, name: str | None = None):
         wrapper.__signature__ = inspect.Signature(parameters)
         wrapper.__annotations__ = {p.name: p.annotation for p in parameters}
         wrapper.__name__, wrapper.__doc__ = func.__name__, func.__doc__
-        app.command(name)(wrapper)
+        app.command(name, **settings)(wrapper)
         return func
 
     return decorate
@@ -495,7 +495,8 @@ MAP_OPTIONS = {
             float | None,
             typer.Option(
                 "--wake-frequency",
-                help="guess of the fixed body's wake-mode ω (refined by Arnoldi): VIV sweep at the lowest m",
+                help="guess of the fixed body's wake-mode ω (refined by Arnoldi): extra frequencies "
+                "(transfer) or the VIV sweep at the lowest m (continuation); VIV is labelled without it",
             ),
         ],
         None,
@@ -624,16 +625,17 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
             f"m = {c['mass_ratio']:.5g}, U* = {c['reduced_velocity']:.5g}"
         )
     if p["wake_frequency"] is not None:
-        lines.append(f"wake-mode frequency of the VIV sweep: {p['wake_frequency']:.5g}")
-    else:
+        lines.append(f"wake-mode frequency (from --wake-frequency): {p['wake_frequency']:.5g}")
+    elif p["method"] == "continuation":
         lines.append("no VIV sweep: give --wake-frequency (a guess of the fixed body's wake-mode frequency)")
     if p["method"] == "transfer":
         lines.append(
-            f"transfer method: {ds.attrs.get('frequencies', 0)} frequencies sampled ({p['reduced_models']} "
-            f"reduced fluid models), {ds.attrs.get('unresolved_intervals', 0)} intervals unresolved at the "
-            "smallest step "
-            "(ends of curves or the budget)"
+            f"transfer method: {ds.attrs.get('frequencies', 0)} frequencies sampled "
+            f"({p['reduced_models']} reduced fluid models)"
         )
+    for interval in p["unresolved"]:
+        low, high = interval["frequency_range"]
+        lines.append(f"unresolved: ω in [{low:.5g}, {high:.5g}] ({interval['reason']})")
     lines.append(f"{p['factorisations']} factorisations; curves and map saved in {out}; figure {p['figure']}")
     return lines
 
@@ -853,6 +855,232 @@ def transfer(
         _table(title, columns, rows),
         f"{p['factorisations']} factorisations; data {p['netcdf']}; figure {p['figure']}",
     )
+
+
+@command(CASE_OPTIONS, OUTPUT_OPTIONS)
+def onset(
+    opts,
+    guess: Annotated[
+        float, typer.Option("--guess", help="first guess of the critical value (Re, or alpha0 in degrees)")
+    ],
+    parameter: Annotated[str, typer.Option("--parameter", help="reynolds or alpha0")] = "reynolds",
+    shift: Annotated[
+        str | None,
+        typer.Option("--shift", help="guess of the leading eigenvalue, e.g. 0.75j (cylinder default)"),
+    ] = None,
+):
+    """Critical Reynolds number (at --alpha0) or critical alpha0 (at --Re) of the FIXED body: the
+    value where its leading global mode's growth rate vanishes, by the secant method on the growth
+    rate, the steady state continued and the eigenvalue followed from iterate to iterate
+    (fsistab.onset). One mesh for every iterate: fitted to --guess for the critical Re (--Re is then
+    unused), to --Re for the critical alpha0. Steady states are cached: a rerun reuses them."""
+    from fsistab.onset import check_onset, fitted_case
+
+    case = opts.case()
+    value = None if shift is None else params.parse_complex("shift", shift)
+    guess, value = check_onset(case.kind, parameter, guess, value)
+    out, cache = _prepare(opts, [fitted_case(case, parameter, guess)])
+    from fsistab import workflows
+
+    with _running() as progress:
+        ds = workflows.fixed_body_onset(case, parameter, guess, value, cache, out, progress)
+    p = workflows.payload("onset", ds)
+    if opts.as_json:
+        return _emit(p)
+    name = "Re" if parameter == "reynolds" else "alpha0"
+    rows = [
+        (str(int(i)), f"{v:.8g}", f"{g:+.4e}", f"{w:.6f}", f"{r:.1e}", f"{ts:.1f}", f"{te:.1f}")
+        for i, v, g, w, r, ts, te in zip(
+            ds.iterate.values,
+            ds.value.values,
+            ds.growth_rate.values,
+            ds.frequency.values,
+            ds.residual.values,
+            ds.steady_seconds.values,
+            ds.eigen_seconds.values,
+            strict=True,
+        )
+    ]
+    flow = case.flow
+    at = f"alpha0 = {flow.alpha0_deg:g} deg" if parameter == "reynolds" else f"Re = {flow.reynolds:g}"
+    title = f"onset: fixed {case.kind}, {at}, mesh {case.preset} ({ds.attrs['ndof']} unknowns)"
+    columns = ("iterate", name, "growth rate λ", "frequency ω", "residual", "steady [s]", "eigen [s]")
+    _print(
+        _table(title, columns, rows),
+        f"critical {name} = {p['critical_value']:.6f}, ω_c = {p['frequency']:.5f} "
+        f"(Strouhal {ds.attrs['strouhal']:.5f}); {p['iterations']} iterates, "
+        f"{p['factorisations']} factorisations; data {p['data']}",
+    )
+
+
+_STUDY_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("reynolds", "alpha0")}
+_STUDY_LISTS = {"--Re": "reynolds", "--alpha0": "alpha0", "--thresholds": "thresholds"}
+
+
+def _study_lists(args: list[str]) -> dict[str, list[float]]:
+    """The space-separated values of ``--Re``, ``--alpha0`` and ``--thresholds`` (``--Re 100 500
+    --alpha0 -4 0 4``), which click's options (one value each) cannot take; anything else left
+    over is refused in one line."""
+    lists: dict[str, list[float]] = {}
+    current = None
+    for token in args:
+        name, _, inline = token.partition("=") if token.startswith("--") else (token, "", "")
+        if token.startswith("--"):
+            if name not in _STUDY_LISTS:
+                raise InputError(f"no such option: {name}")
+            current = _STUDY_LISTS[name]
+            if current in lists:
+                raise InputError(f"{name} given twice: give all its values after one {name}")
+            lists[current] = []
+            if not inline:
+                continue
+            token = inline
+        if current is None:
+            raise InputError(f"unexpected argument {token!r}: values go after --Re, --alpha0 or --thresholds")
+        try:
+            lists[current].append(float(token))
+        except ValueError:
+            option = next(k for k, v in _STUDY_LISTS.items() if v == current)
+            raise InputError(f"{token!r} is not a number (after {option})") from None
+    return lists
+
+
+@command(
+    _STUDY_CASE,
+    OUTPUT_OPTIONS,
+    SOLID_OPTIONS,
+    DOFS_OPTION,
+    context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
+)
+def study(
+    opts,
+    ctx: typer.Context,
+    slopes: Annotated[
+        bool, typer.Option("--slopes", help="steady C_L, C_M, C_D, recirculation length, static slopes")
+    ] = False,
+    modes: Annotated[bool, typer.Option("--modes", help="the fixed body's least stable eigenvalues")] = False,
+    shift: Annotated[
+        list[str] | None,
+        typer.Option("--shift", help="eigenvalue guess of --modes, repeatable (cylinder default 0.75j)"),
+    ] = None,
+    n_modes: Annotated[int, typer.Option("--n-modes", help="eigenvalues kept per point")] = 4,
+    velocity_range: VelocityRange = (2.0, 10.0),
+    points: Points = 24,
+    wake_shift: Annotated[
+        str | None, typer.Option("--wake-shift", help="shift near the wake mode, to follow it too (VIV)")
+    ] = None,
+    with_map: Annotated[
+        bool, typer.Option("--map", help="the whole (m, U*) map at each point (plate)")
+    ] = False,
+    workers: Annotated[
+        int | None, typer.Option("--workers", help="run on a new dask LocalCluster of N worker processes")
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="run on the dask scheduler at ADDRESS (tcp://host:8786)")
+    ] = None,
+):
+    """A parameter study over flow points: --Re R1 R2 ... and --alpha0 A1 A2 ... (degrees; default
+    0), and at each point --slopes, --modes, --thresholds M1 M2 ... (every threshold along U* at
+    each mass ratio, classified: coupled-mode, pitch or heave single-mode flutter, divergence, VIV)
+    and/or --map. Each point is one task: in this process by default, on a dask LocalCluster with
+    --workers N, or on a running dask scheduler with --scheduler ADDRESS. Finished points are saved
+    in OUT/points as they come: a rerun computes only what is missing. Exit status 1 when a point
+    failed (the others are kept)."""
+    from fsistab.study import StudySettings, check_execution, study_client
+
+    lists = _study_lists(list(ctx.args))
+    if "reynolds" not in lists:
+        raise InputError("give the Reynolds numbers of the study: --Re R1 R2 ...")
+    opts.alpha0 = 0.0
+    opts.reynolds = lists["reynolds"][0] if lists["reynolds"] else 1.0
+    wake = None if wake_shift is None else params.parse_complex("wake shift", wake_shift)
+    settings = StudySettings(
+        reynolds=tuple(lists["reynolds"]),
+        alpha0=tuple(lists.get("alpha0", [0.0])),
+        slopes=slopes,
+        modes=modes,
+        shifts=tuple(params.parse_complex("shift", z) for z in shift or ()),
+        n_modes=n_modes,
+        thresholds=tuple(lists.get("thresholds", ())),
+        velocity_range=velocity_range,
+        points=points,
+        wake_shift=wake,
+        map=with_map,
+        freq_ratio=opts.freq_ratio,
+        zeta_h=opts.zeta_h,
+        zeta_theta=opts.zeta_theta,
+        r_theta=opts.r_theta,
+        dofs=None if opts.dofs is None else params.parse_dofs(opts.dofs, opts.body),
+    )
+    cases = [opts.case(reynolds=re) for re in settings.reynolds]  # one mesh per Re
+    settings.check_body(cases[0].kind)
+    check_execution(workers, scheduler)
+    out, cache = _prepare(opts, cases)
+    from fsistab import plots, workflows
+    from fsistab.study import run_study
+
+    with _running() as progress, study_client(workers, scheduler) as client:
+        ds = run_study(cases[0], settings, cache, out, client=client, progress=progress)
+    stem = Path(ds.attrs["data"]).with_suffix("")
+    figures = []
+    if (ds.status.values == "done").any():
+        if slopes:
+            figures.append(plots.plot_study_coefficients(ds, Path(f"{stem}_coefficients.png")))
+        if modes or settings.thresholds:
+            figures.append(plots.plot_study_thresholds(ds, Path(f"{stem}_thresholds.png")))
+        if with_map:
+            figures.append(plots.plot_study_maps(ds, Path(f"{stem}_maps.png")))
+    ds.attrs["figures"] = json.dumps([str(f) for f in figures])
+    p = workflows.payload("study", ds)
+    if opts.as_json:
+        _emit(p)
+    else:
+        _print(*_study_report(ds, p))
+    if p["failed"]:
+        raise typer.Exit(code=1)
+
+
+def _study_report(ds, p: dict) -> list:
+    import numpy as np
+
+    rows = []
+    for i, re in enumerate(ds.reynolds.values):
+        for j, a in enumerate(ds.alpha0.values):
+            row = [f"{re:g}", f"{a:g}", str(ds.status.values[i, j])]
+            if "lift_coefficient" in ds:
+                row += [f"{ds[name].values[i, j]:.4g}" for name in ("lift_coefficient", "moment_coefficient")]
+            if "mode_growth_rate" in ds:
+                rates, frequencies = ds.mode_growth_rate.values[i, j], ds.mode_frequency.values[i, j]
+                lead = int(np.nanargmax(rates)) if np.isfinite(rates).any() else 0
+                row.append(f"{rates[lead]:+.4g} {frequencies[lead]:+.4g}i")
+            if "threshold_class" in ds:
+                found = [
+                    f"{c} U*={u:.4g}"
+                    for c, u in zip(
+                        ds.threshold_class.values[i, j].ravel(),
+                        ds.threshold_reduced_velocity.values[i, j].ravel(),
+                        strict=True,
+                    )
+                    if c
+                ]
+                row.append("; ".join(found) or "—")
+            rows.append(tuple(row))
+    columns = ["Re", "alpha0", "status"]
+    if "lift_coefficient" in ds:
+        columns += ["C_L", "C_M"]
+    if "mode_growth_rate" in ds:
+        columns.append("leading mode σ")
+    if "threshold_class" in ds:
+        columns.append("thresholds (all mass ratios)")
+    lines = [_table(f"study: {ds.attrs['body']}, mesh {ds.attrs['preset']}", columns, rows)]
+    for failure in p["failed"]:
+        lines.append(f"FAILED Re {failure['reynolds']:g}, alpha0 {failure['alpha0']:g}: {failure['error']}")
+    lines.append(
+        f"{p['points']} points ({p['computed']} computed now, {len(p['failed'])} failed), "
+        f"{p['factorisations']} factorisations, {p['seconds']:.1f} s ({ds.attrs['execution']}); "
+        f"data {p['data']}"
+    )
+    return lines
 
 
 def main() -> None:  # pragma: no cover - console entry point

@@ -64,8 +64,20 @@ def _box(x0: float, x1: float, height: float):
     return face
 
 
+def middle_box_extent(domain: Domain, sizes) -> tuple[float, float, float]:
+    """``(upstream, downstream, lateral)`` of the middle refinement box, kept one body length inside
+    the domain."""
+    up, down, lateral = sizes.middle_box
+    return (
+        min(up, domain.upstream - 1.0),
+        min(down, domain.downstream - 1.0),
+        min(lateral, domain.lateral - 1.0),
+    )
+
+
 def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
-    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box and a wake box.
+    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box, a wake box and, if
+    ``sizes.middle`` is set, a middle box grading the far field.
 
     The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
     :func:`fsistab.mesh.build_mesh`), so that it is exactly symmetric: a symmetric flow then has
@@ -90,9 +102,18 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     near_region.maxh = sizes.near
     wake_region = wake - near
     wake_region.maxh = sizes.wake
-    far_region = outer - wake
+    regions = [wake_region, near_region]
+    inner = wake
+    if sizes.middle is not None:
+        up, down, lateral = middle_box_extent(domain, sizes)
+        middle = _box(-up, down, lateral)
+        middle_region = middle - wake
+        middle_region.maxh = sizes.middle
+        regions.insert(0, middle_region)
+        inner = middle
+    far_region = outer - inner
     far_region.maxh = sizes.far
-    shape = Glue([far_region, wake_region, near_region])
+    shape = Glue([far_region, *regions])
     for edge in shape.edges:
         if edge.name == "interface" and abs(edge.center.y) < 1e-12:
             edge.name = SYMMETRY

@@ -35,7 +35,11 @@ class MeshSizes:
 
     ``wall`` on the body, ``corner`` on the rounded corners and short sides of the plate, ``near``
     in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
-    ``wake_length`` downstream with half-width ``wake_half_width``, ``far`` elsewhere.
+    ``wake_length`` downstream with half-width ``wake_half_width``, ``middle`` (if given) in the box
+    ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)``, ``far`` elsewhere. The middle box grades the
+    far field: elements of the free stream around the body small enough to carry the long waves
+    that coarse far-field elements turn into weakly damped spurious modes (docs/discretisation.md),
+    and a domain large enough for the slowly decaying far field of a lifting body, at little cost.
     """
 
     wall: float
@@ -48,6 +52,8 @@ class MeshSizes:
     wake_half_width: float
     grading: float = 0.25
     curve_order: int = 3
+    middle: float | None = None
+    middle_box: tuple[float, float, float] | None = None
 
     def __post_init__(self):
         for name in (
@@ -65,6 +71,14 @@ class MeshSizes:
             raise InputError(f"mesh grading must be in [0.05, 1], got {self.grading}")
         if self.curve_order not in (1, 2, 3, 4):
             raise InputError(f"curve order must be 1-4, got {self.curve_order}")
+        if (self.middle is None) != (self.middle_box is None):
+            raise InputError("mesh sizes: give both the middle size and the middle box, or neither")
+        if self.middle is not None:
+            _positive("mesh size middle", self.middle)
+            box = tuple(float(_positive("middle box extent", v)) for v in self.middle_box)
+            if len(box) != 3:
+                raise InputError(f"the middle box is (upstream, downstream, lateral), got {self.middle_box}")
+            object.__setattr__(self, "middle_box", box)
 
 
 # (wall floor, wall coefficient k in min(floor, k/sqrt(Re)), corner, near, wake, far, margin, wake

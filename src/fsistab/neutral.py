@@ -20,10 +20,13 @@ explicit. Each Newton step needs one factorisation of the fluid block at ``iω``
 (:mod:`fsistab.linalg`), kept while the residual falls tenfold per iteration (chord), four solves
 and a 3×3 real border. The divergence curve is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` exactly (static
 moment independent of ``h``; :func:`divergence_velocity`). Codimension-two points where two neutral
-curves cross (flutter meeting divergence, two flutter curves) come from :func:`curve_crossings`.
+curves cross (flutter meeting divergence, two flutter curves, flutter and VIV, VIV and divergence, a
+folded curve and itself) come from :func:`curve_crossings` (:func:`map_crossings` for a map).
 :func:`trace_neutral_map` assembles a whole stability map: seed sweeps in U* (flutter at a few m,
 VIV near the wake frequency), every new threshold continued both ways, the divergence curve and all
-crossings.
+crossings. Every curve is labelled flutter or VIV by :func:`curve_kind` (the frequency locked at the
+wake mode's while ``1/U*`` varies: VIV), the rule of the transfer method too, and every point says
+on which side of it the system is unstable (:func:`sides_from_role`).
 """
 
 from __future__ import annotations
@@ -235,7 +238,7 @@ def curve_crossings(
     For a divergence curve use ``(log m, divergence_curve(...))`` on a fine grid of m.
     """
     crossings = []
-    for point, i, _, j, _ in polyline_intersections(first, second):
+    for point, i, _, j, _ in segment_crossings(first, second):
         log_mass, velocity, refined = float(point[0]), float(point[1]), False
         if refine is not None:
             try:
@@ -245,6 +248,33 @@ def curve_crossings(
                 pass
         crossings.append(CurveCrossing(math.exp(log_mass), float(velocity), (i, j), refined))
     return tuple(crossings)
+
+
+def segment_crossings(first: Sequence, second: Sequence) -> list[tuple[np.ndarray, int, float, int, float]]:
+    """:func:`fsistab.continuation.polyline_intersections` (same crossings, same order), vectorised
+    over the segments of ``second``: maps have curves of thousands of points."""
+    p = np.asarray(first, dtype=float)
+    q = np.asarray(second, dtype=float)
+    if p.ndim != 2 or q.ndim != 2 or p.shape[1] != 2 or q.shape[1] != 2:
+        return polyline_intersections(first, second)  # its error message
+    if len(p) < 2 or len(q) < 2:
+        return []
+    dq = np.diff(q, axis=0)
+    b_end = np.full(len(dq), np.nextafter(1.0, 0.0))
+    b_end[-1] = 1.0
+    crossings = []
+    for i in range(len(p) - 1):
+        dp = p[i + 1] - p[i]
+        det = dp[0] * (-dq[:, 1]) - dp[1] * (-dq[:, 0])
+        r = q[:-1] - p[i]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = (r[:, 0] * (-dq[:, 1]) - r[:, 1] * (-dq[:, 0])) / det
+            b = (dp[0] * r[:, 1] - dp[1] * r[:, 0]) / det
+        a_end = 1.0 if i == len(p) - 2 else np.nextafter(1.0, 0.0)
+        hit = (det != 0) & (a >= 0.0) & (a <= a_end) & (b >= 0.0) & (b <= b_end)
+        for j in np.nonzero(hit)[0]:
+            crossings.append((p[i] + a[j] * dp, i, float(a[j]), int(j), float(b[j])))
+    return crossings
 
 
 CURVE_FIELDS = {
@@ -370,7 +400,11 @@ class Seed:
 @dataclass(frozen=True)
 class MapCurve:
     """One dynamic neutral curve of a map, traced both ways from a threshold of a seed sweep:
-    ``points`` in order of arclength (the part towards smaller m reversed, then the rest)."""
+    ``points`` in order of arclength (the part towards smaller m reversed, then the rest).
+
+    ``kind`` is ``flutter`` or ``viv`` (:func:`curve_kind`, from its ``frequency_following``);
+    per point, ``unstable_sides`` is +1 where the system is unstable for larger U* at fixed m, −1
+    for smaller (0: not known; an empty tuple: unknown for every point)."""
 
     kind: str
     seed_mass_ratio: float
@@ -378,6 +412,16 @@ class MapCurve:
     points: tuple[NeutralPoint, ...]
     turning_points: tuple[TurningPoint, ...]
     stops: tuple[str, str]
+    unstable_sides: tuple[int, ...] = ()
+    frequency_following: float = math.nan
+
+    def __post_init__(self):
+        if len(self.unstable_sides) not in (0, len(self.points)):
+            raise InputError("unstable_sides needs one value per point of the curve")
+
+    def sides(self) -> np.ndarray:
+        """``unstable_sides`` as an array, 0 for every point if unknown."""
+        return np.array(self.unstable_sides or [0] * len(self.points), dtype=int)
 
     @property
     def plane_points(self) -> np.ndarray:
@@ -386,21 +430,109 @@ class MapCurve:
         )
 
 
+VIV_FOLLOWING = 0.5  # a curve whose frequency follows less than half of the solid's is VIV
+
+
+def frequency_following(
+    mass_ratios: Sequence[float], reduced_velocities: Sequence[float], frequencies: Sequence[float]
+) -> float:
+    """How far the frequency of a neutral curve follows the solid's frequency along it:
+    ``Δ log ω / max(Δ log U*, ½ Δ log m)``, ``Δ`` the range over its points (NaN with fewer than
+    two points or no change in U* and m).
+
+    The solid's frequencies in the fluid are ``(Ω/U*, 1/U*) · √(m/(m + m_a))`` (in-vacuo
+    ``Ω/U*``, ``1/U*``, MODEL.md §2-§3, lowered by an added mass ``m_a``): along a curve they move
+    by ``Δ log U*``, and by up to ``½ Δ log m`` more through the mass ratio for a light body.
+    Along a flutter curve the critical frequency follows them (at large m ``U* ∝ √m`` and
+    ``ω U*`` stays O(1): a following near 1); along a VIV curve it stays locked at the frequency of
+    the fixed body's wake mode while the solid's passes it (a following near 0). Coarse plate,
+    Re = 2900, m ≥ 1, transfer (continuation): 0.03 (0.016) on the VIV window, 0.14 (0.05) on its
+    upper lock-in boundary near ω = 10.4 (m from 1 to 1.3 at U* ≈ 0.083, where ``Δ log U*`` alone
+    would give 0.8), 0.0006 on the lock-in onset near ω = 11.24; 0.89 on the flutter curve from
+    m = 560 to 2700 (continuation)."""
+    m = np.asarray(mass_ratios, dtype=float)
+    u = np.asarray(reduced_velocities, dtype=float)
+    w = np.asarray(frequencies, dtype=float)
+    if not len(m) == len(u) == len(w):
+        raise InputError("frequency_following needs one mass ratio, U* and frequency per point")
+    keep = (m > 0) & (u > 0) & (w > 0) & np.isfinite(m) & np.isfinite(u) & np.isfinite(w)
+    if keep.sum() < 2:
+        return math.nan
+    span = max(float(np.ptp(np.log(u[keep]))), 0.5 * float(np.ptp(np.log(m[keep]))))
+    return float(np.ptp(np.log(w[keep])) / span) if span > 0 else math.nan
+
+
+def curve_kind(
+    mass_ratios: Sequence[float], reduced_velocities: Sequence[float], frequencies: Sequence[float]
+) -> str:
+    """``viv`` or ``flutter``: the family of a dynamic neutral curve from its points (in the mass
+    range). **VIV** — the fixed body's wake (fluid) mode locked onto a solid frequency — when its
+    :func:`frequency_following` is below ``VIV_FOLLOWING`` (the frequency stays at the wake mode's
+    while the solid's moves), **flutter** otherwise (also when it cannot be measured: a single
+    point). Both map methods label by this rule, from the curve alone: no wake-frequency hint and
+    no extra factorisation."""
+    following = frequency_following(mass_ratios, reduced_velocities, frequencies)
+    return "viv" if following < VIV_FOLLOWING else "flutter"
+
+
+def sides_from_role(plane: np.ndarray, seed_index: int, boundary: str) -> tuple[int, ...]:
+    """The unstable side at every point of a continued curve (rows ``(log m, U*)`` in order) from
+    its role at the seed: ``+1`` (unstable for larger U* at fixed m) at an ``onset`` seed, ``−1``
+    at a ``restabilisation``. Along a smooth neutral curve ``Re σ = 0`` the unstable side is a
+    fixed side of the curve (``∇ Re σ`` is normal to it and does not vanish), so the sign of
+    ``∂(Re σ)/∂U*`` is that of ``d(log m)/ds`` times a constant: it changes at each turning point
+    in m. The constant makes the seed's side its role (``log m`` grows there along the order of a
+    continued curve, whose part towards smaller m is reversed). ``d(log m)/ds`` at a point: the
+    centred difference of its neighbours (one-sided at the ends); 0 where it vanishes."""
+    plane = np.asarray(plane, dtype=float).reshape(-1, 2)
+    if boundary not in ("onset", "restabilisation"):
+        raise InputError(f"the seed's boundary is onset or restabilisation, got {boundary!r}")
+    if not 0 <= seed_index < max(len(plane), 1):
+        raise InputError(f"the seed index {seed_index} is not a point of the curve")
+    role = 1 if boundary == "onset" else -1
+    if len(plane) < 2:
+        return (role,) * len(plane)
+    log_m = plane[:, 0]
+    growth = np.sign(np.concatenate([log_m[1:], log_m[-1:]]) - np.concatenate([log_m[:1], log_m[:-1]]))
+    constant = role * (growth[seed_index] or 1.0)
+    return tuple(int(constant * g) for g in growth)
+
+
+def characterised(curve: MapCurve, seed_index: int, mass_range: tuple[float, float]) -> MapCurve:
+    """A continued curve with its unstable sides (:func:`sides_from_role`), frequency following and
+    kind (:func:`curve_kind`, on its points in ``mass_range``)."""
+    inside = [p for p in curve.points if mass_range[0] <= p.mass_ratio <= mass_range[1]] or curve.points
+    values = (
+        [p.mass_ratio for p in inside],
+        [p.reduced_velocity for p in inside],
+        [p.frequency for p in inside],
+    )
+    return replace(
+        curve,
+        kind=curve_kind(*values),
+        unstable_sides=sides_from_role(curve.plane_points, seed_index, curve.boundary),
+        frequency_following=frequency_following(*values),
+    )
+
+
 @dataclass(frozen=True)
 class MapCrossing:
     """A codimension-two point: curves ``first`` and ``second`` (indices into the map's curves,
-    ``-1`` the divergence curve) cross."""
+    ``-1`` the divergence curve; ``first == second`` where a curve crosses itself) cross, with the
+    frequency of each curve there (0 on the divergence curve; interpolated along the segments)."""
 
     first: int
     second: int
     crossing: CurveCrossing
+    frequencies: tuple[float, float] = (math.nan, math.nan)
 
 
 @dataclass(frozen=True)
 class NeutralMap:
     """Every neutral curve found in the ``(m, U*)`` plane (MODEL.md §8): dynamic curves (flutter,
     VIV) with their turning points, the divergence curve ``U*_D(m)`` of the static moment slope,
-    and the codimension-two crossings of all of them."""
+    and the codimension-two crossings of all of them; ``unresolved`` the frequency intervals
+    ``(low, high, reason)`` the transfer method left unresolved (none by continuation)."""
 
     curves: tuple[MapCurve, ...]
     divergence_mass_ratios: np.ndarray
@@ -408,6 +540,7 @@ class NeutralMap:
     moment_slope: float
     crossings: tuple[MapCrossing, ...]
     factorisations: int
+    unresolved: tuple[tuple[float, float, str], ...] = ()
 
 
 def map_seeds(
@@ -471,6 +604,9 @@ def trace_neutral_map(
     (:func:`trace_curve_resumable`, files ``neutral_{tag}_curve{k}_{down|up}.nc`` in ``out_dir``,
     so an interrupted map resumes). Divergence is ``U*_D(m) = √(m r_θ²/(dC_M/dθ))`` (exact at
     α0 = 0, one extra solve); crossings between every pair of curves are the codimension-two points.
+    Each curve's kind (:func:`curve_kind`) and unstable sides (:func:`sides_from_role`) come from
+    its points and its seed's role, at no extra factorisation; the sweeps' own labels (which need
+    the wake frequency) only tell which thresholds lie on curves already traced.
     ``template`` gives the solid parameters other than ``m`` and ``U*``.
     """
     from pathlib import Path
@@ -482,6 +618,7 @@ def trace_neutral_map(
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     curves: list[MapCurve] = []
+    seeds_at: list[int] = []  # per curve: the seed's index in its points
     k = 0
     static = FluidFactor(fluid, 0.0, counter)  # J_ff: divergence of every sweep and the slope
     for seed in seeds:
@@ -532,46 +669,127 @@ def trace_neutral_map(
                     (stops[0], stops[1]),
                 )
             )
+            seeds_at.append(len(halves[0]) - 1)
             k += 1
+    # labels and unstable sides by the transfer method's rule (find_thresholds' kinds only matched
+    # thresholds to the curves already traced)
+    curves = [characterised(curve, index, mass_range) for curve, index in zip(curves, seeds_at, strict=True)]
     slope = static_slopes(fluid, counter, factor=static).moment
     masses = np.geomspace(mass_range[0], mass_range[1], 200)
     divergence = divergence_curve(slope, template.r_theta, masses)
-    crossings = map_crossings(curves, masses, divergence)
+    crossings = map_crossings(curves, masses, divergence, template.r_theta, slope)
     return NeutralMap(tuple(curves), masses, divergence, slope, crossings, counter.count)
 
 
 def map_crossings(
-    curves: Sequence[MapCurve], masses: np.ndarray, divergence: np.ndarray
+    curves: Sequence[MapCurve],
+    masses: np.ndarray,
+    divergence: np.ndarray,
+    r_theta: float | None = None,
+    moment_slope: float | None = None,
 ) -> tuple[MapCrossing, ...]:
-    """Codimension-two points of a map: crossings of every pair of dynamic curves and of each
-    with the divergence curve ``divergence(masses)`` (index ``-1``)."""
+    """Codimension-two points of a map: crossings, in ``(log m, U*)``, of every pair of dynamic
+    curves, of each with itself (two non-adjacent segments: a folded curve crossing its own other
+    part) and of each with the divergence curve ``divergence(masses)`` (index ``-1``), wherever the
+    curves fold. With ``r_theta`` and ``moment_slope`` a crossing with divergence is put on the
+    exact divergence curve ``U*_D = r_θ √(m/slope)`` (Newton along the dynamic curve's segment)
+    instead of its polyline. Each carries both curves' frequencies there (0 for divergence)."""
     crossings = []
     planes = [c.plane_points for c in curves]
+    frequencies = [np.array([p.frequency for p in c.points]) for c in curves]
+
+    def frequency_at(k: int, segment: int, point: np.ndarray) -> float:
+        if k < 0:
+            return 0.0
+        plane, w = planes[k], frequencies[k]
+        if len(plane) < 2:
+            return float(w[0]) if len(w) else math.nan
+        d = plane[segment + 1] - plane[segment]
+        a = float(np.clip((point - plane[segment]) @ d / max(float(d @ d), 1e-300), 0.0, 1.0))
+        return float(w[segment] + a * (w[segment + 1] - w[segment]))
+
+    def record(i: int, j: int, found) -> None:
+        for c in found:
+            point = np.array([math.log(c.mass_ratio), c.reduced_velocity])
+            pair = (frequency_at(i, c.segments[0], point), frequency_at(j, c.segments[1], point))
+            crossings.append(MapCrossing(i, j, c, pair))
+
     ok = np.isfinite(divergence)
     if ok.sum() > 1:
         planes_div = np.column_stack([np.log(masses[ok]), divergence[ok]])
         for i, plane in enumerate(planes):
-            crossings += [MapCrossing(i, -1, c) for c in curve_crossings(plane, planes_div)]
+            refine = None
+            if r_theta is not None and moment_slope is not None and moment_slope > 0:
+                refine = _on_divergence(plane, r_theta / math.sqrt(moment_slope))
+            record(i, -1, curve_crossings(plane, planes_div, refine))
     for i in range(len(planes)):
+        own = [c for c in curve_crossings(planes[i], planes[i]) if c.segments[1] > c.segments[0] + 1]
+        record(i, i, own)
         for j in range(i + 1, len(planes)):
-            crossings += [MapCrossing(i, j, c) for c in curve_crossings(planes[i], planes[j])]
+            record(i, j, curve_crossings(planes[i], planes[j]))
     return tuple(crossings)
 
 
+def _on_divergence(plane: np.ndarray, coefficient: float):
+    """``refine`` of :func:`curve_crossings`: the point of segment ``i`` of ``plane`` (``(log m,
+    U*)``, linear in the segment parameter ``a``) on ``U* = coefficient · e^{log m / 2}``, by Newton
+    in ``a`` from the polyline crossing (ConvergenceError if it leaves the segment)."""
+
+    def refine(log_mass: float, velocity: float, segments: tuple[int, int]) -> tuple[float, float]:
+        start, end = plane[segments[0]], plane[segments[0] + 1]
+        d = end - start
+        a = float((np.array([log_mass, velocity]) - start) @ d / max(float(d @ d), 1e-300))
+        for _ in range(50):
+            x = start + a * d
+            gap = x[1] - coefficient * math.exp(x[0] / 2)
+            slope = d[1] - coefficient * math.exp(x[0] / 2) * d[0] / 2
+            if slope == 0:
+                break
+            step = gap / slope
+            a -= step
+            if abs(step) < 1e-15:
+                break
+        if not -1e-9 <= a <= 1 + 1e-9 or not math.isfinite(a):
+            raise ConvergenceError("the crossing with divergence left the segment")
+        x = start + a * d
+        return float(x[0]), float(coefficient * math.exp(x[0] / 2))
+
+    return refine
+
+
 def neutral_map_dataset(result: NeutralMap, attrs: dict):
-    """The map as one xarray Dataset: curve points along ``point`` with a ``curve`` index, turning
-    points along ``fold``, crossings along ``crossing``, the divergence curve along ``mass_ratio``."""
+    """The map as one xarray Dataset: curve points along ``point`` with a ``curve`` index and their
+    unstable side, each curve's kind and frequency following (``curve_index``), turning points along
+    ``fold``, crossings along ``crossing`` (the two curves, their kinds and frequencies), the
+    unresolved frequency intervals of the transfer method along ``unresolved`` (``low``, ``high``,
+    ``reason``), the divergence curve along ``mass_ratio``."""
     import xarray as xr
 
     rows = [(i, p) for i, c in enumerate(result.curves) for p in c.points]
     folds = [(i, t) for i, c in enumerate(result.curves) for t in c.turning_points]
+    kinds = [c.kind for c in result.curves]
+
+    def kind_of(index: int) -> str:
+        return "divergence" if index < 0 else kinds[index]
+
+    empty = np.zeros(0)
     return xr.Dataset(
         {
             "curve": ("point", np.array([i for i, _ in rows], dtype=int)),
             "curve_mass_ratio": ("point", np.array([p.mass_ratio for _, p in rows])),
             "curve_reduced_velocity": ("point", np.array([p.reduced_velocity for _, p in rows])),
             "curve_frequency": ("point", np.array([p.frequency for _, p in rows])),
-            "curve_kind": ("curve_index", np.array([c.kind for c in result.curves], dtype=str)),
+            "curve_unstable_side": (
+                "point",
+                np.concatenate([c.sides() for c in result.curves] or [empty]).astype(int),
+                {"description": "+1: unstable for larger U* at fixed m, -1: for smaller, 0: not known"},
+            ),
+            "curve_kind": ("curve_index", np.array(kinds, dtype=str)),
+            "curve_frequency_following": (
+                "curve_index",
+                np.array([c.frequency_following for c in result.curves], dtype=float),
+                {"description": "range of log(frequency) / range of log(U*) along the curve; viv below 1/2"},
+            ),
             "fold_curve": ("fold", np.array([i for i, _ in folds], dtype=int)),
             "fold_mass_ratio": ("fold", np.array([t.mass_ratio for _, t in folds])),
             "fold_reduced_velocity": ("fold", np.array([t.reduced_velocity for _, t in folds])),
@@ -582,6 +800,19 @@ def neutral_map_dataset(result: NeutralMap, attrs: dict):
                 "crossing",
                 np.array([c.crossing.reduced_velocity for c in result.crossings]),
             ),
+            "crossing_first_kind": (
+                "crossing",
+                np.array([kind_of(c.first) for c in result.crossings], dtype=str),
+            ),
+            "crossing_second_kind": (
+                "crossing",
+                np.array([kind_of(c.second) for c in result.crossings], dtype=str),
+            ),
+            "crossing_first_frequency": ("crossing", np.array([c.frequencies[0] for c in result.crossings])),
+            "crossing_second_frequency": ("crossing", np.array([c.frequencies[1] for c in result.crossings])),
+            "unresolved_low": ("unresolved", np.array([u[0] for u in result.unresolved], dtype=float)),
+            "unresolved_high": ("unresolved", np.array([u[1] for u in result.unresolved], dtype=float)),
+            "unresolved_reason": ("unresolved", np.array([u[2] for u in result.unresolved], dtype=str)),
             "divergence_reduced_velocity": ("mass_ratio", result.divergence_velocities),
         },
         coords={"mass_ratio": result.divergence_mass_ratios},

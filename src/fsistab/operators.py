@@ -17,7 +17,7 @@ Everything here depends on (mesh, Re, α0) only, never on the solid parameters.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -121,6 +121,9 @@ class FluidOperators:
     loads0: np.ndarray
     theta0: float
     mff_near: sp.csr_matrix
+    # UMFPACK symbolic analyses of J_ff + s M_f by arithmetic (float, complex): the pattern is the
+    # same at every shift, so the analysis is made once per operators (fsistab.linalg.FluidFactor)
+    analyses: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_fluid(self) -> int:

@@ -339,6 +339,7 @@ def plot_stability_map(
     crossings=(),
     unstable=None,
     reference=(),
+    sides=None,
 ) -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
@@ -351,7 +352,10 @@ def plot_stability_map(
     (codimension-two points, ★) are ``(m, U*)`` pairs. ``unstable = (m, U*, count)`` (1-D, 1-D,
     len(U*) × len(m)), when known (:func:`fsistab.transfer_map.unstable_grid`), replaces those
     fills by the exact unstable regions, darker with more unstable modes. ``reference``: ``(m, U*)``
-    points of another method, drawn as open circles.
+    points of another method, drawn as open circles. ``sides``: per curve, the unstable side of
+    each point (+1: larger U*, −1: smaller, 0: unknown; :class:`fsistab.neutral.MapCurve`), drawn as
+    short ticks from about ``SIDE_TICKS`` points of the curve towards that side (one line of
+    ``NaN``-separated segments per curve).
     """
     colours = {"flutter": "tab:red", "viv": "tab:blue"}
     fig, ax = plt.subplots(figsize=(7.5, 5.5))
@@ -395,6 +399,13 @@ def plot_stability_map(
                 lw=0,
                 zorder=0,
             )
+    ticked = False
+    for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
+        ticks = _side_ticks(masses, velocities, side)
+        if ticks is not None:
+            label = None if ticked else "unstable side"
+            ax.plot(*ticks, "-", color=colours.get(kind, "tab:purple"), lw=0.9, label=label)
+            ticked = True
     if len(reference):
         m_r, u_r = np.asarray(reference, dtype=float).T
         ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation")
@@ -415,6 +426,25 @@ def plot_stability_map(
     ax.legend(loc="upper left")
     ax.set_title(title or "stability map (grey: static divergence)")
     return save_figure(fig, path)
+
+
+SIDE_TICKS = 12  # unstable-side ticks per curve on the map figure
+SIDE_TICK_LENGTH = 1.06  # a tick spans U* to U* · 1.06^side (log axes: the same length everywhere)
+
+
+def _side_ticks(masses, velocities, side):
+    """``(x, y)`` of the unstable-side ticks of one curve (segments separated by NaN), or None
+    when no side is known."""
+    if side is None:
+        return None
+    masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
+    side = np.asarray(side, dtype=int)
+    chosen = [k for k in np.unique(np.linspace(0, len(side) - 1, SIDE_TICKS).round().astype(int)) if side[k]]
+    if not chosen:
+        return None
+    x = np.concatenate([[masses[k], masses[k], np.nan] for k in chosen])
+    y = np.concatenate([[velocities[k], velocities[k] * SIDE_TICK_LENGTH ** side[k], np.nan] for k in chosen])
+    return x, y
 
 
 def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Path:
@@ -563,8 +593,9 @@ def plot_slopes(ds, path: Path, title: str = "") -> Path:
 
 def plot_map(ds, path: Path, title: str = "") -> Path:
     """The stability map of :func:`fsistab.workflows.stability_map` (its Dataset) by
-    :func:`plot_stability_map`: curves, divergence, turning points, crossings and, for the transfer
-    method, the unstable regions of ``unstable_count``."""
+    :func:`plot_stability_map`: curves (legend by kind: flutter, viv), divergence, turning points,
+    codimension-two points (★), unstable-side ticks and, for the transfer method, the unstable
+    regions of ``unstable_count``."""
     from fsistab.neutral import map_curves
 
     unstable = None
@@ -578,6 +609,9 @@ def plot_map(ds, path: Path, title: str = "") -> Path:
         turning_points=list(zip(ds.fold_mass_ratio.values, ds.fold_reduced_velocity.values, strict=True)),
         crossings=list(zip(ds.crossing_mass_ratio.values, ds.crossing_reduced_velocity.values, strict=True)),
         unstable=unstable,
+        sides=[ds.curve_unstable_side.values[ds.curve.values == i] for i in range(ds.sizes["curve_index"])]
+        if "curve_unstable_side" in ds
+        else None,
     )
 
 
@@ -598,3 +632,127 @@ def plot_theodorsen_comparison(ds, path: Path, title: str = "") -> Path:
     if "comparison_mass_ratio" in ds and ds.sizes.get("comparison", 0):
         comparison = (ds.comparison_mass_ratio.values, ds.comparison_relative_error.values)
     return plot_theodorsen_map(ds, path, viscous=viscous_curves(ds), comparison=comparison, title=title)
+
+
+# --- parameter studies (fsistab.study) -------------------------------------------------------------
+
+_STUDY_MARKERS = {
+    "coupled-mode flutter": "o",
+    "pitch single-mode flutter": "^",
+    "heave single-mode flutter": "v",
+    "divergence": "s",
+    "viv": "*",
+}
+
+
+def _study_axis(ds) -> tuple[str, str]:
+    """The study's abscissa: α0 when it has several values, else Re; and the other dimension."""
+    if ds.sizes["alpha0"] > 1 or ds.sizes["reynolds"] == 1:
+        return "alpha0", "reynolds"
+    return "reynolds", "alpha0"
+
+
+def _study_label(dim: str, value: float) -> str:
+    return f"Re = {value:g}" if dim == "reynolds" else f"α0 = {value:g}°"
+
+
+def plot_study_coefficients(ds, path: Path, title: str = "") -> Path:
+    """Steady ``C_L``, ``C_M`` (about G) and the recirculation length of a study
+    (:func:`fsistab.study.run_study` with slopes) against α0 (one line per Re), or against Re."""
+    x_dim, line_dim = _study_axis(ds)
+    names = [
+        ("lift_coefficient", "$C_L$"),
+        ("moment_coefficient", "$C_M$ (about G)"),
+        ("recirculation_length", "recirculation length / L"),
+    ]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    fig.subplots_adjust(wspace=0.35)
+    for ax, (name, label) in zip(axes, names, strict=True):
+        for value in ds[line_dim].values:
+            series = ds[name].sel({line_dim: value})
+            ax.plot(ds[x_dim].values, series.values, "o-", ms=4, label=_study_label(line_dim, value))
+        ax.set_xlabel("α0 [deg]" if x_dim == "alpha0" else "Re")
+        ax.set_ylabel(label)
+        if x_dim == "reynolds":
+            ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
+    """The leading fixed-body growth rate (with modes) and every threshold's critical U* (with
+    thresholds), marker by class (coupled-mode, pitch or heave single-mode flutter, divergence,
+    VIV), against α0 or Re, one colour per value of the other flow parameter and mass ratio."""
+    x_dim, line_dim = _study_axis(ds)
+    panels = [p for p in ("mode_growth_rate", "threshold_reduced_velocity") if p in ds]
+    n = max(1, len(panels))
+    fig, axes = plt.subplots(1, n, figsize=(6 * n, 4), squeeze=False, sharex=True)
+    x = ds[x_dim].values
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, name in zip(axes[0], panels, strict=False):
+        if name == "mode_growth_rate":
+            for k, value in enumerate(ds[line_dim].values):
+                lead = ds.mode_growth_rate.sel({line_dim: value}).max("mode", skipna=True)
+                colour = colours[k % len(colours)]
+                ax.plot(x, lead.values, "o-", color=colour, label=_study_label(line_dim, value))
+            ax.axhline(0.0, color="k", lw=0.8)
+            ax.set_ylabel("leading growth rate λ (fixed body)")
+            ax.legend(fontsize=8)
+        else:
+            k = 0
+            for value in ds[line_dim].values:
+                for mass in ds.mass_ratio.values:
+                    sub = ds.sel({line_dim: value, "mass_ratio": mass})
+                    colour = colours[k % len(colours)]
+                    k += 1
+                    for kind, marker in _STUDY_MARKERS.items():
+                        mask = sub.threshold_class.values == kind
+                        xs = np.broadcast_to(x[:, None], mask.shape)[mask]
+                        velocities = sub.threshold_reduced_velocity.values[mask]
+                        ax.scatter(xs, velocities, marker=marker, color=colour)
+                    ax.plot([], [], "-", color=colour, label=f"{_study_label(line_dim, value)}, m = {mass:g}")
+            for kind, marker in _STUDY_MARKERS.items():
+                ax.scatter([], [], marker=marker, color="grey", label=kind)
+            ax.set_ylabel("critical U*")
+            ax.set_yscale("log")
+            ax.legend(fontsize=7)
+        ax.set_xlabel("α0 [deg]" if x_dim == "alpha0" else "Re")
+        if x_dim == "reynolds":
+            ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+    fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def plot_study_maps(ds, path: Path, title: str = "") -> Path:
+    """The ``(m, U*)`` neutral curves of every point of a study with ``--map`` overlaid, one colour
+    per point, and each point's divergence law ``U*_D = c √m`` dashed."""
+    fig, ax = plt.subplots(figsize=(7, 5))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    k = 0
+    masses = ds.map_mass_ratio.values
+    finite = masses[np.isfinite(masses)]
+    m_line = np.geomspace(finite.min(), finite.max(), 50) if finite.size else np.geomspace(1, 1e4, 50)
+    for re in ds.reynolds.values:
+        for a in ds.alpha0.values:
+            sub = ds.sel(reynolds=re, alpha0=a)
+            colour = colours[k % len(colours)]
+            k += 1
+            curves = sub.map_curve.values
+            for c in np.unique(curves[curves >= 0]):
+                on = curves == c
+                ax.plot(sub.map_mass_ratio.values[on], sub.map_reduced_velocity.values[on], "-", color=colour)
+            coefficient = float(sub.map_divergence_coefficient)
+            if np.isfinite(coefficient):
+                ax.plot(m_line, coefficient * np.sqrt(m_line), "--", color=colour, lw=0.8)
+            ax.plot([], [], "-", color=colour, label=f"Re = {re:g}, α0 = {a:g}°")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("mass ratio m")
+    ax.set_ylabel("U*")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, title="flutter/VIV —, divergence --")
+    ax.set_title(title)
+    return save_figure(fig, path)

@@ -80,6 +80,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsistab.errors import InputError
+from fsistab.geometry import middle_box_extent
 from fsistab.mesh import MeshSpec
 from fsistab.params import Plate
 
@@ -153,6 +154,10 @@ class _SizeField:
             0.0,
             min(sizes.wake_half_width, 0.9 * domain.lateral),
         )
+        self.middle = None
+        if sizes.middle is not None:
+            up, down, lateral = middle_box_extent(domain, sizes)
+            self.middle = (-up, down, 0.0, lateral)
 
     def body_distance(self, x, y):
         if self.is_plate:
@@ -162,6 +167,8 @@ class _SizeField:
     def __call__(self, x, y):
         s, sizes = self.slope, self.sizes
         h = np.full_like(x, sizes.far)
+        if self.middle is not None:
+            h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.middle))
         h = np.minimum(h, sizes.wake + s * _rectangle_distance(x, y, *self.wake))
         h = np.minimum(h, sizes.near + s * _rectangle_distance(x, y, *self.near))
         h = np.minimum(h, sizes.wall + s * self.body_distance(x, y))

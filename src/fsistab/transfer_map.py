@@ -45,7 +45,11 @@ Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 The side that is unstable follows from the crossing rate ``∂(Re σ)/∂(log U*)`` at fixed ``m``
 (``dσ = −F_u du / F_s``): positive is an onset of instability as U* grows, negative a
 restabilisation. Counting crossings along U* from a U* where the coupled system is stable gives the
-number of unstable modes in every region (:func:`unstable_counts`).
+number of unstable modes in every region (:func:`unstable_counts`). Each curve is labelled
+``flutter`` or ``viv`` from its own roots (:func:`fsistab.neutral.curve_kind`: a VIV curve's
+frequency stays locked at the wake mode's while the solid's frequency scale ``1/U*`` varies), the
+same rule as the continuation method's, with no wake-frequency hint; intervals of ω left unresolved
+are reported with their reason (:class:`UnresolvedInterval`).
 
 Units: chord-based (plate) or diameter-based (cylinder, via :meth:`fsistab.params.Solid.cylinder`)
 time ``L/U∞`` (MODEL.md §2, §10); ``m``, ``U*`` as in :class:`fsistab.params.Solid`.
@@ -72,7 +76,6 @@ from fsistab.reduced_model import ReducedModels
 from fsistab.store import ResumableTable
 from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity
 
-VIV_BAND = 0.25  # a curve whose mean frequency is within 25 % of the wake mode's is called VIV
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
 
@@ -435,10 +438,33 @@ class TransferCurve:
         return points
 
 
+UNRESOLVED_REASONS = {
+    "budget": "the budget of frequencies (max_samples) was reached before the interval was resolved",
+    "fold": "a fold in ω: two branches born or dying together, joined through it (no sample can resolve it)",
+    "min_step": "roots still unmatched at the smallest step (min_step): a curve ends or moves too fast in ω",
+    "sweep": "a curve may cross the whole mass range inside the interval, not seen down to SWEEP_STEP",
+}
+
+
+@dataclass(frozen=True)
+class UnresolvedInterval:
+    """A frequency interval ``[low, high]`` that the sampling left unresolved, and why: a key of
+    ``UNRESOLVED_REASONS`` (``budget``, ``fold``, ``min_step``, ``sweep``)."""
+
+    low: float
+    high: float
+    reason: str
+
+    def __post_init__(self):
+        if self.reason not in UNRESOLVED_REASONS:
+            raise InputError(f"unknown reason {self.reason!r} for an unresolved interval")
+
+
 @dataclass(frozen=True)
 class TransferMap:
     """The neutral curves of the ``(m, U*)`` plane from ``G(iω)`` at ``frequencies`` (+ ω = 0):
-    dynamic curves, divergence lines ``U*_D = √(m/λ)`` with their crossing rates, and the cost."""
+    dynamic curves, divergence lines ``U*_D = √(m/λ)`` with their crossing rates, the cost, and the
+    intervals of ω left unresolved, each with its reason."""
 
     curves: tuple[TransferCurve, ...]
     divergence_lambdas: np.ndarray
@@ -446,7 +472,7 @@ class TransferMap:
     frequencies: np.ndarray
     mass_range: tuple[float, float]
     factorisations: int
-    unresolved: tuple[tuple[float, float], ...]
+    unresolved: tuple[UnresolvedInterval, ...]
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
         # λ is the static load slope per unit inertia r_θ² (MODEL.md §8): U*_D = √(m · 1 / λ)
@@ -574,12 +600,15 @@ def transfer_neutral_map(
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
-    and ``U*``; divergence from ``G(0)``.
+    and ``U*``; divergence from ``G(0)``. Each curve is labelled ``flutter`` or ``viv`` from its
+    own roots (:func:`fsistab.neutral.curve_kind`); ``wake_frequency``, if given, is only a guess
+    that adds initial frequencies around it (:func:`initial_frequencies`).
 
     Starts from :func:`initial_frequencies` and bisects every interval whose roots are not matched
     within ``tolerance`` (in ``log m``, ``log U*``) by their tangents, down to a relative step
     ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
-    listed in ``unresolved``; two branches born or dying together at a fold are joined); intervals
+    listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born or
+    dying together at a fold are joined); intervals
     where a curve may cross the whole mass range between the samples (:func:`resultant_tracks`) are
     bisected down to ``SWEEP_STEP``; at most ``max_samples`` frequencies. With exact samples only
     (one factorisation each) ``tolerance`` is 1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by
@@ -661,7 +690,7 @@ def transfer_neutral_map(
     saved = [w for w in stored if omega_range[0] <= w <= omega_range[1]]  # free: use them all
     for omega in sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved}):
         add(float(omega))
-    unresolved = set()
+    unresolved: dict[tuple[float, float], str] = {}  # interval -> reason (UNRESOLVED_REASONS)
     while True:
         grid = sorted(roots)
         todo = []
@@ -669,19 +698,20 @@ def transfer_neutral_map(
             if (w0, w1) in unresolved:
                 continue
             if not _resolved(roots[w0], roots[w1], w1 - w0, tolerance, inner):
-                smallest = min_step
+                smallest, reason = min_step, "min_step"
             elif _swept(tracks[w0], tracks[w1], wide):
-                smallest = SWEEP_STEP  # a curve may cross the whole range in between: find it
+                # a curve may cross the whole range in between: find it
+                smallest, reason = SWEEP_STEP, "sweep"
             else:
                 continue
             if w1 - w0 < smallest * w1:
-                unresolved.add((w0, w1))
+                unresolved[(w0, w1)] = reason
             else:
                 todo.append((w1 - w0, w0, w1))
         if not todo:
             break
         if len(roots) >= max_samples:
-            unresolved.update((w0, w1) for _, w0, w1 in todo)
+            unresolved.update({(w0, w1): "budget" for _, w0, w1 in todo})
             say(f"stopped at {max_samples} frequencies with {len(todo)} intervals unresolved")
             break
         for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]:
@@ -690,7 +720,7 @@ def transfer_neutral_map(
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):
         save()
-    curves = _assemble(roots, tracks, wake_frequency, mass_range)
+    curves = _assemble(roots, tracks, mass_range)
     lambdas, rates = divergence_lines(static, template, theta0, loads0)
     return TransferMap(
         tuple(curves),
@@ -699,18 +729,35 @@ def transfer_neutral_map(
         np.array(sorted({0.0, *roots})),
         (float(low), float(high)),
         counter.count - start,
-        tuple(sorted(unresolved)),
+        unresolved_intervals(unresolved, curves),
     )
+
+
+def unresolved_intervals(
+    unresolved: dict[tuple[float, float], str], curves: Sequence[TransferCurve]
+) -> tuple[UnresolvedInterval, ...]:
+    """The intervals left unresolved, in order of ω, with their reasons; an interval whose
+    unmatched roots are the two ends of a curve joined through a fold in ω (on that side of the
+    pair's frequency, :attr:`TransferCurve.folds`) is a ``fold``, whatever stopped its bisection."""
+    folds = {(curve.roots[k].frequency, side) for curve in curves for k, side in curve.folds}
+    intervals = []
+    for (w0, w1), reason in sorted(unresolved.items()):
+        if (w1, -1) in folds or (w0, +1) in folds:
+            reason = "fold"
+        intervals.append(UnresolvedInterval(float(w0), float(w1), reason))
+    return tuple(intervals)
 
 
 def _assemble(
     roots: dict[float, list[NeutralRoot]],
     tracks: dict[float, np.ndarray],
-    wake_frequency: float | None,
     mass_range: tuple[float, float],
 ) -> list[TransferCurve]:
     """Chain matched roots of adjacent frequencies into curves, join the two branches of a fold in
-    ``ω`` (:func:`_fold_links`), keep the curves that enter ``mass_range``."""
+    ``ω`` (:func:`_fold_links`), keep the curves that enter ``mass_range``, each labelled by
+    :func:`fsistab.neutral.curve_kind` from its roots in the mass range."""
+    from fsistab.neutral import curve_kind
+
     grid = sorted(roots)
     successor: dict[tuple[float, int], tuple[float, int]] = {}
     has_predecessor = set()
@@ -733,10 +780,15 @@ def _assemble(
         inside = [mass_range[0] <= r.mass_ratio <= mass_range[1] for r in chain]
         if len(chain) < 2 or not any(inside):
             continue
-        mean_frequency = float(np.mean([r.frequency for r in chain]))
-        viv = wake_frequency is not None and abs(mean_frequency - wake_frequency) < VIV_BAND * wake_frequency
-        curves.append(TransferCurve("viv" if viv else "flutter", tuple(chain), tuple(folds)))
+        kept = [r for r, ok in zip(chain, inside, strict=True) if ok]
+        kind = curve_kind(*_points_of(kept))
+        curves.append(TransferCurve(kind, tuple(chain), tuple(folds)))
     return curves
+
+
+def _points_of(roots: Sequence[NeutralRoot]) -> tuple[list[float], list[float], list[float]]:
+    """``(m, U*, ω)`` of roots, as :func:`fsistab.neutral.curve_kind` takes them."""
+    return [r.mass_ratio for r in roots], [r.reduced_velocity for r in roots], [r.frequency for r in roots]
 
 
 def _fold_links(
@@ -791,15 +843,19 @@ def _join_folds(chains: list[list[NeutralRoot]], links: dict) -> list[tuple[list
 def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
     """The transfer map in the form of :class:`fsistab.neutral.NeutralMap` (same dataset, figure and
     JSON as the continuation method): each curve's exact roots inside the mass range (and the next
-    one outside, so that lines reach the edges), turning points from the Hermite interpolants,
-    the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope = λ r_θ²``: the
-    torsional formula's slope), crossings of all curves."""
+    one outside, so that lines reach the edges) with, per root, the unstable side (the sign of its
+    crossing rate), and its frequency following (:func:`fsistab.neutral.frequency_following`, on
+    the roots in the mass range, as its kind), turning points from the Hermite
+    interpolants, the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope =
+    λ r_θ²``: the torsional formula's slope), crossings of all curves and the unresolved
+    intervals."""
     from fsistab.neutral import (
         MapCurve,
         NeutralMap,
         NeutralPoint,
         TurningPoint,
         divergence_curve,
+        frequency_following,
         map_crossings,
     )
 
@@ -819,9 +875,17 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
             TurningPoint(m, u, w, -1, True) for m, u, w in curve.turning_points() if low <= m <= high
         )
         onset = np.mean([r.crossing_rate > 0 for r in keep]) >= 0.5
+        inside_roots = [r for r in keep if low <= r.mass_ratio <= high]
         curves.append(
             MapCurve(
-                curve.kind, float("nan"), "onset" if onset else "restabilisation", neutral, folds, ("", "")
+                curve.kind,
+                float("nan"),
+                "onset" if onset else "restabilisation",
+                neutral,
+                folds,
+                ("", ""),
+                unstable_sides=tuple(int(np.sign(r.crossing_rate)) for r in keep),
+                frequency_following=frequency_following(*_points_of(inside_roots)),
             )
         )
     masses = np.geomspace(low, high, points)
@@ -829,8 +893,9 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
         float(tmap.divergence_lambdas.max() * template.r_theta**2) if len(tmap.divergence_lambdas) else 0.0
     )
     divergence = divergence_curve(slope, template.r_theta, masses)
-    crossings = map_crossings(curves, masses, divergence)
-    return NeutralMap(tuple(curves), masses, divergence, slope, crossings, tmap.factorisations)
+    crossings = map_crossings(curves, masses, divergence, template.r_theta, slope)
+    unresolved = tuple((u.low, u.high, u.reason) for u in tmap.unresolved)
+    return NeutralMap(tuple(curves), masses, divergence, slope, crossings, tmap.factorisations, unresolved)
 
 
 def nearest_on_map(

@@ -789,6 +789,8 @@ def _neutral_payload(ds):
                 "mass_ratio": m.tolist(),
                 "reduced_velocity": u.tolist(),
                 "frequency": w.tolist(),
+                "unstable_side": ds.curve_unstable_side.values[ds.curve.values == i].tolist(),
+                "frequency_following": _finite_or_none([ds.curve_frequency_following.values[i]])[0],
                 "turning_points": [
                     {"mass_ratio": float(a), "reduced_velocity": float(b), "frequency": float(c)}
                     for a, b, c in zip(
@@ -816,17 +818,30 @@ def _neutral_payload(ds):
         "codimension_two": [
             {
                 "curves": [name_of(int(a)), name_of(int(b))],
+                "kinds": [str(ka), str(kb)],
                 "mass_ratio": float(m),
                 "reduced_velocity": float(u),
+                "frequencies": _finite_or_none([wa, wb]),
             }
-            for a, b, m, u in zip(
+            for a, b, ka, kb, m, u, wa, wb in zip(
                 ds.crossing_first.values,
                 ds.crossing_second.values,
+                ds.crossing_first_kind.values,
+                ds.crossing_second_kind.values,
                 ds.crossing_mass_ratio.values,
                 ds.crossing_reduced_velocity.values,
+                ds.crossing_first_frequency.values,
+                ds.crossing_second_frequency.values,
                 strict=True,
             )
         ],
+        "unresolved": [
+            {"frequency_range": [float(lo), float(hi)], "reason": str(why)}
+            for lo, hi, why in zip(
+                ds.unresolved_low.values, ds.unresolved_high.values, ds.unresolved_reason.values, strict=True
+            )
+        ],
+        "unresolved_count": int(ds.sizes.get("unresolved", 0)),
         "wake_frequency": wake if math.isfinite(wake) else None,
         "method": ds.attrs["method"],
         "factorisations": int(ds.attrs["factorisations_this_run"]),
@@ -939,6 +954,11 @@ def _transfer_payload(ds):
     }
 
 
+def _onset_payload(ds):
+    keys = ("parameter", "critical_value", "frequency", "iterations", "factorisations", "data")
+    return {k: _plain(ds.attrs[k]) for k in keys}
+
+
 _PAYLOADS = {
     "mesh": _mesh_payload,
     "steady": _steady_payload,
@@ -950,4 +970,108 @@ _PAYLOADS = {
     "theodorsen-points": _theodorsen_points_payload,
     "theodorsen-map": _theodorsen_map_payload,
     "transfer": _transfer_payload,
+    "onset": _onset_payload,
+    "study": lambda ds: _study_payload(ds),  # defined at the end, with the studies
 }
+
+
+# --- onset of a fixed body's wake instability --------------------------------------------------------
+
+
+def fixed_body_onset(
+    case: Case,
+    parameter: str,
+    guess: float,
+    shift: complex | None = None,
+    cache_dir: Path | None = None,
+    out: Path = Path("fsistab-out"),
+    progress: Progress = None,
+) -> xr.Dataset:
+    """The fixed body's critical Reynolds number at the case's α0 (``parameter="reynolds"``) or
+    critical α0 at the case's Re (``"alpha0"``, degrees): the root of the leading mode's growth
+    rate by the secant of :mod:`fsistab.onset`, from ``guess`` and the leading eigenvalue near
+    ``shift`` (None: the cylinder's wake mode, 0.75i; required for the plate). One mesh for every
+    iterate, fitted to the guess for the critical Re (the case's Re is then unused) and to the
+    case's Re for the critical α0 (:func:`fsistab.onset.fitted_case`); steady states continued
+    from iterate to iterate and cached, so a rerun reuses them. Iterates along ``iterate`` with the
+    parameter's ``value``; critical value, frequency ``ω_c`` (U∞/L), Strouhal number, iterations
+    and factorisations in attributes; saved as
+    ``onset_{body}_{parameter}_{Re or a}{value}_{preset}.nc``, its path in attribute ``data``."""
+    from fsistab.onset import check_onset, critical_onset, fitted_case, onset_dataset
+    from fsistab.params import CONVENTIONS
+    from fsistab.store import json_attr, write_dataset
+
+    say = _say(progress)
+    guess, shift = check_onset(case.kind, parameter, guess, shift)
+    fitted = fitted_case(case, parameter, guess)
+    spec = _mesh_spec(fitted)
+    say(f"onset in {parameter}: fixed {case.kind}, mesh {case.preset} fitted to Re {fitted.flow.reynolds:g}")
+    result = critical_onset(spec, case.flow, parameter, guess, shift, cache_dir=cache_dir, progress=say)
+    flow = case.flow
+    fixed = {"reynolds": flow.reynolds} if parameter == "alpha0" else {"alpha0_deg": flow.alpha0_deg}
+    ds = onset_dataset(
+        result,
+        {
+            "body": case.kind,
+            **fixed,
+            "guess": guess,
+            "shift_real": shift.real,
+            "shift_imag": shift.imag,
+            "preset": case.preset,
+            "mesh_fitted_reynolds": fitted.flow.reynolds,
+            "mesh": json_attr(spec.describe()),
+            "mesh_key": spec.key(),
+            "ndof": result.iterates[-1].unknowns,
+            "conventions": CONVENTIONS[case.kind],
+        },
+    )
+    where = f"a{case.flow.alpha0_deg:g}" if parameter == "reynolds" else f"Re{case.flow.reynolds:g}"
+    path = write_dataset(ds, Path(out) / f"onset_{case.kind}_{parameter}_{where}_{case.preset}.nc")
+    return ds.assign_attrs(data=str(path))
+
+
+# --- parameter studies (fsistab.study) ---------------------------------------------------------------
+
+
+def _study_payload(ds):
+    """``fsistab study --json``: the data file, the counts, each failed point with its error and
+    every classified threshold (docs/cli.md)."""
+    failed = [
+        {"reynolds": float(re), "alpha0": float(a), "error": str(ds.error.sel(reynolds=re, alpha0=a).values)}
+        for re in ds.reynolds.values
+        for a in ds.alpha0.values
+        if str(ds.status.sel(reynolds=re, alpha0=a).values) == "failed"
+    ]
+    thresholds = []
+    if "threshold_class" in ds:
+        for re in ds.reynolds.values:
+            for a in ds.alpha0.values:
+                for m in ds.mass_ratio.values:
+                    sub = ds.sel(reynolds=re, alpha0=a, mass_ratio=m)
+                    for k in range(sub.sizes["threshold"]):
+                        label = str(sub.threshold_class.values[k])
+                        if not label:
+                            continue
+                        thresholds.append(
+                            {
+                                "reynolds": float(re),
+                                "alpha0": float(a),
+                                "mass_ratio": float(m),
+                                "class": label,
+                                "boundary": str(sub.threshold_boundary.values[k]),
+                                "reduced_velocity": float(sub.threshold_reduced_velocity.values[k]),
+                                "frequency": float(sub.threshold_frequency.values[k]),
+                            }
+                        )
+    a = ds.attrs
+    return {
+        "data": a["data"],
+        "points": int(a["points"]),
+        "computed": int(a["computed"]),
+        "failed": failed,
+        "factorisations": int(a["factorisations"]),
+        "seconds": float(a["seconds"]),
+        "execution": a["execution"],
+        "thresholds": thresholds,
+        "figures": json.loads(a.get("figures", "[]")),
+    }

@@ -1,0 +1,851 @@
+"""Parameter studies over flow points (Re, α0), one task per point, in-process or on dask.distributed.
+
+A study is a grid of flow points ``(Re, α0)`` (:class:`StudySettings`); at each point
+:func:`run_point` computes what is asked among
+
+* ``slopes``: the steady coefficients ``C_L``, ``C_M``, ``C_D`` (MODEL.md §5 conventions), the
+  recirculation length and the static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (MODEL.md §9);
+* ``modes``: the fixed body's least stable eigenvalues ``σ = λ + iω`` near given shifts
+  (MODEL.md §7), growth rate and frequency;
+* ``thresholds``: at each given mass ratio every threshold along U* (MODEL.md §8, the branch
+  tracking and Newton of :func:`fsistab.critical.find_thresholds`), each **classified** (below);
+* ``map``: the whole ``(m, U*)`` map of :func:`fsistab.workflows.stability_map` (plate only).
+
+Classification of a threshold (:func:`classify`)
+-------------------------------------------------
+From the critical mode ``q̂`` at ``(m, U*_c)`` with frequency ``ω_c`` (``U∞/L``), the kinetic
+energies near the body (as :func:`fsistab.eigen.label_mode`, units ``ρL²U∞²``)::
+
+    E_h = (m/4)|ḣ|²,   E_θ = (m/4) r_θ²|θ'|²,   E_f = ½ ∫_{|x - G| < L} |û|²,
+
+the fluid share ``e_f = E_f/(E_h + E_θ + E_f)`` and the heave share of the solid energy
+``s_h = E_h/(E_h + E_θ)``; the in-vacuo frequencies ``ω_h = Ω/U*`` and ``ω_θ = 1/U*`` (generic
+units, MODEL.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, MODEL.md §10) and the wake
+frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, when given). In order:
+
+1. ``divergence``: a static threshold, ``ω_c = 0`` (:func:`fsistab.critical.divergence_point`);
+2. ``viv``: the threshold lies on the tracked wake branch, or the fluid holds at least half the
+   energy (``e_f ≥ 1/2``: a wake mode carrying the body), or ``ω_c`` is within 30 % of ``ω_w``
+   and nearer to it than to both ``ω_h`` and ``ω_θ``;
+3. ``heave single-mode flutter``: ``s_h ≥ 3/4`` (heave holds three quarters of the solid energy);
+4. ``pitch single-mode flutter``: ``s_h ≤ 1/4``;
+5. ``coupled-mode flutter``: otherwise, both solid dofs hold at least a quarter of the solid
+   energy (the heave and pitch branches coalesce; ``ω_c`` then lies near or between ``ω_h`` and
+   ``ω_θ``).
+
+The shares and the ratios ``ω_c/ω_h``, ``ω_c/ω_θ``, ``ω_c/ω_w`` are kept in the study's data, so
+that the class can be checked or redrawn with other thresholds.
+
+Execution
+---------
+Each point is an independent task (:func:`run_point` then a checksummed NetCDF written
+atomically to ``out/points/<tag>_<key>.nc``, with the point's identity: case, mesh key,
+settings; :func:`point_path`). :func:`run_study` runs the points not yet finished: in this
+process one after the other (no dask needed), or on a ``dask.distributed`` client (a
+``LocalCluster`` of worker processes, or an existing scheduler) where every point is one
+``client.submit``; the scheduler places them, and a worker that dies loses only its running
+point (dask resubmits it elsewhere; after repeated deaths it is reported as failed and a rerun
+computes it). A rerun skips the points whose file verifies (checksum and identity); a damaged one
+is reported, moved aside and recomputed (:func:`fsistab.store.read_cached`). A point that fails
+is reported with its error; the others go on. The assembled :class:`xarray.Dataset` (dimensions
+``reynolds``, ``alpha0`` and per quantity ``mode``, ``mass_ratio``, ``threshold``,
+``map_point``; ``status`` and ``error`` per point) is written by :func:`fsistab.store.write_dataset`.
+
+Steady states along Re and α0 under parallel execution: every worker shares the cache directory
+(meshes and steady states are written atomically under keys of everything they depend on, so two
+workers computing the same entry write the same content). A point first looks for its own cached
+steady state; otherwise it continues from the nearest point of the study on the same mesh whose
+steady state is already in the cache (distance ``|Δ log Re| + |Δα0|/10°``: the mesh is fitted to
+Re, so along α0 at fixed Re the neighbours always share it); otherwise it starts from rest
+(:func:`fsistab.steady.solve_steady`'s own continuation). The points are submitted in order of
+increasing Re and ``|α0|``, so that with N workers the first N start from rest and later ones
+usually find a finished neighbour. Which neighbour was used depends on timing; the steady state
+differs only within the Newton tolerance, so the results agree to that accuracy (and ARPACK's
+random start vector already makes eigenvalues differ in their last digits from run to run).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fsistab.errors import CacheError, FsistabError, InputError
+from fsistab.params import (
+    MAX_MASS_RATIO,
+    MAX_REYNOLDS,
+    Case,
+    Flow,
+    MapSettings,
+    Solid,
+    SweepSettings,
+    body_velocity_scale,
+    solid_for,
+)
+
+Progress = Callable[[str], None] | None
+
+CLASSES = (
+    "coupled-mode flutter",
+    "pitch single-mode flutter",
+    "heave single-mode flutter",
+    "divergence",
+    "viv",
+)
+MAX_GRID_VALUES = 200  # values of Re or α0 in one study
+MAX_MASS_RATIOS = 20
+MAX_ALPHA0 = 45.0  # degrees, as fsistab.params.Flow
+VIV_FREQUENCY_BAND = 0.3  # |ω_c/ω_w - 1| below which a threshold may be VIV (as find_thresholds)
+SINGLE_MODE_SHARE = 0.75  # share of the solid energy in one dof beyond which flutter is single-mode
+STATIC_FREQUENCY = 1e-8  # |ω_c| below which a threshold is static (divergence)
+
+
+def _values(name: str, values, low: float, high: float, positive: bool) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be numbers, got {values!r}") from None
+    if not values:
+        raise InputError(f"give at least one value of {name}")
+    if len(values) > MAX_GRID_VALUES:
+        raise InputError(f"at most {MAX_GRID_VALUES} values of {name}, got {len(values)}")
+    for v in values:
+        bad = not math.isfinite(v) or v > high or (v <= 0 if positive else v < low)
+        if bad:
+            where = f"(0, {high:g}]" if positive else f"[{low:g}, {high:g}]"
+            raise InputError(f"every value of {name} must be in {where}, got {v:g}")
+    if len(set(values)) != len(values):
+        raise InputError(f"the values of {name} must be distinct, got {', '.join(f'{v:g}' for v in values)}")
+    return tuple(sorted(values))
+
+
+@dataclass(frozen=True)
+class StudySettings:
+    """What a study computes: the grid ``reynolds`` × ``alpha0`` (degrees, nose-up +) and, at each
+    point, ``slopes``, ``modes`` (the ``n_modes`` least stable fixed-body eigenvalues near
+    ``shifts``), ``thresholds`` (every threshold along U* over ``velocity_range``, ``points``
+    log-spaced values, at each mass ratio of ``thresholds``, body conventions; the wake mode
+    followed from ``wake_shift`` when given) and ``map`` (settings ``map_settings``). The solid
+    parameters other than ``m`` and ``U*`` are ``freq_ratio``, ``zeta_h``, ``zeta_theta``,
+    ``r_theta`` and ``dofs`` (None: the body's default). Every value is checked on creation;
+    what depends on the body is checked by :meth:`check_body`."""
+
+    reynolds: tuple[float, ...]
+    alpha0: tuple[float, ...] = (0.0,)
+    slopes: bool = False
+    modes: bool = False
+    shifts: tuple[complex, ...] = ()
+    n_modes: int = 4
+    thresholds: tuple[float, ...] = ()
+    velocity_range: tuple[float, float] = (2.0, 10.0)
+    points: int = 24
+    wake_shift: complex | None = None
+    map: bool = False
+    map_settings: MapSettings = field(default_factory=MapSettings)
+    freq_ratio: float = 0.8
+    zeta_h: float = 0.0
+    zeta_theta: float = 0.05
+    r_theta: float = 0.289
+    dofs: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "reynolds", _values("--Re", self.reynolds, 0.0, MAX_REYNOLDS, True))
+        object.__setattr__(self, "alpha0", _values("--alpha0", self.alpha0, -MAX_ALPHA0, MAX_ALPHA0, False))
+        if not (self.slopes or self.modes or self.thresholds or self.map):
+            raise InputError("nothing to compute: give --slopes, --modes, --thresholds M... and/or --map")
+        shifts = tuple(complex(z) for z in self.shifts)
+        for z in shifts:
+            if not (math.isfinite(z.real) and math.isfinite(z.imag)) or z.imag < 0:
+                raise InputError(f"every --shift must be finite with a frequency >= 0, got {z}")
+        if len(shifts) > 20:
+            raise InputError(f"at most 20 shifts, got {len(shifts)}")
+        object.__setattr__(self, "shifts", shifts)
+        if not (isinstance(self.n_modes, int) and 1 <= self.n_modes <= 50):
+            raise InputError(f"--n-modes must be an integer in [1, 50], got {self.n_modes!r}")
+        masses = tuple(float(m) for m in self.thresholds)
+        if len(masses) > MAX_MASS_RATIOS:
+            raise InputError(f"at most {MAX_MASS_RATIOS} mass ratios, got {len(masses)}")
+        if masses:
+            masses = _values("--thresholds (mass ratios)", masses, 0.0, MAX_MASS_RATIO, True)
+        object.__setattr__(self, "thresholds", masses)
+        # the sweep's own checks (range, points, wake shift), before any work
+        sweep = SweepSettings(self.velocity_range, self.points, self.wake_shift)
+        object.__setattr__(self, "velocity_range", sweep.velocity_range)
+        object.__setattr__(self, "points", sweep.points)
+        if self.wake_shift is not None:
+            wake = complex(self.wake_shift)
+            if not (math.isfinite(wake.real) and math.isfinite(wake.imag) and wake.imag > 0):
+                raise InputError(f"--wake-shift must be finite with a frequency > 0, got {wake}")
+            object.__setattr__(self, "wake_shift", wake)
+        if not isinstance(self.map_settings, MapSettings):
+            raise InputError("map_settings must be a fsistab.params.MapSettings")
+        # the solid parameters, checked as every command checks them (the plate's conventions)
+        solid_for("plate", None, None, self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta, ())
+        if self.dofs is not None:
+            object.__setattr__(self, "dofs", Solid(dofs=tuple(self.dofs)).dofs)
+
+    def check_body(self, kind: str) -> None:
+        """What depends on the body, before any work: the plate's modes need ``shifts`` (its wake
+        frequency varies with Re and α0; the cylinder's default is its wake mode ``0.75i``); the
+        map is the plate's; thresholds need a solid dof (and the cylinder has no pitch)."""
+        if self.modes and not self.shifts and kind != "cylinder":
+            raise InputError(
+                "give --shift for the plate's modes: a guess of the leading eigenvalue, e.g. 0+11j "
+                "for its wake at Re 2900 (fsistab spectrum finds it)"
+            )
+        if self.map and kind != "plate":
+            raise InputError("the (m, U*) map (--map) is implemented for the plate (heave and pitch)")
+        if self.thresholds:
+            solid = self.solid(kind, self.thresholds[0], self.velocity_range[0])
+            if not solid.dofs:
+                raise InputError("thresholds need at least one solid degree of freedom (--dofs)")
+
+    def mode_shifts(self, kind: str) -> tuple[complex, ...]:
+        """The shifts of the modes: the given ones, else the cylinder's wake mode ``0.75i``."""
+        if self.shifts:
+            return self.shifts
+        return (0.75j,) if kind == "cylinder" else ()
+
+    def solid(self, kind: str, mass_ratio: float, reduced_velocity: float) -> Solid:
+        """The solid at ``(m, U*)`` in the body's conventions (MODEL.md §2, §10), as generic
+        :class:`~fsistab.params.Solid`."""
+        return solid_for(
+            kind,
+            mass_ratio,
+            reduced_velocity,
+            self.freq_ratio,
+            self.zeta_h,
+            self.zeta_theta,
+            self.r_theta,
+            self.dofs,
+        )
+
+    def flows(self) -> list[Flow]:
+        """The grid's flow points in order of execution: increasing Re, then increasing ``|α0|``
+        (so that a point's neighbour towards α0 = 0 and lower Re tends to finish first)."""
+        return [Flow(re, a) for re in self.reynolds for a in sorted(self.alpha0, key=lambda a: (abs(a), a))]
+
+    def point_identity(self) -> dict:
+        """What a point's result depends on besides its case (not the rest of the grid: adding
+        values to a study reuses the points already computed)."""
+        identity = asdict(self)
+        for name in ("reynolds", "alpha0"):
+            identity.pop(name)
+        identity["shifts"] = [[z.real, z.imag] for z in self.shifts]
+        identity["wake_shift"] = (
+            None if self.wake_shift is None else [self.wake_shift.real, self.wake_shift.imag]
+        )
+        identity["map_settings"] = asdict(self.map_settings) if self.map else None
+        # what is not computed does not count: e.g. --points does not invalidate points of --modes
+        unused = []
+        if not self.modes:
+            unused += ["shifts", "n_modes"]
+        if not self.thresholds:
+            unused += ["velocity_range", "points", "wake_shift"]
+        if not (self.thresholds or self.map):
+            unused += ["freq_ratio", "zeta_h", "zeta_theta", "r_theta", "dofs"]
+        for name in unused:
+            identity[name] = None
+        return json.loads(json.dumps(identity, default=list))
+
+
+# --- classification (pure) ------------------------------------------------------------------------
+
+
+def classify(
+    frequency: float,
+    heave_energy: float,
+    pitch_energy: float,
+    fluid_energy: float,
+    heave_frequency: float,
+    pitch_frequency: float,
+    wake_frequency: float = math.nan,
+    wake_branch: bool = False,
+) -> str:
+    """The class of a threshold (one of :data:`CLASSES`) by the criteria of the module docstring:
+    divergence if ``ω_c = 0``; VIV on the wake branch, when ``E_f ≥ (E_h + E_θ + E_f)/2``, or
+    when ``|ω_c/ω_w - 1| < 0.3`` and ``ω_c`` is nearer ``ω_w`` than ``ω_h`` and ``ω_θ``; else
+    heave (pitch) single-mode flutter when heave (pitch) holds at least 3/4 of the solid energy,
+    coupled-mode flutter otherwise. ``*_frequency`` in the same units (``U∞/L``)."""
+    values = (frequency, heave_energy, pitch_energy, fluid_energy, heave_frequency, pitch_frequency)
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"classification needs finite frequencies and energies, got {values}")
+    if min(heave_energy, pitch_energy, fluid_energy) < 0:
+        raise InputError("energies must be non-negative")
+    omega = abs(frequency)
+    if omega <= STATIC_FREQUENCY:
+        return "divergence"
+    solid_energy = heave_energy + pitch_energy
+    if wake_branch or fluid_energy >= solid_energy:
+        return "viv"
+    if math.isfinite(wake_frequency) and wake_frequency > 0:
+        to_wake = abs(omega - wake_frequency)
+        if to_wake < VIV_FREQUENCY_BAND * wake_frequency and to_wake < min(
+            abs(omega - heave_frequency), abs(omega - pitch_frequency)
+        ):
+            return "viv"
+    heave_share = heave_energy / solid_energy
+    if heave_share >= SINGLE_MODE_SHARE:
+        return "heave single-mode flutter"
+    if heave_share <= 1 - SINGLE_MODE_SHARE:
+        return "pitch single-mode flutter"
+    return "coupled-mode flutter"
+
+
+def mode_energies(system, vector: np.ndarray) -> tuple[float, float, float]:
+    """``(E_h, E_θ, E_f)`` of a coupled mode (units ``ρL²U∞²``, the fluid's within one body length
+    of G), as :func:`fsistab.eigen.label_mode` and the module docstring."""
+    solid, fluid = system.split(np.asarray(vector, dtype=complex))
+    m, r = system.solid.mass_ratio, system.solid.r_theta
+    heave = 0.25 * m * abs(solid[2]) ** 2
+    pitch = 0.25 * m * r**2 * abs(solid[3]) ** 2
+    return float(heave), float(pitch), float(0.5 * np.vdot(fluid, system.fluid.mff_near @ fluid).real)
+
+
+# --- one flow point --------------------------------------------------------------------------------
+
+
+def _distance(a: Flow, b: Flow) -> float:
+    return abs(math.log(a.reynolds / b.reynolds)) + abs(a.alpha0_deg - b.alpha0_deg) / 10.0
+
+
+def initial_state(case: Case, settings: StudySettings, cache_dir: Path | None):
+    """``(state, description)``: the steady state to continue from (module docstring): None when
+    the point's own state is cached or no neighbour on its mesh is; else the nearest cached one."""
+    from fsistab.mesh import spec_for
+    from fsistab.steady import load_steady, steady_path
+
+    if cache_dir is None:
+        return None, "rest"
+    spec = spec_for(case)
+    if steady_path(spec, case.flow, cache_dir).exists():
+        return None, "cache"
+    others = [f for f in settings.flows() if f != case.flow]
+    for flow in sorted(others, key=lambda f: _distance(f, case.flow)):
+        if spec_for(replace(case, flow=flow)).key() != spec.key():
+            continue
+        path = steady_path(spec, flow, cache_dir)
+        if path.exists():
+            with contextlib.suppress(CacheError):  # a damaged neighbour is not a starting point
+                state = load_steady(path, spec, flow, cache_dir)
+                return state, f"Re {flow.reynolds:g}, a {flow.alpha0_deg:g}"
+    return None, "rest"
+
+
+def run_point(
+    case: Case, settings: StudySettings, cache_dir: Path | None, progress: Progress = None
+) -> xr.Dataset:
+    """Everything ``settings`` asks at the flow point of ``case``: a Dataset of scalars (steady
+    coefficients, slopes), ``mode`` variables, ``(mass_ratio, threshold)`` variables and
+    ``map_point`` variables, padded with NaN / ``""``; cost and identity in attributes. Pure but
+    for the cache (meshes, steady states) and, with ``map``, the map's own files under
+    ``cache_dir/study_maps``."""
+    from fsistab.forces import aerodynamic_coefficients, recirculation_length
+    from fsistab.linalg import FactorCounter, FluidFactor
+    from fsistab.mesh import spec_for
+    from fsistab.operators import fluid_operators
+    from fsistab.steady import solve_steady
+
+    say = progress if progress is not None else (lambda message: None)
+    settings.check_body(case.kind)
+    t0 = time.perf_counter()
+    spec = spec_for(case)
+    initial, start = initial_state(case, settings, cache_dir)
+    say(f"steady state at Re {case.flow.reynolds:g}, alpha0 {case.flow.alpha0_deg:g} (from {start})")
+    steady = solve_steady(spec, case.flow, cache_dir=cache_dir, initial=initial)
+    counter = FactorCounter(0 if steady.from_cache else steady.factorisations)
+    fluid = fluid_operators(steady)
+    data: dict = {}
+    coords: dict = {}
+    # one factorisation of J_ff serves the slopes and every divergence point (pitch active)
+    pitch = settings.thresholds and "pitch" in settings.solid(case.kind, 1.0, 1.0).dofs
+    static = FluidFactor(fluid, 0.0, counter) if settings.slopes or pitch else None
+    if settings.slopes:
+        from fsistab.slopes import static_slopes
+
+        coefficients = aerodynamic_coefficients(steady)
+        slopes = static_slopes(fluid, factor=static)
+        data.update(
+            lift_coefficient=((), coefficients.lift),
+            moment_coefficient=((), coefficients.moment),
+            drag_coefficient=((), coefficients.drag),
+            recirculation_length=((), recirculation_length(steady)),
+            lift_slope_alpha=((), slopes.lift_slope_alpha),
+            moment_slope_alpha=((), slopes.moment_slope_alpha),
+            drag_slope_theta=((), slopes.drag),
+        )
+    if settings.modes:
+        data.update(_modes(fluid, settings, case.kind, counter))
+        coords["mode"] = np.arange(settings.n_modes)
+    if settings.thresholds:
+        threshold_data, wake = _thresholds(fluid, settings, case.kind, counter, static, say)
+        data.update(threshold_data)
+        data["wake_frequency"] = ("mass_ratio", wake)
+        coords["mass_ratio"] = np.array(settings.thresholds)
+    if settings.map:
+        data.update(_map(case, settings, cache_dir, counter, say))
+    ds = xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords)
+    for name in ("threshold", "map_point"):
+        if name in ds.dims:
+            ds = ds.assign_coords({name: np.arange(ds.sizes[name])})
+    return ds.assign_attrs(
+        body=case.kind,
+        reynolds=case.flow.reynolds,
+        alpha0_deg=case.flow.alpha0_deg,
+        preset=case.preset,
+        mesh_key=spec.key(),
+        steady_start=start,
+        ndof=fluid.n_fluid,
+        factorisations=counter.count,
+        seconds=time.perf_counter() - t0,
+    )
+
+
+def _modes(fluid, settings: StudySettings, kind: str, counter) -> dict:
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near
+
+    system = CoupledSystem(fluid, Solid(dofs=()))
+    pairs = eigenpairs_near(system, list(settings.mode_shifts(kind)), settings.n_modes, counter=counter)
+    pairs = pairs[: settings.n_modes]  # the least stable first (eigenpairs_near sorts them)
+    n = settings.n_modes
+
+    def padded(values) -> np.ndarray:
+        out = np.full(n, np.nan)
+        out[: len(values)] = values
+        return out
+
+    return {
+        "mode_growth_rate": ("mode", padded([p.growth_rate for p in pairs])),
+        "mode_frequency": ("mode", padded([p.frequency for p in pairs])),
+        "mode_residual": ("mode", padded([p.residual for p in pairs])),
+    }
+
+
+THRESHOLD_FLOATS = (
+    "reduced_velocity",
+    "frequency",
+    "heave_share",
+    "pitch_share",
+    "fluid_share",
+    "frequency_over_heave",
+    "frequency_over_pitch",
+    "frequency_over_wake",
+)
+THRESHOLD_STRINGS = ("kind", "boundary", "branch", "class")
+
+
+def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say) -> tuple[dict, np.ndarray]:
+    """Every threshold at each mass ratio, classified; ``(variables, wake frequency per m)``."""
+    from fsistab.coupled import CoupledSystem
+    from fsistab.critical import find_thresholds
+
+    scale = body_velocity_scale(kind)
+    rows: list[list[dict]] = []
+    wakes = []
+    for mass in settings.thresholds:
+        solid = settings.solid(kind, mass, settings.velocity_range[0])
+        velocities = np.geomspace(*settings.velocity_range, settings.points) / scale
+        say(f"thresholds at m = {mass:g}: {settings.points} values of U*")
+        found, branches = find_thresholds(
+            fluid, solid, velocities, wake_shift=settings.wake_shift, counter=counter, static_factor=static
+        )
+        wake = float(branches["wake"].values[0].imag) if "wake" in branches else math.nan
+        wakes.append(wake)
+        row = []
+        for t in found:
+            u = t.reduced_velocity
+            system = CoupledSystem(fluid, replace(solid, reduced_velocity=u))
+            heave_f, pitch_f = solid.freq_ratio / u, 1.0 / u
+            w = abs(t.frequency)
+            if t.kind == "divergence":
+                shares = (math.nan, math.nan, math.nan)
+                label = "divergence"
+            else:
+                e_h, e_t, e_f = mode_energies(system, t.point.mode)
+                total = e_h + e_t + e_f
+                shares = (e_h / total, e_t / total, e_f / total)
+                label = classify(w, e_h, e_t, e_f, heave_f, pitch_f, wake, t.branch == "wake")
+            row.append(
+                {
+                    "reduced_velocity": u * scale,
+                    "frequency": t.frequency,
+                    "heave_share": shares[0],
+                    "pitch_share": shares[1],
+                    "fluid_share": shares[2],
+                    "frequency_over_heave": w / heave_f if "heave" in solid.dofs else math.nan,
+                    "frequency_over_pitch": w / pitch_f if "pitch" in solid.dofs else math.nan,
+                    "frequency_over_wake": w / wake if math.isfinite(wake) else math.nan,
+                    "kind": t.kind,
+                    "boundary": t.boundary,
+                    "branch": t.branch,
+                    "class": label,
+                }
+            )
+        rows.append(row)
+    size = max(1, max(len(r) for r in rows))  # one column at least: NetCDF and zero-size dims
+    variables = {}
+    for name in THRESHOLD_FLOATS + THRESHOLD_STRINGS:
+        is_text = name in THRESHOLD_STRINGS
+        table = np.full((len(rows), size), "" if is_text else np.nan, dtype=object if is_text else float)
+        for i, row in enumerate(rows):
+            for j, entry in enumerate(row):
+                table[i, j] = entry[name]
+        variables[f"threshold_{name}"] = (
+            ("mass_ratio", "threshold"),
+            table.astype(str) if is_text else table,
+        )
+    return variables, np.array(wakes)
+
+
+def _map(case: Case, settings: StudySettings, cache_dir: Path | None, counter, say) -> dict:
+    """The point's ``(m, U*)`` map (:func:`fsistab.workflows.stability_map`), its dynamic curves
+    flattened along ``map_point`` and the divergence law ``U*_D/√m``."""
+    from fsistab.neutral import map_curves
+    from fsistab.store import default_cache_dir
+    from fsistab.workflows import divergence_coefficient, stability_map
+
+    base = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    key = _short_key({"case": _case_identity(case), "settings": settings.point_identity()})
+    out = base / "study_maps" / f"{case.tag}_{key}"
+    out.mkdir(parents=True, exist_ok=True)
+    template = settings.solid(
+        "plate", settings.map_settings.template_mass, settings.map_settings.velocity_range[0]
+    )
+    ds = stability_map(case, template, settings.map_settings, cache_dir, out, say)
+    counter.count += int(ds.attrs["factorisations_this_run"])
+    curves = map_curves(ds)
+    index = np.concatenate([np.full(len(m), i) for i, (_, m, _, _) in enumerate(curves)] or [np.zeros(0)])
+    kinds = [kind for kind, m, _, _ in curves for _ in m]
+    n = max(1, len(kinds))
+
+    def padded(values, fill=np.nan, dtype=float):
+        out = np.full(n, fill, dtype=dtype)
+        out[: len(values)] = values
+        return out
+
+    return {
+        "map_mass_ratio": ("map_point", padded(np.concatenate([c[1] for c in curves] or [np.zeros(0)]))),
+        "map_reduced_velocity": (
+            "map_point",
+            padded(np.concatenate([c[2] for c in curves] or [np.zeros(0)])),
+        ),
+        "map_frequency": ("map_point", padded(np.concatenate([c[3] for c in curves] or [np.zeros(0)]))),
+        "map_curve": ("map_point", padded(index, -1, int)),
+        "map_kind": ("map_point", padded(np.array(kinds, dtype=object), "", object).astype(str)),
+        "map_divergence_coefficient": ((), divergence_coefficient(ds)),
+        "map_data": ((), str(ds.attrs["data"])),
+    }
+
+
+# --- files of finished points -----------------------------------------------------------------------
+
+
+def _case_identity(case: Case) -> dict:
+    return {
+        "body": asdict(case.body),
+        "flow": asdict(case.flow),
+        "preset": case.preset,
+        "domain": None if case.domain is None else asdict(case.domain),
+    }
+
+
+def _short_key(inputs: dict) -> str:
+    import hashlib
+
+    from fsistab import __version__
+
+    text = json.dumps({**inputs, "fsistab": __version__}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def point_identity(case: Case, settings: StudySettings) -> str:
+    """The JSON text that identifies a point's result: case, mesh key, per-point settings and
+    fsistab's version (checked when a finished point is reused)."""
+    from fsistab import __version__
+    from fsistab.mesh import spec_for
+
+    return json.dumps(
+        {
+            "case": _case_identity(case),
+            "mesh_key": spec_for(case).key(),
+            "settings": settings.point_identity(),
+            "fsistab": __version__,
+        },
+        sort_keys=True,
+    )
+
+
+def point_path(out: Path, case: Case, settings: StudySettings) -> Path:
+    """``out/points/<tag>_<key>.nc``: the file of a finished point (key: hash of its identity)."""
+    key = _short_key({"identity": point_identity(case, settings)})
+    return Path(out) / "points" / f"{case.tag}_{case.preset}_{key}.nc"
+
+
+def finished_point(out: Path, case: Case, settings: StudySettings) -> xr.Dataset | None:
+    """The saved result of a point when its file verifies (checksum and identity); a damaged or
+    mismatched file is reported and moved aside (:func:`fsistab.store.read_cached`): None."""
+    from fsistab.store import read_cached
+
+    path = point_path(out, case, settings)
+    return read_cached(path, expect={"point_identity": point_identity(case, settings)})
+
+
+def compute_point(case: Case, settings: StudySettings, cache_dir: Path | None, out: Path) -> xr.Dataset:
+    """:func:`run_point`, then its result written atomically to :func:`point_path` with its
+    identity: the task that runs on a worker (so that a finished point is kept whatever happens
+    to the client). Idempotent: when the file is there and verifies, it is returned (attribute
+    ``from_file``) and nothing is computed; dask runs a finished task again when the worker that
+    held its result died before the client fetched it."""
+    from fsistab.store import write_dataset
+
+    finished = finished_point(out, case, settings)
+    if finished is not None:
+        return finished.assign_attrs(from_file=1)
+    ds = run_point(case, settings, cache_dir)
+    ds.attrs["point_identity"] = point_identity(case, settings)
+    path = write_dataset(ds, point_path(out, case, settings))
+    return ds.assign_attrs(point_file=str(path))
+
+
+# --- the study ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PointOutcome:
+    """What became of one point: its ``result`` (None if it failed), ``error`` (one line), and
+    whether it was ``computed`` in this run (else read back from its file)."""
+
+    flow: Flow
+    result: xr.Dataset | None
+    error: str = ""
+    computed: bool = False
+
+
+def _one_line(exc: BaseException) -> str:
+    from fsistab.progress import one_line
+
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return one_line(f"{type(exc).__name__}: {text}" if not isinstance(exc, FsistabError) else text)
+
+
+def _run_serial(todo, settings, cache_dir, out) -> Iterator[PointOutcome]:
+    for case in todo:
+        try:
+            yield PointOutcome(case.flow, compute_point(case, settings, cache_dir, out), computed=True)
+        except Exception as exc:  # a failed point is reported; the others go on
+            yield PointOutcome(case.flow, None, _one_line(exc))
+
+
+def _run_on_client(client, todo, settings, cache_dir, out) -> Iterator[PointOutcome]:
+    from distributed import as_completed
+
+    futures = {}
+    for i, case in enumerate(todo):
+        # the output directory in the key too: the same point of two studies is two tasks (each
+        # writes its own file)
+        where = _short_key({"out": str(Path(out).resolve()), "cache": str(cache_dir)})[:8]
+        key = f"fsistab-point-{point_path(out, case, settings).stem}-{where}"
+        # earlier points first: their steady states serve as neighbours of later ones
+        future = client.submit(
+            compute_point, case, settings, cache_dir, out, key=key, pure=False, priority=len(todo) - i
+        )
+        futures[future] = case
+    for future in as_completed(list(futures)):
+        case = futures[future]
+        try:
+            yield PointOutcome(case.flow, future.result(), computed=True)
+        except Exception as exc:  # any error of a task (or a worker lost repeatedly): report it, go on
+            yield PointOutcome(case.flow, None, _one_line(exc))
+        finally:
+            future.release()
+
+
+def run_study(
+    base_case: Case,
+    settings: StudySettings,
+    cache_dir: Path | None,
+    out: Path,
+    client=None,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """Every point of ``settings``' grid at the body, mesh preset and domain of ``base_case``: the
+    finished ones read back (:func:`finished_point`), the others computed in this process
+    (``client`` None) or as tasks of the ``dask.distributed`` ``client``, each saved as it finishes.
+    Returns the assembled Dataset (:func:`assemble`), written to
+    ``out/study_<body>_<preset>_<key>.nc`` (path in attribute ``data``); attributes ``points``,
+    ``computed``, ``failed``, ``factorisations`` (this run), ``seconds``."""
+    from fsistab.store import write_dataset
+
+    say = progress if progress is not None else (lambda message: None)
+    settings.check_body(base_case.kind)
+    t0 = time.perf_counter()
+    out = Path(out)
+    (out / "points").mkdir(parents=True, exist_ok=True)
+    cases = [replace(base_case, flow=flow) for flow in settings.flows()]
+    outcomes: dict[Flow, PointOutcome] = {}
+    todo = []
+    for case in cases:
+        ds = finished_point(out, case, settings)
+        if ds is not None:
+            outcomes[case.flow] = PointOutcome(case.flow, ds)
+        else:
+            todo.append(case)
+    say(f"{len(cases)} points: {len(outcomes)} finished before, {len(todo)} to compute")
+    if client is None:
+        running = _run_serial(todo, settings, cache_dir, out)
+    else:
+        running = _run_on_client(client, todo, settings, cache_dir, out)
+    for outcome in running:
+        outcomes[outcome.flow] = outcome
+        flow = outcome.flow
+        where = f"Re {flow.reynolds:g}, alpha0 {flow.alpha0_deg:g}"
+        if outcome.result is None:
+            say(f"point {where} FAILED: {outcome.error}")
+        else:
+            say(f"point {where} done ({len(outcomes)}/{len(cases)})")
+    ds = assemble(base_case, settings, outcomes)
+    computed = [o for o in outcomes.values() if o.computed and not o.result.attrs.get("from_file")]
+    ds.attrs.update(
+        points=len(cases),
+        computed=len(computed),
+        failed=int((ds.status.values == "failed").sum()),
+        factorisations=int(sum(o.result.attrs["factorisations"] for o in computed)),
+        seconds=time.perf_counter() - t0,
+        execution="in-process" if client is None else f"dask.distributed ({_workers(client)} workers)",
+    )
+    key = _short_key({"case": _case_identity(base_case), "grid": [settings.reynolds, settings.alpha0]})
+    key += _short_key({"settings": settings.point_identity()})[:4]
+    path = write_dataset(ds, out / f"study_{base_case.kind}_{base_case.preset}_{key}.nc")
+    return ds.assign_attrs(data=str(path))
+
+
+def _workers(client) -> int:
+    try:
+        return len(client.scheduler_info()["workers"])
+    except Exception:  # an informative attribute only
+        return 0
+
+
+def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dataset:
+    """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
+    to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
+    ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
+    and where its steady state started (``steady_start``)."""
+    reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
+    shape = (len(reynolds), len(alpha0))
+    results = {
+        (reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)): o.result
+        for f, o in outcomes.items()
+        if o.result is not None
+    }
+    status = np.full(shape, "failed", dtype=object)
+    error = np.full(shape, "", dtype=object)
+    for f, o in outcomes.items():
+        i, j = reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)
+        status[i, j] = "done" if o.result is not None else "failed"
+        error[i, j] = o.error
+    sizes: dict[str, int] = {}
+    names: dict[str, tuple] = {}
+    for ds in results.values():
+        for name, var in ds.data_vars.items():
+            names.setdefault(name, (var.dims, var.dtype.kind))
+            for dim in var.dims:
+                sizes[dim] = max(sizes.get(dim, 0), ds.sizes[dim])
+    data = {}
+    for name, (dims, kind) in names.items():
+        full = (*shape, *(sizes[d] for d in dims))
+        if kind in "OUS":
+            table = np.full(full, "", dtype=object)
+        elif kind in "iu":
+            table = np.full(full, -1, dtype=np.int64)
+        else:
+            table = np.full(full, np.nan)
+        for (i, j), ds in results.items():
+            if name in ds:
+                values = ds[name].values
+                table[(i, j, *(slice(0, n) for n in values.shape))] = values
+        data[name] = (("reynolds", "alpha0", *dims), table.astype(str) if kind in "OUS" else table)
+    for name, fill in (("factorisations", -1), ("seconds", np.nan), ("steady_start", "")):
+        table = np.full(shape, fill, dtype=object if isinstance(fill, str) else type(fill))
+        for (i, j), ds in results.items():
+            table[i, j] = ds.attrs[name]
+        data[f"point_{name}"] = (
+            ("reynolds", "alpha0"),
+            table.astype(str) if isinstance(fill, str) else table,
+        )
+    data["status"] = (("reynolds", "alpha0"), status.astype(str))
+    data["error"] = (("reynolds", "alpha0"), error.astype(str))
+    coords = {"reynolds": reynolds, "alpha0": alpha0}
+    if settings.thresholds:
+        coords["mass_ratio"] = np.array(settings.thresholds)
+    for dim, n in sizes.items():
+        if dim not in coords:
+            coords[dim] = np.arange(n)
+    return xr.Dataset(
+        data,
+        coords=coords,
+        attrs={
+            "body": base_case.kind,
+            "preset": base_case.preset,
+            "settings": json.dumps(settings.point_identity(), sort_keys=True),
+            "classes": json.dumps(CLASSES),
+            "conventions": (
+                "alpha0 in degrees, nose-up +; U* and m in the body's conventions (MODEL.md §2, §10); "
+                "frequencies and growth rates in U/L; coefficients F/(0.5 rho U^2 L s), C_M about G"
+            ),
+        },
+    )
+
+
+@contextlib.contextmanager
+def study_client(workers: int | None = None, scheduler: str | None = None):
+    """A ``dask.distributed`` client on a new ``LocalCluster`` of ``workers`` single-threaded
+    worker processes, or on the running scheduler at ``scheduler``; None (in-process) when both
+    are None. A clear error when dask.distributed is not installed (``pip install
+    'fsistab[cluster]'``)."""
+    if workers is None and scheduler is None:
+        yield None
+        return
+    check_execution(workers, scheduler)
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError(
+            "--workers and --scheduler need dask.distributed: pip install 'fsistab[cluster]'"
+        ) from None
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot connect to the dask scheduler at {scheduler}: {exc}") from None
+        with client:
+            yield client
+        return
+    with (
+        LocalCluster(
+            n_workers=workers, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+def check_execution(workers: int | None, scheduler: str | None) -> None:
+    """``--workers`` and ``--scheduler`` exclude each other; workers in ``[1, 256]``; the scheduler
+    an address such as ``tcp://host:8786``."""
+    if workers is not None and scheduler is not None:
+        raise InputError(
+            "give --workers N (a local cluster) or --scheduler ADDRESS (a running one), not both"
+        )
+    if workers is not None and not (isinstance(workers, int) and 1 <= workers <= 256):
+        raise InputError(f"--workers must be an integer in [1, 256], got {workers!r}")
+    if scheduler is not None and (not scheduler.strip() or any(c.isspace() for c in scheduler.strip())):
+        raise InputError(f"--scheduler must be an address such as tcp://host:8786, got {scheduler!r}")

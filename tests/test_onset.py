@@ -1,0 +1,201 @@
+"""Onset of a fixed body's wake instability (fsistab.onset, ``fsistab onset``): the secant on
+analytic growth rates with known roots, input checks before any work, and the fixed cylinder's
+critical Reynolds number on the coarse mesh against REFERENCE.md §A, rerun from the cache."""
+
+import json
+import math
+from types import SimpleNamespace
+
+import pytest
+from typer.testing import CliRunner
+
+from fsistab.cli import app
+from fsistab.errors import ConvergenceError, InputError
+from fsistab.onset import (
+    OnsetIterate,
+    check_onset,
+    fitted_case,
+    flow_at,
+    leading_eigenpair,
+    rounded,
+    secant_onset,
+)
+from fsistab.params import Case, Flow
+from fsistab.store import read_dataset
+
+runner = CliRunner()
+
+
+def _analytic(sigma):
+    """An evaluator of ``σ(p)`` recording each ``(p, predicted eigenvalue)`` it is called with."""
+    calls = []
+
+    def evaluate(value, predicted):
+        calls.append((value, predicted))
+        return OnsetIterate(value, sigma(value))
+
+    return evaluate, calls
+
+
+def _wake(p):
+    """A Hopf-like growth rate, curved in p, root 46.7, frequency linear in p (ω_c = 0.734)."""
+    x = p - 46.7
+    return complex(4e-3 * x - 6e-5 * x**2, 0.734 + 1.3e-3 * x)
+
+
+def test_secant_converges_to_the_root_and_interpolates_the_frequency():
+    evaluate, calls = _analytic(_wake)
+    result = secant_onset(evaluate, "reynolds", 46.0, 2.0, 0.75j, tol=1e-12, step_tol=1e-14)
+    assert result.critical_value == pytest.approx(46.7, abs=1e-9)
+    # ω is linear in p: the interpolation between the last two iterates is exact at the root
+    assert result.frequency == pytest.approx(0.734, abs=1e-10)
+    assert result.strouhal == pytest.approx(0.734 / (2 * math.pi), abs=1e-10)
+    rates = [abs(i.growth_rate) for i in result.iterates]
+    assert rates[-1] < 1e-12 and len(rates) <= 7
+    # superlinear: each of the last steps gains more than a factor 20 (a linear rate would not)
+    assert all(b < a / 20 for a, b in zip(rates[2:-1], rates[3:], strict=False))
+    # the mode is followed: the user's shift first, then predictions approaching the eigenvalue
+    assert calls[0] == (46.0, 0.75j)
+    errors = [abs(predicted - _wake(p)) for p, predicted in calls[2:]]
+    assert errors[-1] < 1e-8 and errors[-1] < errors[0]
+
+
+def test_secant_on_alpha0_finds_the_mirror_root_from_a_negative_guess():
+    """A symmetric body's growth rate is even in α0: λ = 0.01(α0² - 9) has roots ±3."""
+    evaluate, _ = _analytic(lambda a: complex(0.01 * (a * a - 9), 2.0))
+    up = secant_onset(evaluate, "alpha0", 2.0, 0.5, 2j, tol=1e-12)
+    down = secant_onset(evaluate, "alpha0", -2.0, -0.5, 2j, tol=1e-12)
+    assert up.critical_value == pytest.approx(3.0, abs=1e-9)
+    assert down.critical_value == pytest.approx(-3.0, abs=1e-9)
+
+
+def test_secant_iterates_are_rounded_for_reruns():
+    evaluate, calls = _analytic(_wake)
+    result = secant_onset(evaluate, "reynolds", 46.0, 2.0, 0.75j, tol=1e-12, step_tol=1e-9)
+    for p, _ in calls[1:]:
+        assert p == rounded("reynolds", p) and p == float(f"{p:.10g}")
+    assert result.iterations == len(calls)
+    assert rounded("alpha0", 1.23456789012345) == 1.23456789
+
+
+@pytest.mark.parametrize(
+    ("sigma", "parameter", "guess", "step", "message"),
+    [
+        (lambda p: complex(-1e-3, 0.7), "reynolds", 40.0, 1.0, "does not change"),
+        (lambda p: complex(-1e-3 * (p + 10), 0.7), "reynolds", 40.0, 1.0, "left the range"),
+        (lambda p: complex(0.01 * (p - 50), 0.7), "alpha0", 40.0, 4.0, "left the range"),
+        (lambda p: complex(1e-9 * (p - 50) ** 9, 0.7), "reynolds", 40.0, 1.0, "no onset"),
+    ],
+)
+def test_secant_failures_are_reported(sigma, parameter, guess, step, message):
+    evaluate, _ = _analytic(sigma)
+    with pytest.raises(ConvergenceError, match=message):
+        secant_onset(evaluate, parameter, guess, step, 0.7j, max_iterations=6)
+
+
+def test_leading_mode_then_the_followed_one():
+    pairs = [
+        SimpleNamespace(value=complex(g, w), growth_rate=g) for g, w in [(-0.2, 0.1), (0.01, 0.7), (0.0, 0.8)]
+    ]
+    assert leading_eigenpair(pairs, 0.1j, first=True).value == 0.01 + 0.7j
+    assert leading_eigenpair(pairs, 0.79j, first=False).value == 0.8j
+
+
+@pytest.mark.parametrize(
+    ("kind", "parameter", "guess", "shift", "message"),
+    [
+        ("cylinder", "alpha0", 3.0, None, "the cylinder is round"),
+        ("plate", "reynolds", 500.0, None, "give --shift for the plate"),
+        ("plate", "alpha0", 50.0, 1j, "within ±45 degrees"),
+        ("cylinder", "reynolds", -3.0, None, "must be in (0, 1e+07]"),
+        ("cylinder", "reynolds", math.nan, None, "must be in (0, 1e+07]"),
+        ("cylinder", "reynolds", 47.0, 0.7 - 0.1j, "frequency must be >= 0"),
+        ("cylinder", "mass_ratio", 47.0, None, "--parameter must be one of reynolds, alpha0"),
+    ],
+)
+def test_bad_onset_inputs(kind, parameter, guess, shift, message):
+    with pytest.raises(InputError, match=message.replace("(", r"\(").replace("]", r"\]").replace("+", r"\+")):
+        check_onset(kind, parameter, guess, shift)
+
+
+def test_default_shift_of_the_cylinder():
+    assert check_onset("cylinder", "reynolds", 47, None) == (47.0, 0.75j)
+
+
+def _run(args, where):
+    return runner.invoke(app, ["onset", *args, "--out", str(where / "out"), "--cache", str(where / "cache")])
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--body", "cylinder", "--parameter", "alpha0", "--guess", "3"], "the cylinder is round"),
+        (["--guess", "2900"], "give --shift for the plate"),
+        (["--body", "cylinder"], "Missing option '--guess'"),
+        (["--body", "cylinder", "--guess", "0"], "must be in (0, 1e+07]"),
+        (["--body", "cylinder", "--guess", "47", "--shift", "abc"], "cannot read the shift"),
+        (["--body", "cylinder", "--guess", "47", "--parameter", "re"], "--parameter must be one of"),
+        (["--body", "cylinder", "--guess", "47", "--mesh", "huge"], "unknown mesh preset"),
+    ],
+)
+def test_cli_refuses_bad_input_before_any_work(tmp_path, args, message):
+    result = _run([*args, "--json"], tmp_path)
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and message in lines[0]
+    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
+
+
+@pytest.fixture(scope="module")
+def coarse_onset(tmp_path_factory):
+    """``fsistab onset --body cylinder --guess 47 --mesh coarse --json`` from an empty cache."""
+    where = tmp_path_factory.mktemp("onset")
+    result = _run(["--body", "cylinder", "--guess", "47", "--mesh", "coarse", "--json"], where)
+    assert result.exit_code == 0, result.output
+    return where, json.loads(result.stdout)
+
+
+def test_cylinder_critical_reynolds_coarse(coarse_onset):
+    """REFERENCE.md §A: Re_c 46.6–46.8, ω_c 0.733–0.744. The coarse mesh (20 433 unknowns) gives
+    Re_c = 46.766, ω_c = 0.73450, inside both ranges (the medium mesh: 46.695, 0.73417)."""
+    _, payload = coarse_onset
+    assert set(payload) == {
+        "parameter",
+        "critical_value",
+        "frequency",
+        "iterations",
+        "factorisations",
+        "data",
+    }
+    assert payload["parameter"] == "reynolds"
+    assert 46.6 <= payload["critical_value"] <= 46.8
+    assert 0.733 <= payload["frequency"] <= 0.744
+    ds = read_dataset(payload["data"])  # checksummed NetCDF
+    assert ds.sizes["iterate"] == payload["iterations"] <= 8
+    assert abs(ds.growth_rate.values[-1]) < 1e-6 and ds.residual.values.max() < 1e-8
+    assert ds.attrs["critical_value"] == payload["critical_value"]
+    # from an empty cache: one eigen factorisation per iterate plus the steady Newton steps
+    assert payload["factorisations"] > payload["iterations"]
+
+
+def test_cylinder_onset_rerun_reuses_the_steady_states(coarse_onset):
+    where, first = coarse_onset
+    result = _run(["--body", "cylinder", "--guess", "47", "--mesh", "coarse", "--json"], where)
+    assert result.exit_code == 0, result.output
+    again = json.loads(result.stdout)
+    ds = read_dataset(again["data"])
+    assert ds.steady_from_cache.values.all()
+    assert again["factorisations"] == again["iterations"]  # the eigenvalue solves only
+    assert again["critical_value"] == pytest.approx(first["critical_value"], abs=1e-8)
+    assert again["frequency"] == pytest.approx(first["frequency"], abs=1e-8)
+
+
+def test_mesh_fitted_to_the_guess_for_the_critical_reynolds_number():
+    case = Case.create("cylinder", 2900, 0.0, "coarse")
+    fitted = fitted_case(case, "reynolds", 47.0)
+    assert fitted.flow == Flow(47.0, 0.0) and fitted.preset == "coarse" and fitted.body == case.body
+    plate = Case.create("plate", 500, 3.0, "coarse")
+    assert fitted_case(plate, "alpha0", 15.0) == plate  # the case's Re: the flow that is resolved
+    assert flow_at(Flow(500, 3.0), "alpha0", 15.0) == Flow(500, 15.0)
+    assert flow_at(Flow(500, 3.0), "reynolds", 47.0) == Flow(47.0, 3.0)

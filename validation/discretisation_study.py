@@ -1,0 +1,183 @@
+"""Discretisation study of the plate at Re = 2900 (issue 14): far field, domain, wake, near body.
+
+Each variant is a mesh (a preset's sizes with some overridden, a domain) on which the script
+computes, with the library's own functions and one thread:
+
+* the steady state (cached): unknowns, drag coefficient, recirculation length;
+* the static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (one real factorisation), hence the divergence
+  velocity ``U*_D = √(m r_θ²/(dC_M/dθ))`` at m = 1000 (MODEL.md §8, §9);
+* the fixed plate's wake mode (shift-invert Arnoldi near ``11.2i``; of the 8 nearest
+  eigenvalues the one with the largest kinetic-energy share in the wake box ``WAKE_BOX``);
+* the flutter point at m = 1000 (Newton on ``det T(iω; U*) = 0``, MODEL.md §8) from a guess.
+
+Solid parameters are the defaults of MODEL.md (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289, pitch
+axis at mid-chord); units chord-based. One JSON line per variant is appended to ``--out`` (a
+variant already there is skipped, so a rerun resumes), with wall and CPU times and factorisations.
+
+Usage: python validation/discretisation_study.py [VARIANT ...] [--out FILE] [--cache DIR]
+       python validation/discretisation_study.py --list
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from ngsolve import SetNumThreads
+
+from fsistab.coupled import CoupledSystem
+from fsistab.eigen import eigenpairs_near
+from fsistab.linalg import FactorCounter
+from fsistab.mesh import mesh_spec
+from fsistab.neutral_point import divergence_velocity
+from fsistab.operators import fluid_operators
+from fsistab.params import Domain, Flow, Plate, Solid
+from fsistab.slopes import static_slopes
+from fsistab.steady import solve_steady
+from fsistab.store import default_cache_dir
+from fsistab.transfer import transfer_flutter_point
+
+REYNOLDS = 2900.0
+MASS_RATIO = 1000.0
+
+# name: (preset, size overrides, domain (upstream, downstream, lateral))
+VARIANTS = {
+    "medium": ("medium", {}, (20, 40, 20)),
+    "far1": ("medium", {"far": 1.0}, (20, 40, 20)),
+    "far0.5": ("medium", {"far": 0.5}, (20, 40, 20)),
+    "far1-lat40": ("medium", {"far": 1.0}, (20, 40, 40)),
+    "far1-lat80": ("medium", {"far": 1.0}, (20, 40, 80)),
+    "far1-up40": ("medium", {"far": 1.0}, (40, 40, 20)),
+    "far1-down80": ("medium", {"far": 1.0}, (20, 80, 20)),
+    "far1-wake20": ("medium", {"far": 1.0, "wake_length": 20.0}, (20, 40, 20)),
+    "far1-wake0.03": ("medium", {"far": 1.0, "wake": 0.03}, (20, 40, 20)),
+    "far1-nearfine": ("medium", {"far": 1.0, "wall": 0.008, "corner": 0.0015, "near": 0.012}, (20, 40, 20)),
+    "coarse-far1": ("coarse", {"far": 1.0}, (20, 40, 20)),
+    "far1-all40": ("medium", {"far": 1.0}, (40, 80, 40)),
+    # graded far field: a middle box of 1-chord elements, larger elements beyond it
+    "nested-40": ("medium", {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (40, 80, 40)),
+    "nested-80": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (80, 160, 80)),
+    "nested-160": ("medium", {"far": 16.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (160, 320, 160)),
+    "nested-80-box30": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (30, 60, 30)}, (80, 160, 80)),
+}
+
+
+WAKE_BOX = (0.5, 20.0, 1.5)  # x from the trailing edge to 20 chords, |y| < 1.5
+
+
+def wake_mass(fluid):
+    """Velocity mass restricted to the wake box ``WAKE_BOX`` (fluid unknowns)."""
+    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
+
+    x0, x1, half = WAKE_BOX
+    (u, _), (v, _) = fluid.steady.space.TnT()
+    form = BilinearForm(fluid.steady.space)
+    inside = IfPos(x - x0, IfPos(x1 - x, IfPos(half * half - y * y, 1.0, 0.0), 0.0), 0.0)
+    form += inside * InnerProduct(u, v) * dx
+    form.Assemble()
+    rows, cols, values = form.mat.COO()
+    n = fluid.steady.space.ndof
+    index = fluid.free_dofs
+    return sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(n, n))[index][
+        :, index
+    ]
+
+
+def wake_modes(fluid, counter) -> list[tuple[complex, float]]:
+    """The 8 fixed-plate eigenvalues nearest ``11.2i`` (shift-invert Arnoldi) with the share of
+    their kinetic energy in the wake box: near 1 for the wake mode, a few per cent for the weakly
+    damped modes of the truncated domain (docs/stability_map.md)."""
+    mass = wake_mass(fluid)
+    pairs = eigenpairs_near(CoupledSystem(fluid, Solid(dofs=())), [11.2j], 8, counter=counter)
+    shares = [
+        float(np.vdot(p.vector, mass @ p.vector).real / np.vdot(p.vector, fluid.mff @ p.vector).real)
+        for p in pairs
+    ]
+    return sorted(zip((p.value for p in pairs), shares, strict=True), key=lambda t: -t[0].real)
+
+
+def wake_mode(modes) -> list[float]:
+    """The least stable of ``modes`` with at least half its energy in the wake box."""
+    value = next(v for v, share in modes if share >= 0.5)
+    return [value.real, value.imag]
+
+
+def run_variant(name: str, cache: Path, flutter_guess: tuple[float, float]) -> dict:
+    preset, sizes, (up, down, lateral) = VARIANTS[name]
+    spec = mesh_spec(Plate(), preset, REYNOLDS, Domain(up, down, lateral), **sizes)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    steady = solve_steady(spec, Flow(REYNOLDS), cache_dir=cache)
+    fluid = fluid_operators(steady)
+    counter = FactorCounter()
+    slopes = static_slopes(fluid, counter)
+    solid = Solid(mass_ratio=MASS_RATIO, reduced_velocity=flutter_guess[1])
+    modes = wake_modes(fluid, counter)
+    flutter = transfer_flutter_point(fluid, solid, flutter_guess[0], counter=counter, max_iterations=40)
+    return {
+        "variant": name,
+        "preset": preset,
+        "sizes": sizes,
+        "domain": [up, down, lateral],
+        "unknowns": int(fluid.n_fluid),
+        "drag_coefficient": float(2 * fluid.loads0[0]),
+        "lift_slope_alpha": slopes.lift_slope_alpha,
+        "moment_slope_alpha": slopes.moment_slope_alpha,
+        "divergence_velocity_m1000": float(
+            divergence_velocity(slopes.moment_slope_alpha, solid.r_theta, 1000)
+        ),
+        "wake_mode": wake_mode(modes),
+        "wake_modes": [[v.real, v.imag, share] for v, share in modes],
+        "flutter_velocity_m1000": flutter.reduced_velocity,
+        "flutter_frequency_m1000": flutter.frequency,
+        "factorisations": counter.count,
+        "wall_s": time.perf_counter() - wall0,
+        "cpu_s": time.process_time() - cpu0,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("variants", nargs="*", default=list(VARIANTS))
+    parser.add_argument("--out", default="docs/data/discretisation_Re2900.jsonl")
+    parser.add_argument("--cache", default=None)
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--flutter-guess", nargs=2, type=float, default=(0.19, 4.5), metavar=("OMEGA", "U"))
+    parser.add_argument("--list", action="store_true")
+    args = parser.parse_args()
+    if args.list:
+        for name, variant in VARIANTS.items():
+            print(name, variant)
+        return
+    unknown = [v for v in args.variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variants {unknown}; --list shows them")
+    SetNumThreads(args.threads)
+    out = Path(args.out)
+    done = set()
+    if out.exists():
+        done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
+    cache = Path(args.cache) if args.cache else default_cache_dir()
+    for name in args.variants:
+        if name in done:
+            print(f"{name}: done")
+            continue
+        try:
+            record = run_variant(name, cache, tuple(args.flutter_guess))
+        except Exception as exc:  # one failed variant must not stop the study
+            record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
+        print(json.dumps(record), flush=True)
+        if "error" not in record:
+            with out.open("a") as handle:
+                handle.write(json.dumps(record) + "\n")
+
+
+if __name__ == "__main__":
+    main()
