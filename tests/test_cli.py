@@ -52,6 +52,13 @@ def test_steady_table_and_mesh_command(tmp_path):
         (["steady", "--mesh", "huge"], "unknown mesh preset"),
         (["mesh", "--body", "sphere"], "unknown body"),
         (["steady", "--alpha0", "60"], "alpha0 must be within"),
+        (["onset", "--body", "cylinder", "--parameter", "alpha0", "--guess", "3"], "the cylinder is round"),
+        (["onset", "--guess", "2900"], "give --shift for the plate"),
+        (["onset", "--body", "cylinder"], "Missing option '--guess'"),
+        (["onset", "--body", "cylinder", "--guess", "0"], "must be in (0, 1e+07]"),
+        (["onset", "--body", "cylinder", "--guess", "47", "--shift", "abc"], "cannot read the shift"),
+        (["onset", "--body", "cylinder", "--guess", "47", "--parameter", "re"], "--parameter must be one of"),
+        (["onset", "--body", "cylinder", "--guess", "47", "--mesh", "huge"], "unknown mesh preset"),
     ],
 )
 def test_bad_input_one_line_error_and_nothing_written(tmp_path, args, message):

@@ -126,27 +126,6 @@ def _run(args, where):
     return runner.invoke(app, ["onset", *args, "--out", str(where / "out"), "--cache", str(where / "cache")])
 
 
-@pytest.mark.parametrize(
-    ("args", "message"),
-    [
-        (["--body", "cylinder", "--parameter", "alpha0", "--guess", "3"], "the cylinder is round"),
-        (["--guess", "2900"], "give --shift for the plate"),
-        (["--body", "cylinder"], "Missing option '--guess'"),
-        (["--body", "cylinder", "--guess", "0"], "must be in (0, 1e+07]"),
-        (["--body", "cylinder", "--guess", "47", "--shift", "abc"], "cannot read the shift"),
-        (["--body", "cylinder", "--guess", "47", "--parameter", "re"], "--parameter must be one of"),
-        (["--body", "cylinder", "--guess", "47", "--mesh", "huge"], "unknown mesh preset"),
-    ],
-)
-def test_cli_refuses_bad_input_before_any_work(tmp_path, args, message):
-    result = _run([*args, "--json"], tmp_path)
-    assert result.exit_code == 2
-    assert result.stdout == ""
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and message in lines[0]
-    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
-
-
 @pytest.fixture(scope="module")
 def coarse_onset(tmp_path_factory):
     """``fsistab onset --body cylinder --guess 47 --mesh coarse --json`` from an empty cache."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import resource
 import time
 from pathlib import Path
@@ -32,6 +33,7 @@ from ngsolve import SetNumThreads
 
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
+from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral_point import divergence_velocity
@@ -44,6 +46,9 @@ from fsistab.transfer import transfer_flutter_point
 
 REYNOLDS = 2900.0
 MASS_RATIO = 1000.0
+
+CANDIDATE = {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}
+FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 
 # name: (preset, size overrides, domain (upstream, downstream, lateral))
 VARIANTS = {
@@ -63,6 +68,19 @@ VARIANTS = {
     "nested-40": ("medium", {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (40, 80, 40)),
     "nested-80": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (80, 160, 80)),
     "nested-160": ("medium", {"far": 16.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (160, 320, 160)),
+    "nested-80-far4": ("medium", {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (80, 160, 80)),
+    "nested-160-far4": ("medium", {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}, (160, 320, 160)),
+    "coarse-nested-80-far4": (
+        "coarse",
+        {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)},
+        (80, 160, 80),
+    ),
+    # candidate default: wake box to 20 chords, 1-chord middle box, 4-chord far field to 80 chords
+    "cand": ("medium", {"wake_length": 20.0, **CANDIDATE}, (80, 160, 80)),
+    "cand-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (80, 160, 80)),
+    "cand-middle0.5": ("medium", {"wake_length": 20.0, **CANDIDATE, "middle": 0.5}, (80, 160, 80)),
+    "cand-dom160": ("medium", {"wake_length": 20.0, **CANDIDATE}, (160, 320, 160)),
+    "cand-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (80, 160, 80)),
     "nested-80-box30": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (30, 60, 30)}, (80, 160, 80)),
 }
 
@@ -117,7 +135,11 @@ def run_variant(name: str, cache: Path, flutter_guess: tuple[float, float]) -> d
     slopes = static_slopes(fluid, counter)
     solid = Solid(mass_ratio=MASS_RATIO, reduced_velocity=flutter_guess[1])
     modes = wake_modes(fluid, counter)
-    flutter = transfer_flutter_point(fluid, solid, flutter_guess[0], counter=counter, max_iterations=40)
+    try:
+        flutter = transfer_flutter_point(fluid, solid, flutter_guess[0], counter=counter, max_iterations=40)
+        flutter_velocity, flutter_frequency, flutter_error = flutter.reduced_velocity, flutter.frequency, None
+    except ConvergenceError as exc:  # e.g. the flutter mode hybridised with free-stream modes
+        flutter_velocity, flutter_frequency, flutter_error = math.nan, math.nan, str(exc)
     return {
         "variant": name,
         "preset": preset,
@@ -132,8 +154,9 @@ def run_variant(name: str, cache: Path, flutter_guess: tuple[float, float]) -> d
         ),
         "wake_mode": wake_mode(modes),
         "wake_modes": [[v.real, v.imag, share] for v, share in modes],
-        "flutter_velocity_m1000": flutter.reduced_velocity,
-        "flutter_frequency_m1000": flutter.frequency,
+        "flutter_velocity_m1000": flutter_velocity,
+        "flutter_frequency_m1000": flutter_frequency,
+        "flutter_error": flutter_error,
         "factorisations": counter.count,
         "wall_s": time.perf_counter() - wall0,
         "cpu_s": time.process_time() - cpu0,
