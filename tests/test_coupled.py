@@ -176,3 +176,9 @@ def test_shift_far_from_spectrum_reports_clearly(cylinder_60):
     system = CoupledSystem(cylinder_60, Solid(dofs=()))
     with pytest.raises(ConvergenceError, match="shift"):
         eigenpairs_near(system, [0.75j], 2, max_residual=1e-300)
+
+
+def test_unknown_fluid_factorisation_refused(plate_system):
+    system, _ = plate_system
+    with pytest.raises(InputError, match="fluid factorisation"):
+        FluidFactor(system.fluid, 1j, backend="magic")

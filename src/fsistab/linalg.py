@@ -27,6 +27,7 @@ from fsistab.errors import InputError
 from fsistab.operators import FluidOperators, shifted_fluid_matrix
 
 BACKENDS = ("umfpack", "superlu")
+FACTOR_BACKENDS = ("umfpack", "ngsolve")  # fsistab.umfpack, or NGSolve's Inverse(inverse="umfpack")
 
 
 @dataclass
@@ -52,6 +53,8 @@ class FluidFactor:
         counter: FactorCounter | None = None,
         backend: str = "umfpack",
     ):
+        if backend not in FACTOR_BACKENDS:
+            raise InputError(f"unknown fluid factorisation {backend!r}: choose {', '.join(FACTOR_BACKENDS)}")
         shift = complex(shift)
         self.shift = shift
         self.dtype = complex if shift.imag != 0 else float

@@ -37,9 +37,10 @@ class MeshSizes:
     in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
     ``wake_length`` downstream with half-width ``wake_half_width``, ``middle`` (if given) in the box
     ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)``, ``far`` elsewhere. The middle box grades the
-    far field: elements of the free stream around the body small enough to carry the long waves
-    that coarse far-field elements turn into weakly damped spurious modes (docs/discretisation.md),
-    and a domain large enough for the slowly decaying far field of a lifting body, at little cost.
+    far field, so that a larger domain costs little; measured on the plate (docs/discretisation.md),
+    4-chord elements beyond a 1-chord box on ``[-40, 80] × [-40, 40]`` reproduce the uniform 1-chord
+    mesh, while 8-chord elements, or 4-chord ones out to 80 chords, bring weakly damped free-stream
+    modes next to the flutter mode.
     """
 
     wall: float
