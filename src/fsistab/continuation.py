@@ -719,19 +719,22 @@ def polyline_intersections(
     q = np.asarray(second, dtype=float)
     if p.ndim != 2 or q.ndim != 2 or p.shape[1] != 2 or q.shape[1] != 2:
         raise InputError("polylines are sequences of points (x, y)")
+    if len(p) < 2 or len(q) < 2:
+        return []
+    # vectorised over the segments of the second polyline: map curves have thousands of points
+    dq = np.diff(q, axis=0)
+    b_end = np.full(len(dq), np.nextafter(1.0, 0.0))
+    b_end[-1] = 1.0
     crossings = []
     for i in range(len(p) - 1):
         dp = p[i + 1] - p[i]
-        for j in range(len(q) - 1):
-            dq = q[j + 1] - q[j]
-            det = dp[0] * (-dq[1]) - dp[1] * (-dq[0])
-            if det == 0:
-                continue
-            r = q[j] - p[i]
-            a = (r[0] * (-dq[1]) - r[1] * (-dq[0])) / det
-            b = (dp[0] * r[1] - dp[1] * r[0]) / det
-            a_end = 1.0 if i == len(p) - 2 else np.nextafter(1.0, 0.0)
-            b_end = 1.0 if j == len(q) - 2 else np.nextafter(1.0, 0.0)
-            if 0.0 <= a <= a_end and 0.0 <= b <= b_end:
-                crossings.append((p[i] + a * dp, i, float(a), j, float(b)))
+        det = dp[0] * (-dq[:, 1]) - dp[1] * (-dq[:, 0])
+        r = q[:-1] - p[i]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = (r[:, 0] * (-dq[:, 1]) - r[:, 1] * (-dq[:, 0])) / det
+            b = (dp[0] * r[:, 1] - dp[1] * r[:, 0]) / det
+        a_end = 1.0 if i == len(p) - 2 else np.nextafter(1.0, 0.0)
+        hit = (det != 0) & (a >= 0.0) & (a <= a_end) & (b >= 0.0) & (b <= b_end)
+        for j in np.nonzero(hit)[0]:
+            crossings.append((p[i] + a[j] * dp, i, float(a[j]), int(j), float(b[j])))
     return crossings

@@ -238,7 +238,7 @@ def curve_crossings(
     For a divergence curve use ``(log m, divergence_curve(...))`` on a fine grid of m.
     """
     crossings = []
-    for point, i, _, j, _ in segment_crossings(first, second):
+    for point, i, _, j, _ in polyline_intersections(first, second):
         log_mass, velocity, refined = float(point[0]), float(point[1]), False
         if refine is not None:
             try:
@@ -248,33 +248,6 @@ def curve_crossings(
                 pass
         crossings.append(CurveCrossing(math.exp(log_mass), float(velocity), (i, j), refined))
     return tuple(crossings)
-
-
-def segment_crossings(first: Sequence, second: Sequence) -> list[tuple[np.ndarray, int, float, int, float]]:
-    """:func:`fsistab.continuation.polyline_intersections` (same crossings, same order), vectorised
-    over the segments of ``second``: maps have curves of thousands of points."""
-    p = np.asarray(first, dtype=float)
-    q = np.asarray(second, dtype=float)
-    if p.ndim != 2 or q.ndim != 2 or p.shape[1] != 2 or q.shape[1] != 2:
-        return polyline_intersections(first, second)  # its error message
-    if len(p) < 2 or len(q) < 2:
-        return []
-    dq = np.diff(q, axis=0)
-    b_end = np.full(len(dq), np.nextafter(1.0, 0.0))
-    b_end[-1] = 1.0
-    crossings = []
-    for i in range(len(p) - 1):
-        dp = p[i + 1] - p[i]
-        det = dp[0] * (-dq[:, 1]) - dp[1] * (-dq[:, 0])
-        r = q[:-1] - p[i]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a = (r[:, 0] * (-dq[:, 1]) - r[:, 1] * (-dq[:, 0])) / det
-            b = (dp[0] * r[:, 1] - dp[1] * r[:, 0]) / det
-        a_end = 1.0 if i == len(p) - 2 else np.nextafter(1.0, 0.0)
-        hit = (det != 0) & (a >= 0.0) & (a <= a_end) & (b >= 0.0) & (b <= b_end)
-        for j in np.nonzero(hit)[0]:
-            crossings.append((p[i] + a[j] * dp, i, float(a[j]), int(j), float(b[j])))
-    return crossings
 
 
 CURVE_FIELDS = {
