@@ -486,6 +486,14 @@ class ContinuationSettings:
         if self.max_iterations < 0 or self.fast_iterations < 0 or self.max_locate_iterations < 1:
             raise InputError("iteration counts must be non-negative (max_locate_iterations ≥ 1)")
 
+    @classmethod
+    def neutral_curve(cls, **fields) -> ContinuationSettings:
+        """The settings of a neutral curve (:mod:`fsistab.neutral`, :mod:`fsistab.flow_neutral`):
+        each corrector iteration costs a factorisation, so at most 12 (4 count as fast) and 8 to
+        locate an event; a curve ends at the first point beyond a bound. ``fields`` override."""
+        base = {"clip": False, "max_iterations": 12, "fast_iterations": 4, "max_locate_iterations": 8}
+        return cls(**{**base, **fields})
+
 
 def continuation(
     problem: CurveProblem,

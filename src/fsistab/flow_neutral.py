@@ -215,18 +215,13 @@ def continue_flow_neutral_curve(
             problem.problem().curve(np.array([0.0, 1.0, 1.0])),
             np.array([omega, log_u, p0]),
             np.array([0.0, 0.0, float(np.sign(direction) or 1.0)]),
-            ContinuationSettings(
+            ContinuationSettings.neutral_curve(
                 step=step,
                 min_step=min_step,
                 max_step=max_step,
                 max_points=max_points,
-                predictor="tangent",
-                clip=False,
                 tol=1e-9,
-                max_iterations=12,
-                fast_iterations=4,
                 locate_tol=1e-5,
-                max_locate_iterations=8,
             ),
             bounds={2: p_range, 1: (math.log(velocity_range[0]), math.log(velocity_range[1]))},
             events={
