@@ -25,7 +25,7 @@ The iteration stops when ``|λ_k| < tol`` or when the next secant step falls bel
 (relative to ``max(1, |p|)``); the critical value is the secant root of the last two iterates and
 the critical frequency ``ω_c`` is interpolated linearly in ``p`` between them. Each new iterate is
 rounded (:func:`rounded`, ten significant digits of Re, 1e-9 degree of α0) so that a rerun, whose
-eigenvalues may differ in their last bits (ARPACK's start vector), meets the same parameter values
+eigenvalues may differ in their last bits (another BLAS or thread count), meets the same parameter values
 and so the steady states it cached. Time is in units of ``L/U∞`` (``ω`` in ``U∞/L``),
 ``L`` the body length (chord or diameter).
 """

@@ -60,8 +60,7 @@ Re, so along α0 at fixed Re the neighbours always share it); otherwise it start
 (:func:`fsistab.steady.solve_steady`'s own continuation). The points are submitted in order of
 increasing Re and ``|α0|``, so that with N workers the first N start from rest and later ones
 usually find a finished neighbour. Which neighbour was used depends on timing; the steady state
-differs only within the Newton tolerance, so the results agree to that accuracy (and ARPACK's
-random start vector already makes eigenvalues differ in their last digits from run to run).
+differs only within the Newton tolerance, so the results agree to that accuracy.
 """
 
 from __future__ import annotations
