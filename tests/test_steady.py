@@ -142,3 +142,117 @@ def test_cylinder_against_reference_medium_mesh(reynolds, drag_range, length_ran
     if drag_range:
         assert drag_range[0] <= aerodynamic_coefficients(steady).drag <= drag_range[1]
     assert length_range[0] <= recirculation_length(steady) <= length_range[1]
+
+
+def _random_state(space, seed: int):
+    from ngsolve import GridFunction
+
+    state = GridFunction(space)
+    state.vec.FV().NumPy()[:] = np.random.default_rng(seed).standard_normal(space.ndof)
+    return state
+
+
+def test_written_linearisation_is_the_derivative_of_the_residual():
+    """momentum_linearisation (assembled by the Newton solver) against NGSolve's automatic
+    differentiation of momentum_form, entry by entry, at a random state and incidence."""
+    from fsistab.mesh import build_mesh
+    from fsistab.steady import SteadyProblem
+
+    problem = SteadyProblem.on(build_mesh(mesh_spec(Plate(), "coarse", 100)))
+    problem.set_flow(Flow(250, 7.0))
+    state = _random_state(problem.space, 3)
+    problem.form.AssembleLinearization(state.vec)
+    problem.base.vec.data = state.vec
+    problem.jacobian.Assemble()
+    rows, cols, derived = problem.form.mat.COO()
+    rows_w, cols_w, written = problem.jacobian.mat.COO()
+    assert np.array_equal(np.asarray(rows), np.asarray(rows_w))
+    assert np.array_equal(np.asarray(cols), np.asarray(cols_w))
+    derived, written = np.asarray(derived), np.asarray(written)
+    assert np.abs(written - derived).max() < 1e-12 * np.abs(derived).max()
+
+
+@pytest.fixture(scope="module")
+def plate_100_by_backend():
+    """The coarse plate at Re = 100, α0 = 5° from rest (Newton at Re 40, then continuation) with
+    each factorisation: fsistab.umfpack, NGSolve's UMFPACK (the former factorisation), and the
+    fallback when the library exports no UMFPACK."""
+    from fsistab import umfpack
+
+    spec = mesh_spec(Plate(), "coarse", 100)
+    results = {
+        backend: solve_steady(spec, Flow(100, 5.0), backend=backend) for backend in ("umfpack", "ngsolve")
+    }
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(umfpack, "available", lambda: False)
+        patch.setattr(umfpack, "LU", None)  # a call would fail: the fallback must not use it
+        results["fallback"] = solve_steady(spec, Flow(100, 5.0), backend="umfpack")
+    return results
+
+
+@pytest.mark.parametrize("other", ["ngsolve", "fallback"])
+def test_factorisation_backends_give_the_same_steady_state(plate_100_by_backend, other):
+    ours, theirs = plate_100_by_backend["umfpack"], plate_100_by_backend[other]
+    x, y = ours.state.vec.FV().NumPy(), theirs.state.vec.FV().NumPy()
+    assert np.linalg.norm(x - y) < 1e-8 * np.linalg.norm(y)
+    assert ours.path == theirs.path
+    assert ours.factorisations == theirs.factorisations > sum(n for *_, n in ours.path)  # + Newton at Re 40
+    assert ours.history[-1] < 1e-9 and theirs.history[-1] < 1e-9
+
+
+def test_one_symbolic_analysis_per_mesh(monkeypatch):
+    """Every Newton step of a continuation from rest reuses one UMFPACK symbolic analysis: the
+    library's Analysis is counted where it is made, whoever makes it (LU makes its own when
+    handed none or a mismatched one)."""
+    from fsistab import umfpack
+
+    if not umfpack.available():
+        pytest.skip("NGSolve's wheel exports no UMFPACK")
+    made, factorised = [], []
+    analysis_init, lu_init = umfpack.Analysis.__init__, umfpack.LU.__init__
+
+    def counting_analysis(self, *args, **kwargs):
+        made.append(self)
+        analysis_init(self, *args, **kwargs)
+
+    def counting_lu(self, *args, **kwargs):
+        lu_init(self, *args, **kwargs)
+        factorised.append(self.analysis)
+
+    monkeypatch.setattr(umfpack.Analysis, "__init__", counting_analysis)
+    monkeypatch.setattr(umfpack.LU, "__init__", counting_lu)
+    spec = mesh_spec(Plate(), "coarse", 400)
+    steady = solve_steady(spec, Flow(400))
+    assert len(steady.path) >= 2  # Newton at Re 40 and at least two continuation steps
+    assert len(factorised) == steady.factorisations > 10
+    assert len(made) == 1
+    assert all(analysis is made[0] for analysis in factorised)
+    again = solve_steady(mesh_spec(Cylinder(), "coarse", 40), Flow(40))  # another mesh: its own analysis
+    assert len(made) == 2 and len(factorised) == steady.factorisations + again.factorisations
+
+
+def test_unknown_factorisation_is_refused_before_any_work(tmp_path):
+    from fsistab.errors import InputError
+
+    with pytest.raises(InputError, match="unknown steady factorisation 'mumps'") as error:
+        solve_steady(mesh_spec(Plate(), "coarse", 100), Flow(100), cache_dir=tmp_path, backend="mumps")
+    assert "\n" not in str(error.value)
+    assert not any(tmp_path.iterdir())  # no mesh built
+
+
+def test_loose_intermediate_steps_reach_the_same_state(plate_2900):
+    """Continuation whose intermediate steps stop at a residual of 1e-6 reaches the state of the
+    default path (every step at NEWTON_TOL) at Re = 2900, within the accuracy of NEWTON_TOL."""
+    from ngsolve import GridFunction
+
+    from fsistab.steady import NEWTON_TOL, START_REYNOLDS, SteadyProblem, continuation
+
+    problem = SteadyProblem.on(plate_2900.mesh)
+    state = GridFunction(problem.space)
+    start = Flow(START_REYNOLDS)
+    problem.newton(state, start, maxit=15)
+    history, path = continuation(problem, state, start, Flow(2900), path_tol=1e-6)
+    assert history[-1] < NEWTON_TOL and path[-1][0] == 2900
+    assert len(path) < len(plate_2900.path)  # two different paths, else this compared a run with itself
+    loose, strict = state.vec.FV().NumPy(), plate_2900.state.vec.FV().NumPy()
+    assert np.linalg.norm(loose - strict) < 1e-8 * np.linalg.norm(strict)

@@ -23,7 +23,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
-from fsistab.steady import SteadyState, momentum_form, taylor_hood_space, wall_velocity
+from fsistab.steady import (
+    SteadyState,
+    momentum_form,
+    momentum_linearisation,
+    taylor_hood_space,
+    wall_velocity,
+)
 
 SOLID_STATE = ("h", "theta", "hdot", "thetadot")
 NEAR_RADIUS = 1.0  # body lengths around G
@@ -74,22 +80,6 @@ def _linear_form_vector(space, integrand_of_test) -> np.ndarray:
     form += integrand_of_test(v, q) * dx
     form.Assemble()
     return form.vec.FV().NumPy().copy()
-
-
-def jacobian_integrand(u, p, v, q, base_velocity, grid_velocity, inv_reynolds):
-    """Linearised momentum and continuity (MODEL.md §7, ``J_ff``) as a bilinear integrand.
-
-    ``A u = (∇u)(U⁰ - W⁰) + (∇U⁰) u - Re⁻¹∇·(∇u + ∇uᵀ)``, pressure gradient, divergence.
-    """
-    from ngsolve import Grad, InnerProduct, div
-
-    return (
-        InnerProduct(Grad(u) * (base_velocity - grid_velocity), v)
-        + InnerProduct(Grad(base_velocity) * u, v)
-        + inv_reynolds * InnerProduct(Grad(u) + Grad(u).trans, Grad(v))
-        - p * div(v)
-        - q * div(u)
-    )
 
 
 @dataclass(frozen=True)
@@ -156,7 +146,7 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
     (u, p), (v, q) = space.TnT()
 
     jacobian = BilinearForm(space)
-    jacobian += jacobian_integrand(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds) * dx
+    jacobian += momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds) * dx
     jacobian.Assemble()
     mass = BilinearForm(space)
     mass += InnerProduct(u, v) * dx
@@ -221,7 +211,7 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
     form = BilinearForm(space)
     value = shift if is_complex else shift.real
     form += (
-        jacobian_integrand(u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds)
+        momentum_linearisation(u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds)
         + value * InnerProduct(u, v)
     ) * dx
     form.Assemble()

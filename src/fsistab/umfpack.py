@@ -27,11 +27,24 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from fsistab.errors import ConvergenceError
+from fsistab.errors import ConvergenceError, InputError
+
+# How a sparse matrix is factorised: this module, or NGSolve's Inverse(inverse="umfpack") (which
+# refines every solve and redoes the analysis each time; kept as the fallback and for comparison)
+BACKENDS = ("umfpack", "ngsolve")
+
+
+def check_backend(backend: str, what: str = "factorisation") -> str:
+    """``backend`` if it is one of :data:`BACKENDS`, else a one-line InputError."""
+    if backend not in BACKENDS:
+        raise InputError(f"unknown {what} {backend!r}: choose {', '.join(BACKENDS)}")
+    return backend
+
 
 _CONTROL, _INFO = 20, 90  # UMFPACK_CONTROL, UMFPACK_INFO
 _IRSTEP = 7  # Control index: steps of iterative refinement
 _SYSTEM_A = 0  # UMFPACK_A: solve A x = b
+_SYSTEM_AT = 1  # UMFPACK_At: solve Aᴴ x = b (conjugate transpose; the transpose if A is real)
 _STATUS_WARNING_SINGULAR = 1
 
 _void_p = ctypes.c_void_p
@@ -111,9 +124,9 @@ class _Pattern:
 class Analysis:
     """UMFPACK's symbolic analysis (column ordering, memory estimates) of one sparsity pattern in
     one arithmetic, reused by every :class:`LU` of a matrix with that pattern (e.g. ``J + sM`` at
-    every shift ``s``)."""
+    every shift ``s``). ``control``: UMFPACK's Control array (default :func:`_control`)."""
 
-    def __init__(self, pattern: _Pattern):
+    def __init__(self, pattern: _Pattern, control: np.ndarray | None = None):
         lib = _library()
         self.kind = pattern.kind
         self._pointers, self._rows = pattern.pointers, pattern.rows  # shared with the first LU
@@ -121,7 +134,7 @@ class Analysis:
         info = np.zeros(_INFO)
         status = getattr(lib, f"umfpack_{pattern.kind}l_symbolic")(
             pattern.size, pattern.size, pattern.pointers, pattern.rows, pattern.values, *pattern.split,
-            ctypes.byref(self._handle), _control(), info,
+            ctypes.byref(self._handle), _control() if control is None else control, info,
         )  # fmt: skip
         _check(status, "symbolic analysis")
 
@@ -136,6 +149,19 @@ class Analysis:
         lib = _library()
         if lib is not None and getattr(self, "_handle", None):
             getattr(lib, f"umfpack_{self.kind}l_free_symbolic")(ctypes.byref(self._handle))
+
+
+_STRATEGY, _STRATEGY_SYMMETRIC = 5, 3  # Control index and value: UMFPACK_STRATEGY_SYMMETRIC
+
+
+def symmetric_analysis(matrix: sp.spmatrix) -> Analysis:
+    """:class:`Analysis` with UMFPACK's symmetric strategy (ordering of ``A + Aᵀ``, diagonal pivots
+    preferred) for a pattern-symmetric matrix such as a Taylor–Hood Jacobian: numeric factorisations
+    about 30 % cheaper than with the default strategy on the coarse plate and cylinder Jacobians.
+    The strategy is kept in the analysis, so every :class:`LU` made with it follows it."""
+    control = _control()
+    control[_STRATEGY] = _STRATEGY_SYMMETRIC
+    return Analysis(_Pattern(matrix), control)
 
 
 class LU:
@@ -160,28 +186,34 @@ class LU:
     def dtype(self):
         return complex if self._pattern.complex else float
 
-    def _solve(self, b: np.ndarray) -> np.ndarray:
+    def _solve(self, b: np.ndarray, system: int = _SYSTEM_A) -> np.ndarray:
         p = self._pattern
         b = np.ascontiguousarray(b, dtype=self.dtype)
         x = np.empty_like(b)
         info = np.zeros(_INFO)
         status = getattr(_library(), f"umfpack_{p.kind}l_solve")(
-            _SYSTEM_A, p.pointers, p.rows, p.values, *p.split, x.view(np.float64), *p.split,
+            system, p.pointers, p.rows, p.values, *p.split, x.view(np.float64), *p.split,
             b.view(np.float64), *p.split, self._handle, self._control, info,
         )  # fmt: skip
         _check(status, "solve")
         return x
 
-    def solve(self, b: np.ndarray, refine: bool = True) -> np.ndarray:
+    def solve(self, b: np.ndarray, refine: bool = True, transpose: bool = False) -> np.ndarray:
         """``A⁻¹ b`` for one vector in the matrix's arithmetic (a complex ``b`` with a real matrix
         is solved as two real systems). ``refine``: one step of iterative refinement,
         ``x ← x + A⁻¹(b − A x)`` (one product and one more solve; relative residual about 1e-12
-        instead of 1e-7 on the plate Jacobians)."""
+        instead of 1e-7 on the plate Jacobians). ``transpose``: solve ``Aᴴ x = b`` instead (the
+        conjugate transpose, UMFPACK_At) with the same factors, e.g. for adjoint modes."""
         b = np.asarray(b)
         if b.ndim != 1 or b.shape[0] != self._pattern.size:
             raise ValueError(f"right-hand side of shape {b.shape} for a matrix of size {self._pattern.size}")
         if not self._pattern.complex and np.iscomplexobj(b):
-            return self.solve(b.real, refine) + 1j * self.solve(b.imag, refine)
+            return self.solve(b.real, refine, transpose) + 1j * self.solve(b.imag, refine, transpose)
+        if transpose:
+            x = self._solve(b, _SYSTEM_AT)
+            if refine:  # Aᴴ x = conj(Aᵀ conj(x)): a CSR view of the CSC matrix, no copy
+                x += self._solve(b - np.conj(self._pattern.matrix.T @ np.conj(x)), _SYSTEM_AT)
+            return x
         x = self._solve(b)
         if refine:
             x += self._solve(b - self._pattern.matrix @ x)
