@@ -2,6 +2,9 @@
 arrows) and compared with the values it was given; the solid motion is checked against its
 complex amplitudes."""
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -78,6 +81,30 @@ def test_mode_snapshot_draws_the_motion_of_the_mode(plate_mode, tmp_path, figure
         np.testing.assert_allclose(heave.V, [scale * h], rtol=1e-12)
         np.testing.assert_allclose(pitch.V, [-scale * theta / 2, scale * theta / 2], rtol=1e-12)
         assert _has_line(ax, [-0.5, 0.5], [scale * (h - theta / 2), scale * (h + theta / 2)])
+        # the body, filled, and its outline displaced by h e_y + θ e_z∧X at the same scale
+        outline = plots.sample_mesh(steady.mesh, 2, ((-1.0, 2.0), (-0.75, 0.75))).outline[0]
+        body, moved = _patch_vertices(ax, "0.55"), _patch_vertices(ax, "none")
+        assert len(body) == len(moved) == 1
+        np.testing.assert_allclose(body[0], outline[:-1], atol=1e-12)
+        x, y = outline[:, 0], outline[:, 1]
+        expected = np.column_stack([x - scale * theta * y, y + scale * (h + theta * x)])
+        np.testing.assert_allclose(moved[0], expected[:-1], atol=1e-12)
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert f"displaced body (×{scale:.3g})" in labels
+
+
+def _patch_vertices(ax, facecolour):
+    """Vertices of the polygons of ``ax`` filled with ``facecolour`` ("none": outlines only), in
+    data coordinates (closing point dropped)."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Polygon
+
+    rgba = to_rgba(facecolour)
+    return [
+        p.get_xy()[:-1] if np.allclose(p.get_xy()[0], p.get_xy()[-1]) else p.get_xy()
+        for p in ax.patches
+        if isinstance(p, Polygon) and np.allclose(p.get_facecolor(), rgba)
+    ]
 
 
 def test_mode_pressure_follows_the_phase(plate_mode):
@@ -273,33 +300,271 @@ def test_theodorsen_figure_draws_curves_viscous_map_and_errors(tmp_path, figures
     assert np.isfinite(ds.comparison_relative_error.values).all()
 
 
-def test_map_figure_legend_names_the_kinds_and_ticks_the_unstable_sides(tmp_path, figures):
+def test_map_figure_legend_names_the_kinds_and_bands_the_unstable_sides(tmp_path, figures):
     """The legend of the map figure names both families (flutter, viv), the codimension-two points
-    (★) and the unstable-side ticks, which go from a curve point towards larger U* where the side
-    is +1 and towards smaller U* where it is −1."""
+    (★) and the unstable-side bands, and lies under the axes; a band goes along each segment whose
+    two ends have the same unstable side, from the curve towards larger U* (side +1) or smaller U*
+    (side −1), and a segment whose ends disagree has none."""
+    from matplotlib.collections import PolyCollection
+
+    ds = _sided_map_dataset([(1, 1, -1), (-1, -1)])
+    plots.plot_map(ds, tmp_path / "map.png")
+    fig = figures[-1]
+    ax = fig.axes[0]
+    legend = ax.get_legend()
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert {"flutter", "viv", "codimension two", "unstable side", "divergence"} <= set(labels)
+    fig.draw_without_rendering()
+    assert legend.get_window_extent().y1 < ax.get_window_extent().y0  # under the axes
+    bands = [c for c in ax.collections if isinstance(c, PolyCollection) and c.get_gid() == "side"]
+    quads = sorted((p.vertices[:4] for band in bands for p in band.get_paths()), key=lambda q: q[0, 0])
+    step = plots.SIDE_BAND
+    expected = [
+        [(1, 0.07), (3, 0.08), (3, 0.08 / step), (1, 0.07 / step)],  # viv, side -1: below
+        [(500, 3.1), (1000, 4.4), (1000, 4.4 * step), (500, 3.1 * step)],  # flutter 1st segment: above
+    ]  # the flutter segment (1000, 2000) changes side: no band
+    assert len(quads) == 2
+    for quad, want in zip(quads, expected, strict=True):
+        np.testing.assert_allclose(quad, want, rtol=1e-12)
+
+
+def _sided_map_dataset(sides, unresolved=()):
     from fsistab.neutral import NeutralMap, neutral_map_dataset
 
     ds = _map_dataset()
     result = NeutralMap(
         tuple(
-            c.__class__(**{**c.__dict__, "unstable_sides": sides})
-            for c, sides in zip(_map_result().curves, [(1, 1, -1), (-1, 1)], strict=True)
+            c.__class__(**{**c.__dict__, "unstable_sides": side})
+            for c, side in zip(_map_result().curves, sides, strict=True)
         ),
         ds.mass_ratio.values,
         ds.divergence_reduced_velocity.values,
         1.56,
         _map_result().crossings,
         0,
+        tuple(unresolved),
     )
-    ds = neutral_map_dataset(result, dict(ds.attrs))
+    return neutral_map_dataset(result, dict(ds.attrs))
+
+
+def test_map_figure_lists_the_unresolved_intervals_and_shades_the_counts(tmp_path, figures):
+    """At any α0 a transfer map may leave frequency intervals unresolved: they are listed (the
+    first UNRESOLVED_LISTED, the others counted) under the legend; the unstable counts are shaded
+    with one legend entry per level."""
+    unresolved = [(0.1 * k, 0.1 * k + 0.05, f"reason {k}") for k in range(1, 7)]
+    ds = _sided_map_dataset([(1, 1, 1), (1, 1)], unresolved)
+    m, u = np.geomspace(1, 2000, 20), np.geomspace(0.05, 10, 30)
+    counts = (u[:, None] > 0.23 * np.sqrt(m)[None, :]).astype(int) + (u[:, None] > 5.0)
+    ds = ds.assign_coords(grid_mass_ratio=m, grid_reduced_velocity=u).assign(
+        unstable_count=(("grid_reduced_velocity", "grid_mass_ratio"), counts)
+    )
     plots.plot_map(ds, tmp_path / "map.png")
+    fig = figures[-1]
+    (note,) = [t.get_text() for t in fig.texts]
+    listed = unresolved[: plots.UNRESOLVED_LISTED]
+    assert note.startswith(f"{len(unresolved)} unresolved frequency intervals")
+    for low, high, reason in listed:
+        assert f"ω ∈ [{low:.4g}, {high:.4g}]: {reason}" in note
+    assert "reason 6" not in note and f"and {len(unresolved) - len(listed)} more" in note
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert {"1 unstable mode", "2 unstable modes", "≥ 3 unstable modes"} <= set(labels)
+    assert "static divergence" not in labels  # the counts include it
+
+
+# --- fields on subdivided triangles, the body, the zero line ----------------------------------------
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_subdivision_tiles_the_triangle(n):
+    counts, triangles = plots.subdivision(n)
+    assert len(counts) == (n + 1) * (n + 2) // 2 and len(triangles) == n * n
+    assert (counts.sum(axis=1) == n).all() and (counts >= 0).all()
+    assert len({tuple(c) for c in counts.tolist()}) == len(counts)
+    xi, eta = counts[:, 0] / n, counts[:, 1] / n
+    a, b, c = (np.column_stack([xi, eta])[triangles[:, k]] for k in range(3))
+    signed = 0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (c - a)[:, 0] * (b - a)[:, 1])
+    # n² triangles of one orientation and equal area tile the reference triangle (area 1/2)
+    np.testing.assert_allclose(signed, 0.5 / n**2, rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def square_mesh():
+    from netgen.geom2d import unit_square
+    from ngsolve import Mesh
+
+    return Mesh(unit_square.GenerateMesh(maxh=0.3))
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_sampled_p2_field_is_exact_at_the_new_nodes(square_mesh, n):
+    """A P2 field (exactly representable: its interpolant is itself) is reproduced at every node of
+    the subdivision, edge midpoints and interior points included, to round-off; the nodes are those
+    of a continuous Pn Lagrange space (shared between neighbours: NGSolve's H1 order-n dof count)
+    and the sub-triangles cover the square."""
+    from ngsolve import H1, GridFunction, x, y
+
+    space = H1(square_mesh, order=2)
+    field = GridFunction(space)
+    field.Set(1 + x - 2 * y + 3 * x * x - 4 * x * y + 0.5 * y * y)
+    sampled = plots.sample_mesh(square_mesh, n)
+    tri = sampled.triangulation
+    exact = 1 + tri.x - 2 * tri.y + 3 * tri.x**2 - 4 * tri.x * tri.y + 0.5 * tri.y**2
+    np.testing.assert_allclose(sampled.values(field), exact, atol=1e-12)
+    assert len(tri.x) == H1(square_mesh, order=n).ndof
+    assert len(tri.triangles) == n * n * square_mesh.ne
+    corners = np.stack([tri.x[tri.triangles], tri.y[tri.triangles]], axis=2)
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (c - a)[:, 0] * (b - a)[:, 1])
+    assert area.sum() == pytest.approx(1.0, rel=1e-12)
+    assert not sampled.on_wall.any() and sampled.outline == ()  # no wall on the unit square
+
+
+def _plate_distance(points, plate=None):
+    """Signed distance to the plate (a rounded rectangle of chord 1, thickness 1/20, corner
+    radius 0.1 × thickness), negative inside."""
+    e = 1.0 / 20.0
+    r = 0.1 * e
+    q = np.abs(np.asarray(points, dtype=float)) - np.array([0.5 - r, e / 2 - r])
+    return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0) - r
+
+
+def test_body_outline_is_the_closed_curved_wall(plate_mode):
+    """The outline of the plate is one closed counter-clockwise polygon through every wall node of
+    the subdivision, on the exact (curved) wall, enclosing the plate's area ``e − (4 − π) r²``; the
+    straight-cornered rectangle would differ by 4e-4."""
+    steady = plate_mode[0]
+    sampled = plots.sample_mesh(steady.mesh, 4, ((-1.0, 2.0), (-0.5, 0.5)))
+    (outline,) = sampled.outline
+    np.testing.assert_array_equal(outline[0], outline[-1])
+    assert len(outline) - 1 == sampled.on_wall.sum()
+    assert len(np.unique(outline[:-1].round(12), axis=0)) == len(outline) - 1
+    x, y = outline[:, 0], outline[:, 1]
+    assert 0.5 * np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]) > 0  # counter-clockwise
+    assert np.abs(_plate_distance(outline)).max() < 1e-5  # the mesh file rounds coordinates to ~1e-6
+    e, r = 1 / 20, 0.1 / 20
+    assert plots.polygon_area(outline) == pytest.approx(e - (4 - np.pi) * r * r, rel=2e-5)
+
+
+def test_steady_figure_zero_line_stays_off_the_wall(plate_mode, tmp_path, figures):
+    """The zero streamwise-velocity line is drawn in the flow (the recirculation behind the blunt
+    trailing edge at Re = 500) but nowhere along the wall, where the no-slip velocity vanishes and
+    an unmasked zero contour follows it; the body is drawn filled from the curved wall."""
+    from matplotlib.contour import QuadContourSet
+    from matplotlib.tri import TriContourSet
+
+    steady = plate_mode[0]
+    path = plots.plot_streamwise_velocity(steady, tmp_path / "steady.png")
+    assert _is_png(path)
     ax = figures[-1].axes[0]
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert {"flutter", "viv", "codimension two", "unstable side", "divergence"} <= set(labels)
-    step = plots.SIDE_TICK_LENGTH
-    flutter_ticks = (
-        [500, 500, np.nan, 1000, 1000, np.nan, 2000, 2000, np.nan],
-        [3.1, 3.1 * step, np.nan, 4.4, 4.4 * step, np.nan, 6.2, 6.2 / step, np.nan],
+    line_sets = [c for c in ax.collections if isinstance(c, TriContourSet) and not c.filled]
+    assert not any(isinstance(c, QuadContourSet) for c in ax.collections)
+    (zero,) = line_sets
+    drawn = np.concatenate([p.vertices for p in zero.get_paths()])
+    assert len(drawn) > 0 and np.abs(drawn[:, 1]).max() < 0.1 and drawn[:, 0].min() > 0.4
+    assert _plate_distance(drawn).min() > 1e-4
+    # the same contour without the mask runs along the wall
+    sampled = plots.sample_mesh(steady.mesh, 4, ((-1.0, 3.0), (-0.8, 0.8)))
+    from fsistab.forces import streamwise_direction
+    from fsistab.steady import wall_velocity
+
+    d = streamwise_direction(steady.flow.theta0)
+    relative = (sampled.values(steady.velocity) - np.array(wall_velocity(steady.flow.theta0))) @ d
+    np.testing.assert_allclose(relative[sampled.on_wall], 0.0, atol=1e-12)
+    (body,) = _patch_vertices(ax, "0.55")
+    np.testing.assert_allclose(body, sampled.outline[0][:-1], atol=1e-12)
+
+
+def test_displaced_outline_is_the_rigid_displacement():
+    """``X + h e_y + θ e_z∧X``: the edges ``(∓1/2, 0)`` move by ``h ∓ θ/2`` along Y (the pitch
+    arrows), a point above G moves back by ``θ Y``."""
+    outline = np.array([[-0.5, 0.0], [0.5, 0.0], [0.0, 0.025], [-0.5, 0.0]])
+    moved = plots.displaced_outline(outline, 0.1, 0.2)
+    np.testing.assert_allclose(moved[:2], [[-0.5, 0.1 - 0.1], [0.5, 0.1 + 0.1]], atol=1e-15)
+    np.testing.assert_allclose(moved[2], [-0.2 * 0.025, 0.125], atol=1e-15)
+    assert plots.mode_display_scale("plate", np.array([0.1, -1.0])) == pytest.approx(0.5)
+    assert plots.mode_display_scale("cylinder", np.array([0.1, -1.0])) == pytest.approx(2.5)
+    assert plots.mode_display_scale("plate", np.zeros(2)) == 0.0
+
+
+# --- style and output format -----------------------------------------------------------------------
+
+
+def test_style_is_applied_inside_and_restored_after(tmp_path, figures):
+    """Whatever the caller's rcParams, a figure gets the sizes of FIGURE_STYLE, and the caller's
+    rcParams are intact afterwards, also when the body of the context raises."""
+    import matplotlib as mpl
+
+    u = np.linspace(3, 12, 4)
+    ds = xr.Dataset(
+        {
+            "growth_rate": (("reduced_velocity", "branch"), -np.ones((4, 1))),
+            "frequency": (("reduced_velocity", "branch"), np.ones((4, 1))),
+        },
+        coords={"reduced_velocity": u, "branch": ["a"]},
     )
-    viv_ticks = ([1, 1, np.nan, 3, 3, np.nan], [0.07, 0.07 / step, np.nan, 0.08, 0.08 * step, np.nan])
-    assert _has_line(ax, *flutter_ticks) and _has_line(ax, *viv_ticks)
+    with mpl.rc_context({"font.size": 17.0, "axes.labelsize": 23.0, "axes.titlesize": 21.0}):
+        before = dict(mpl.rcParams)
+        plot_branches(ds, tmp_path / "b.png")
+        ax = figures[-1].axes[0]
+        assert ax.xaxis.label.get_fontsize() == plots.FIGURE_STYLE["axes.labelsize"] != 23.0
+        assert ax.title.get_fontsize() == plots.FIGURE_STYLE["axes.titlesize"] != 21.0
+        assert dict(mpl.rcParams) == before
+        with pytest.raises(RuntimeError), plots.figure_style({"font.size": 6.0}):
+            assert mpl.rcParams["font.size"] == 6.0
+            assert mpl.rcParams["axes.labelsize"] == plots.FIGURE_STYLE["axes.labelsize"]
+            raise RuntimeError
+        assert dict(mpl.rcParams) == before
+
+
+def _save_empty(path):
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1], label="line")
+    ax.set_title("α0 = 2.5°")
+    return plots.save_figure(fig, path)
+
+
+def test_vector_formats_are_written_atomically_and_valid(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    with plots.figure_format("pdf"):
+        pdf = _save_empty(tmp_path / "steady_a2.5.png")
+        bare = _save_empty(tmp_path / "steady_a2.5")
+    with plots.figure_format("svg"):
+        svg = _save_empty(tmp_path / "map.png")
+    png = _save_empty(tmp_path / "after.png")  # the format does not outlive its context
+    assert pdf == tmp_path / "steady_a2.5.pdf" and bare == tmp_path / "steady_a2.5.pdf"
+    assert svg == tmp_path / "map.svg" and png == tmp_path / "after.png"
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF-") and data.rstrip().endswith(b"%%EOF")
+    assert ET.parse(svg).getroot().tag == "{http://www.w3.org/2000/svg}svg"
+    assert _is_png(png)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["after.png", "map.svg", "steady_a2.5.pdf"]
+    # the same figure twice gives the same bytes (no dates written)
+    with plots.figure_format("svg"):
+        again = _save_empty(tmp_path / "again.png")
+    assert again.read_bytes() == svg.read_bytes()
+
+
+def test_unknown_format_is_refused():
+    from fsistab.errors import InputError
+
+    with pytest.raises(InputError, match="--format must be one of png, pdf, svg"):
+        with plots.figure_format("jpeg"):
+            pass
+
+
+def test_cli_format_option_writes_vector_figures(tmp_path, cache_dir):
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+
+    runner = CliRunner()
+    args = ["mesh", "--mesh", "coarse", "--Re", "500", "--cache", str(cache_dir), "--json"]
+    result = runner.invoke(app, [*args, "--out", str(tmp_path), "--format", "pdf"])
+    assert result.exit_code == 0, result.output
+    figure = Path(json.loads(result.stdout)["figure"])
+    assert figure.suffix == ".pdf" and figure.read_bytes().startswith(b"%PDF-")
+    bad = runner.invoke(app, [*args, "--out", str(tmp_path / "bad"), "--format", "jpg"])
+    assert bad.exit_code == 2 and "--format must be one of png, pdf, svg" in bad.output

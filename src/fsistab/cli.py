@@ -125,6 +125,12 @@ OUTPUT_OPTIONS = {
         None,
     ),
 }
+FIGURE_OPTIONS = {
+    "figure_format": (
+        Annotated[str, typer.Option("--format", help="figure format: png, pdf or svg (vector)")],
+        "png",
+    ),
+}
 SOLID_OPTIONS = {
     "freq_ratio": (Annotated[float, typer.Option("--freq-ratio", help="Ω = ω_h/ω_θ")], 0.8),
     "zeta_h": (Annotated[float, typer.Option("--zeta-h", help="heave damping ratio")], 0.0),
@@ -205,7 +211,8 @@ def command(*groups: dict, name: str | None = None, **settings):
         def wrapper(**values):
             opts = Options(**{key: values.pop(key) for key in names})
             try:
-                return func(opts, **values)
+                with _figure_format(getattr(opts, "figure_format", None)):
+                    return func(opts, **values)
             except FsistabError as exc:
                 _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
             except OSError as exc:  # e.g. the disk filled up during the run
@@ -222,6 +229,15 @@ def command(*groups: dict, name: str | None = None, **settings):
 
 
 # --- what every command does around its workflow -----------------------------------------------------
+
+
+def _figure_format(fmt: str | None):
+    """The figures of a command with ``--format`` are written in that format (fsistab.plots)."""
+    if fmt is None:
+        return contextlib.nullcontext()
+    from fsistab import plots
+
+    return plots.figure_format(fmt)
 
 
 def _missing(path: Path) -> list[Path]:
@@ -291,10 +307,23 @@ def _table(title: str, columns, rows):
     return table
 
 
+def _threshold_sweep(opts, velocity_range, points, wake_shift, what: str):
+    """``(case, sweep, solid)`` of a command that finds every threshold along U* at one mass ratio
+    (the body's default when ``--mass-ratio`` is not given); ``what`` names it in the error."""
+    case = opts.case()
+    mass = params.DEFAULT_MASS_RATIO[case.kind] if opts.mass_ratio is None else opts.mass_ratio
+    wake = None if wake_shift is None else params.parse_complex("wake shift", wake_shift)
+    sweep = params.SweepSettings(velocity_range, points, wake, mass)
+    solid = opts.solid(case.kind, reduced_velocity=sweep.velocity_range[0])
+    if not solid.dofs:
+        raise InputError(f"{what} need at least one solid degree of freedom (--dofs)")
+    return case, sweep, solid
+
+
 # --- commands -----------------------------------------------------------------------------------------
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS)
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
 def mesh(opts):
     """Build (or reuse) a mesh; print its size and save a picture."""
     from fsistab import workflows
@@ -314,7 +343,7 @@ def mesh(opts):
     _print(_table(title, ("quantity", "value"), rows), f"figure: {payload['figure']}")
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS)
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
 def steady(opts):
     """Steady flow around the fixed body: coefficients, recirculation length, Newton history."""
     from fsistab import workflows
@@ -345,7 +374,9 @@ def steady(opts):
     _print(*lines, f"({'cache' if p['from_cache'] else work}) figure: {p['figure']}")
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, MASS_OPTION, VELOCITY_OPTION, SOLID_OPTIONS, DOFS_OPTION)
+@command(
+    CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, MASS_OPTION, VELOCITY_OPTION, SOLID_OPTIONS, DOFS_OPTION
+)
 def spectrum(
     opts,
     shift: Annotated[list[str] | None, typer.Option("--shift", help="complex shift, repeatable")] = None,
@@ -395,7 +426,7 @@ def spectrum(
 _SLOPES_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", "reynolds")}
 
 
-@command(_SLOPES_CASE, OUTPUT_OPTIONS)
+@command(_SLOPES_CASE, OUTPUT_OPTIONS, FIGURE_OPTIONS)
 def slopes(
     opts,
     reynolds: Annotated[list[float], typer.Option("--Re", help="Reynolds numbers: --Re 10 100 1000")],
@@ -440,13 +471,7 @@ def critical(
 ):
     """Every instability threshold along U* at one mass ratio (MODEL.md §8): branch tracking,
     then Newton on the augmented system at each crossing; divergence from the static system."""
-    case = opts.case()
-    mass = params.DEFAULT_MASS_RATIO[case.kind] if opts.mass_ratio is None else opts.mass_ratio
-    wake = None if wake_shift is None else params.parse_complex("wake shift", wake_shift)
-    sweep = params.SweepSettings(velocity_range, points, wake, mass)
-    solid = opts.solid(case.kind, reduced_velocity=sweep.velocity_range[0])
-    if not solid.dofs:
-        raise InputError("critical points need at least one solid degree of freedom (--dofs)")
+    case, sweep, solid = _threshold_sweep(opts, velocity_range, points, wake_shift, "critical points")
     out, cache = _prepare(opts, [case])
     from fsistab import workflows
 
@@ -462,6 +487,7 @@ def critical(
         for t in p["critical_points"]
     ]
     lo, hi = sweep.velocity_range
+    mass = sweep.mass_ratio
     title = f"thresholds: {case.kind}, Re = {case.flow.reynolds:g}, m = {mass:g}, U* in [{lo:g}, {hi:g}]"
     columns = ("kind", "boundary", "U*_c", "ω_c", "ω_c U*_c")
     _print(
@@ -561,7 +587,7 @@ MAP_OPTIONS = {
 }
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, SOLID_OPTIONS, MAP_OPTIONS)
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, SOLID_OPTIONS, MAP_OPTIONS)
 def neutral(opts):
     """Stability map in the (m, U*) plane (MODEL.md §8): flutter and VIV neutral curves, the
     divergence curve, turning points and codimension-two crossings.
@@ -640,7 +666,7 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
     return lines
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, MASS_OPTION, SOLID_OPTIONS, name="flow-neutral")
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, MASS_OPTION, SOLID_OPTIONS, name="flow-neutral")
 def flow_neutral(
     opts,
     parameter: Annotated[str, typer.Option("--parameter", help="reynolds or alpha0")] = "alpha0",
@@ -695,7 +721,7 @@ _THEODORSEN_SOLID = {
 _THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k != "body"}
 
 
-@command(_THEODORSEN_SOLID, _THEODORSEN_CASE, OUTPUT_OPTIONS)
+@command(_THEODORSEN_SOLID, _THEODORSEN_CASE, OUTPUT_OPTIONS, FIGURE_OPTIONS)
 def theodorsen(
     opts,
     mass_ratio: Annotated[float, typer.Option("--mass-ratio", help="m = m_solid/(½ρc²)")] = 1000.0,
@@ -813,7 +839,7 @@ def _theodorsen_map_report(ds, p: dict, settings) -> list:
     return lines
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS)
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
 def transfer(
     opts,
     k_range: Annotated[
@@ -948,6 +974,7 @@ def _study_lists(args: list[str]) -> dict[str, list[float]]:
 @command(
     _STUDY_CASE,
     OUTPUT_OPTIONS,
+    FIGURE_OPTIONS,
     SOLID_OPTIONS,
     DOFS_OPTION,
     context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
@@ -1081,6 +1108,47 @@ def _study_report(ds, p: dict) -> list:
         f"data {p['data']}"
     )
     return lines
+
+
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, MASS_OPTION, SOLID_OPTIONS, DOFS_OPTION)
+def sensitivity(
+    opts,
+    velocity_range: VelocityRange = (2.0, 10.0),
+    points: Points = 24,
+    wake_shift: Annotated[
+        str | None,
+        typer.Option("--wake-shift", help="shift near the wake mode: follow it (VIV), map the fixed body's"),
+    ] = None,
+):
+    """Every threshold along U* with its derivatives dU*_c/dp for p in Re, α0 (per degree), m, Ω,
+    ζ_h, ζ_θ, r_θ (adjoint, implicit function theorem), and where a steady force or a small control
+    cylinder moves each threshold most (maps: NetCDF, VTK, figure; docs/how-to/sensitivity.md)."""
+    case, sweep, solid = _threshold_sweep(opts, velocity_range, points, wake_shift, "threshold sensitivities")
+    from fsistab import umfpack, workflows
+
+    if not umfpack.available():
+        raise InputError("adjoint solves need UMFPACK's transposed solve, which this NGSolve wheel lacks")
+    out, cache = _prepare(opts, [case])
+    with _running() as progress:
+        ds = workflows.sensitivity(case, solid, sweep, cache, out, progress)
+    p = workflows.payload("sensitivity", ds)
+    if opts.as_json:
+        return _emit(p)
+    names = [str(n) for n in ds.parameter.values]
+    rows = [
+        (t["kind"], f"{t['reduced_velocity']:.6g}", *(f"{t['derivatives'][n]:+.4g}" for n in names))
+        for t in p["thresholds"]
+    ]
+    flow = case.flow
+    mass = sweep.mass_ratio
+    title = f"dU*_c/dp: {case.kind}, Re = {flow.reynolds:g}, α0 = {flow.alpha0_deg:g}°, m = {mass:g}"
+    lines = [_table(title, ("kind", "U*_c", *names), rows)]
+    for target, best in p["best_control"].items():
+        gain = ", ".join(f"{k} {v:+.4g}" for k, v in best.items() if k not in ("x", "y"))
+        where = f"X = {best['x']:.3g}, Y = {best['y']:.3g}"
+        lines.append(f"{target}: a control cylinder helps most at {where} ({gain})")
+    lines.append(f"{p['factorisations']} factorisations; data {p['data']}; maps {p['maps']}")
+    _print(*lines)
 
 
 def main() -> None:  # pragma: no cover - console entry point

@@ -1,8 +1,19 @@
-"""Figures: one function per figure, each taking computed objects and a path (matplotlib, Agg)."""
+"""Figures: one function per figure, each taking computed objects and a path (matplotlib, Agg).
+
+Every figure is drawn inside :func:`figure_style` (one set of fonts and sizes, restored afterwards)
+and written by :func:`save_figure`, atomically, as PNG or, inside :func:`figure_format`, as PDF or
+SVG. Fields of the finite-element solution are evaluated by NGSolve on a subdivision of each triangle
+(:func:`sample_mesh`), so that contours of the P2 velocity are smooth, and the body is drawn filled
+from the (curved) wall of the mesh.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import functools
 from pathlib import Path
+from types import MappingProxyType
 from typing import NamedTuple
 
 import matplotlib
@@ -12,6 +23,110 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.tri as mtri  # noqa: E402
 import numpy as np  # noqa: E402
 
+# --- style and output format -------------------------------------------------------------------------
+
+_SAVE_STYLE = MappingProxyType(
+    {  # read when a file is written: save_figure sets them itself, whoever drew the figure
+        "pdf.fonttype": 42,  # TrueType in PDFs: text stays editable and searchable (journals ask for it)
+        "svg.fonttype": "path",  # SVG text as outlines: the same look without the font installed
+        "svg.hashsalt": "fsistab",  # SVG ids from a fixed salt: the same figure gives the same bytes
+    }
+)
+FIGURE_STYLE = MappingProxyType(
+    {
+        "font.size": 10.0,
+        "axes.titlesize": 10.0,
+        "axes.labelsize": 10.0,
+        "xtick.labelsize": 9.0,
+        "ytick.labelsize": 9.0,
+        "legend.fontsize": 8.5,
+        "legend.framealpha": 0.9,
+        "figure.titlesize": 11.0,
+        "lines.linewidth": 1.5,
+        "lines.markersize": 5.0,
+        "axes.linewidth": 0.8,
+        "mathtext.fontset": "dejavusans",
+        **_SAVE_STYLE,
+    }
+)
+FIGURE_FORMATS = ("png", "pdf", "svg")
+_FORMAT: contextvars.ContextVar[str | None] = contextvars.ContextVar("fsistab_figure_format", default=None)
+
+
+@contextlib.contextmanager
+def figure_style(overrides: dict | None = None):
+    """Inside, matplotlib's rcParams are those of every fsistab figure (:data:`FIGURE_STYLE`, updated
+    by ``overrides``); on exit (or an error) the previous rcParams are restored."""
+    with plt.rc_context({**FIGURE_STYLE, **(overrides or {})}):
+        yield
+
+
+def _styled(draw):
+    """Run a figure function inside :func:`figure_style`."""
+
+    @functools.wraps(draw)
+    def styled(*args, **kwargs):
+        with figure_style():
+            return draw(*args, **kwargs)
+
+    return styled
+
+
+def check_figure_format(fmt: str) -> str:
+    """``fmt`` if it is one of :data:`FIGURE_FORMATS`, else InputError (one line)."""
+    from fsistab.errors import InputError
+
+    if fmt not in FIGURE_FORMATS:
+        raise InputError(f"--format must be one of {', '.join(FIGURE_FORMATS)}, not {fmt!r}")
+    return fmt
+
+
+@contextlib.contextmanager
+def figure_format(fmt: str):
+    """Inside, :func:`save_figure` writes ``fmt`` (png, pdf or svg) whatever the image suffix of the
+    path it is given (``.png`` becomes ``.pdf``...); the previous format is restored on exit. A
+    context variable, so that nested or concurrent uses do not leak into each other."""
+    token = _FORMAT.set(check_figure_format(fmt))
+    try:
+        yield
+    finally:
+        _FORMAT.reset(token)
+
+
+def figure_path(path: Path) -> Path:
+    """Where :func:`save_figure` writes ``path``: with the suffix of the current
+    :func:`figure_format`, if any (an image suffix is replaced, another suffix, e.g. ``a2.5``, kept)."""
+    path = Path(path)
+    fmt = _FORMAT.get()
+    if fmt is None:
+        return path
+    if path.suffix.lower().lstrip(".") in FIGURE_FORMATS:
+        return path.with_suffix(f".{fmt}")
+    return path.with_name(f"{path.name}.{fmt}")
+
+
+_NO_DATES = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}  # same figure, same bytes
+
+
+def save_figure(fig, path: Path) -> Path:
+    """Write ``fig`` to :func:`figure_path` of ``path`` (PNG at 150 dpi, or PDF/SVG, by the suffix)
+    atomically (:func:`fsistab.store.atomic_path`: an interrupted or failed write leaves neither file
+    nor temporary), close it and return the path written."""
+    from fsistab.store import atomic_path
+
+    path = figure_path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    try:
+        # the temporary keeps the suffix last: matplotlib picks the format by it
+        with plt.rc_context(dict(_SAVE_STYLE)), atomic_path(path, path.suffix) as tmp:
+            fig.savefig(tmp, dpi=150, bbox_inches="tight", metadata=_NO_DATES.get(fmt))
+    finally:
+        plt.close(fig)
+    return path
+
+
+# --- fields of the finite-element solution on subdivided triangles -------------------------------------
+
 
 def _triangulation(mesh) -> mtri.Triangulation:
     coords = mesh.ngmesh.Coordinates()
@@ -19,30 +134,188 @@ def _triangulation(mesh) -> mtri.Triangulation:
     return mtri.Triangulation(coords[:, 0], coords[:, 1], nodes)
 
 
-def save_figure(fig, path: Path) -> Path:
-    """Write ``fig`` to ``path`` (PNG, 150 dpi) atomically (:func:`fsistab.store.atomic_path`: an
-    interrupted or failed write leaves neither file nor temporary) and close it."""
-    from fsistab.store import atomic_path
+def subdivision(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The uniform subdivision of a triangle into ``n²`` triangles: the lattice nodes as integer
+    barycentric counts ``(i, j, k)``, ``i + j + k = n`` (the node ``(i λ0 + j λ1 + k λ2)/n`` of the
+    element's vertices 0, 1, 2), and the sub-triangles as triples of node indices."""
+    if n < 1:
+        raise ValueError(f"subdivisions must be at least 1, not {n}")
+    nodes = [(i, j) for j in range(n + 1) for i in range(n + 1 - j)]
+    index = {node: k for k, node in enumerate(nodes)}
+    triangles = []
+    for j in range(n):
+        for i in range(n - j):
+            triangles.append((index[i, j], index[i + 1, j], index[i, j + 1]))
+            if i + j < n - 1:
+                triangles.append((index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]))
+    counts = np.array([(i, j, n - i - j) for i, j in nodes], dtype=np.int64)
+    return counts, np.array(triangles, dtype=np.int64)
 
-    path = Path(path)
-    try:
-        with atomic_path(path, path.suffix) as tmp:  # the suffix last: matplotlib picks the format by it
-            fig.savefig(tmp, dpi=150, bbox_inches="tight")
-    finally:
-        plt.close(fig)
-    return path
+
+class SampledMesh(NamedTuple):
+    """The triangles of a mesh (those meeting a window, and all at the wall), each subdivided into
+    ``subdivisions²`` (:func:`subdivision`), their nodes shared between neighbours.
+
+    ``triangulation`` has the physical coordinates of the nodes (the wall's curvature included);
+    ``points`` are their NGSolve MeshPoints (an element and local coordinates), so that
+    ``cf(points)`` evaluates any CoefficientFunction there without a point search; ``on_wall``
+    flags the nodes on the wall; ``outline`` is the wall as closed polygons (first point repeated
+    last), counter-clockwise, through the wall nodes.
+    """
+
+    triangulation: mtri.Triangulation
+    points: np.ndarray
+    on_wall: np.ndarray
+    outline: tuple[np.ndarray, ...]
+
+    def values(self, cf) -> np.ndarray:
+        """``cf`` at the nodes: shape ``(nodes,)`` for a scalar, ``(nodes, dim)`` otherwise."""
+        values = np.asarray(cf(self.points))
+        return values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
+
+    def wall_triangles(self) -> np.ndarray:
+        """The sub-triangles with a node on the wall (a mask for lines that must not follow it)."""
+        return self.on_wall[self.triangulation.triangles].any(axis=1)
 
 
+def _wall_edges(mesh) -> np.ndarray:
+    from ngsolve import BND
+
+    from fsistab.geometry import WALL
+
+    return np.array(
+        [[v.nr for v in e.vertices] for e in mesh.Elements(BND) if e.mat == WALL], dtype=np.int64
+    ).reshape(-1, 2)
+
+
+def sample_mesh(mesh, subdivisions: int = 4, window=None) -> SampledMesh:
+    """:class:`SampledMesh` of ``mesh``: the triangles whose bounding box meets ``window = ((x0, x1),
+    (y0, y1))`` (all if None) and those touching the wall, split into ``subdivisions²``.
+
+    A node's identity is the set of its element's vertices with nonzero barycentric count and those
+    counts, so that a node on an edge or a vertex is one node of the triangulation whichever element
+    it comes from (contour lines then run across elements). A P2 field is exact at the nodes; a
+    subdivision ``n`` draws it piecewise linearly on triangles ``n`` times smaller.
+    """
+    from ngsolve import VOL, CoefficientFunction, IntegrationRule, x, y
+
+    counts, local_triangles = subdivision(subdivisions)
+    n = subdivisions
+    vertices = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
+    coords = mesh.ngmesh.Coordinates()[:, :2]
+    walls = _wall_edges(mesh)
+    keep = np.isin(vertices, walls).any(axis=1)
+    if window is None:
+        keep[:] = True
+    else:
+        corners = coords[vertices]
+        low, high = corners.min(axis=1), corners.max(axis=1)
+        (x0, x1), (y0, y1) = window
+        keep |= (high[:, 0] >= x0) & (low[:, 0] <= x1) & (high[:, 1] >= y0) & (low[:, 1] <= y1)
+    elements = np.flatnonzero(keep)
+    # node keys: the three (vertex, count) codes sorted, a zero count coded -1
+    codes = vertices[elements][:, None, :] * (n + 1) + counts[None, :, :]
+    codes = np.where(counts[None, :, :] > 0, codes, -1)
+    codes = np.sort(codes, axis=2).reshape(-1, 3)
+    keys, first, inverse = np.unique(codes, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    # NGSolve's reference triangle: the point (ξ, η) has barycentric coordinates (ξ, η, 1 - ξ - η)
+    rule = IntegrationRule(points=[tuple(c[:2] / n) for c in counts], weights=[0.0] * len(counts))
+    every = mesh.MapToAllElements(rule, VOL)  # element-major: element e, node k at e * len(counts) + k
+    which = elements[first // len(counts)] * len(counts) + first % len(counts)
+    points = every[which]
+    xy = np.asarray(CoefficientFunction((x, y))(points))  # the deformed (curved) positions
+    triangles = inverse.reshape(len(elements), len(counts))[:, local_triangles].reshape(-1, 3)
+    triangulation = mtri.Triangulation(xy[:, 0], xy[:, 1], triangles)
+    on_wall = _on_wall(keys, n, walls)
+    return SampledMesh(triangulation, points, on_wall, _outline(keys, n, walls, xy))
+
+
+def _key_vertices(keys: np.ndarray, n: int) -> np.ndarray:
+    """The vertices of each node key (-1 where the count is zero), in key order."""
+    return np.where(keys >= 0, keys // (n + 1), -1)
+
+
+def _on_wall(keys: np.ndarray, n: int, walls: np.ndarray) -> np.ndarray:
+    """Nodes at a wall vertex or on a wall edge."""
+    nodes = _key_vertices(keys, n)
+    used = (nodes >= 0).sum(axis=1)
+    wall_vertices = np.unique(walls)
+    single = (used == 1) & np.isin(nodes[:, 2], wall_vertices)
+    edge_codes = set(map(tuple, np.sort(walls, axis=1).tolist()))
+    pairs = np.sort(nodes[:, 1:], axis=1)
+    double = (used == 2) & np.array([tuple(p) in edge_codes for p in pairs.tolist()], dtype=bool)
+    return single | double
+
+
+def _outline(keys: np.ndarray, n: int, walls: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The wall as closed counter-clockwise polygons through its vertices and edge nodes."""
+    if not len(walls):
+        return ()
+    index = {tuple(k): i for i, k in enumerate(keys.tolist())}
+
+    def node(vertex_counts) -> int:
+        codes = sorted([v * (n + 1) + c for v, c in vertex_counts] + [-1] * (3 - len(vertex_counts)))
+        return index[tuple(codes)]
+
+    neighbours: dict[int, list[int]] = {}
+    for a, b in walls.tolist():
+        neighbours.setdefault(a, []).append(b)
+        neighbours.setdefault(b, []).append(a)
+    loops, seen = [], set()
+    for start in neighbours:
+        if start in seen:
+            continue
+        previous, current, path = None, start, []
+        while True:
+            seen.add(current)
+            following = [v for v in neighbours[current] if v != previous]
+            nxt = following[0]
+            path.append(node([(current, n)]))
+            path += [node([(current, n - k), (nxt, k)]) for k in range(1, n)]
+            previous, current = current, nxt
+            if current == start:
+                break
+        polygon = xy[path + path[:1]]
+        if _signed_area(polygon) < 0:
+            polygon = polygon[::-1]
+        loops.append(polygon)
+    return tuple(loops)
+
+
+def _signed_area(polygon: np.ndarray) -> float:
+    """Shoelace area of a closed polygon (positive counter-clockwise)."""
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * float(np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]))
+
+
+def polygon_area(polygon: np.ndarray) -> float:
+    """Area enclosed by a closed polygon (first point repeated last)."""
+    return abs(_signed_area(np.asarray(polygon, dtype=float)))
+
+
+def draw_body(ax, outline, **style) -> None:
+    """The body filled (grey, black edge), drawn over the fields."""
+    from matplotlib.patches import Polygon
+
+    style = {"fc": "0.55", "ec": "k", "lw": 0.7, "zorder": 4} | style
+    for polygon in outline:
+        ax.add_patch(Polygon(polygon[:-1], closed=True, **style))
+
+
+@_styled
 def plot_mesh(mesh, path: Path, title: str = "") -> Path:
-    """The whole mesh and a close-up of the body."""
+    """The whole mesh and a close-up of the body (filled, its curved wall from :func:`sample_mesh`)."""
     tri = _triangulation(mesh)
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
-    for ax, (xlim, ylim) in zip(axes, [(None, None), ((-0.8, 1.6), (-0.6, 0.6))], strict=True):
+    close_up = ((-0.8, 1.6), (-0.6, 0.6))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    for ax, (xlim, ylim) in zip(axes, [(None, None), close_up], strict=True):
         ax.triplot(tri, lw=0.2, color="k")
         ax.set_aspect("equal")
         if xlim:
             ax.set_xlim(*xlim)
             ax.set_ylim(*ylim)
+            draw_body(ax, sample_mesh(mesh, 2, close_up).outline)
         ax.set_xlabel("X")
         ax.set_ylabel("Y")
     axes[0].set_title(title or f"{mesh.ne} triangles")
@@ -50,31 +323,76 @@ def plot_mesh(mesh, path: Path, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
-def plot_streamwise_velocity(steady, path: Path, window=None) -> Path:
-    """Relative streamwise velocity ``(U - W⁰)·d`` near the body, recirculation outlined (= 0)."""
+def _field_window(kind: str):
+    return ((-1.0, 3.0), (-0.8, 0.8)) if kind == "plate" else ((-2.0, 6.0), (-2.0, 2.0))
+
+
+def _zero_centred_levels(values: np.ndarray, low: float, high: float, count: int = 40) -> np.ndarray:
+    """About ``count`` contour levels spanning ``values`` (at least ``[low, high]``), with 0 one of
+    them, so that the sign of the field is read at the white of a diverging colour map."""
+    vmin, vmax = min(float(np.nanmin(values)), low), max(float(np.nanmax(values)), high)
+    below = max(2, round(count * -vmin / (vmax - vmin)))
+    return np.concatenate([np.linspace(vmin, 0.0, below + 1), np.linspace(0.0, vmax, count - below + 1)[1:]])
+
+
+def _streamlines(ax, tri: mtri.Triangulation, velocity: np.ndarray, window) -> None:
+    """Streamlines of ``velocity`` (at the nodes of ``tri``), interpolated linearly on its triangles
+    onto a regular grid of ``window`` (masked where no triangle is, e.g. in the body)."""
+    (x0, x1), (y0, y1) = window
+    nx = 300
+    ny = max(20, round(nx * (y1 - y0) / (x1 - x0)))
+    gx, gy = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
+    finder = tri.get_trifinder()
+    u = mtri.LinearTriInterpolator(tri, velocity[:, 0], trifinder=finder)(gx, gy)
+    v = mtri.LinearTriInterpolator(tri, velocity[:, 1], trifinder=finder)(gx, gy)
+    ax.streamplot(gx, gy, u, v, density=1.1, color="0.25", linewidth=0.5, arrowsize=0.6, zorder=3)
+
+
+@_styled
+def plot_streamwise_velocity(
+    steady, path: Path, window=None, subdivisions: int = 4, streamlines: bool = False
+) -> Path:
+    """Relative streamwise velocity ``(U - W⁰)·d`` near the body (MODEL.md §4, §6: body frame), on each
+    triangle subdivided ``subdivisions`` times (:func:`sample_mesh`; P2 is exact at the nodes), a
+    diverging colour map white at 0; the recirculation outlined by the zero line off the wall (the
+    sub-triangles touching the wall are masked for that line: there the velocity vanishes by the
+    no-slip condition); the body filled from the curved wall; with ``streamlines`` (about 2 s more on
+    the coarse mesh), those of the relative velocity ``U − W⁰`` (thin grey)."""
+    from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.ticker import MaxNLocator
+
     from fsistab.forces import streamwise_direction
     from fsistab.steady import wall_velocity
 
-    mesh = steady.mesh
-    tri = _triangulation(mesh)
-    values = np.asarray(steady.velocity(mesh(tri.x, tri.y)))
+    kind = steady.mesh_spec.body.kind
+    window = window or _field_window(kind)
+    sampled = sample_mesh(steady.mesh, subdivisions, window)
     d = streamwise_direction(steady.flow.theta0)
-    relative = (values - np.array(wall_velocity(steady.flow.theta0))) @ d
-    if window is None:
-        window = ((-1.0, 3.0), (-0.8, 0.8)) if steady.mesh_spec.body.kind == "plate" else ((-2, 6), (-2, 2))
-    fig, ax = plt.subplots(figsize=(10, 4))
-    levels = np.linspace(min(relative.min(), -0.2), max(relative.max(), 1.2), 41)
-    cs = ax.tricontourf(tri, relative, levels=levels, cmap="RdBu_r")
-    ax.tricontour(tri, relative, levels=[0.0], colors="k", linewidths=1.2)
-    fig.colorbar(cs, ax=ax, label="streamwise velocity (body frame)")
+    body_frame = sampled.values(steady.velocity) - np.array(wall_velocity(steady.flow.theta0))
+    relative = body_frame @ d
+    tri = sampled.triangulation
+    levels = _zero_centred_levels(relative, -0.2, 1.2)
+    # the free stream (≈ 1) at a middle red, not the darkest: the wake and the shear layers stand out
+    norm = TwoSlopeNorm(vmin=levels[0], vcenter=0.0, vmax=1.6 * levels[-1])
+    fig, ax = plt.subplots(figsize=(8.0, 3.6))
+    filled = ax.tricontourf(tri, relative, levels=levels, cmap="RdBu_r", norm=norm)
+    filled.set_rasterized(True)  # vector outputs stay small; lines, text and the body stay vector
+    off_wall = mtri.Triangulation(tri.x, tri.y, tri.triangles, mask=sampled.wall_triangles())
+    ax.tricontour(off_wall, relative, levels=[0.0], colors="k", linewidths=1.1)
+    if streamlines:
+        _streamlines(ax, tri, body_frame, window)
+    draw_body(ax, sampled.outline)
+    bar = fig.colorbar(filled, ax=ax, label="streamwise velocity (body frame)", shrink=0.9)
+    ticks = MaxNLocator(8).tick_values(levels[0], levels[-1])
+    bar.set_ticks(ticks[(ticks >= levels[0]) & (ticks <= levels[-1])])
     ax.set_xlim(*window[0])
     ax.set_ylim(*window[1])
     ax.set_aspect("equal")
     ax.set_xlabel("X")
     ax.set_ylabel("Y")
     ax.set_title(
-        f"{steady.mesh_spec.body.kind}, Re = {steady.flow.reynolds:g}, "
-        f"alpha0 = {steady.flow.alpha0_deg:g} deg (black: zero streamwise velocity)"
+        f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: steady flow, "
+        "recirculation inside the black line"
     )
     return save_figure(fig, path)
 
@@ -82,8 +400,11 @@ def plot_streamwise_velocity(steady, path: Path, window=None) -> Path:
 _LABEL_COLOURS = {"fluid": "tab:blue", "heave": "tab:red", "pitch": "tab:green", "coupled": "tab:purple"}
 
 
+@_styled
 def plot_spectrum(ds, path: Path, title: str = "") -> Path:
     """Eigenvalues in the (growth rate, frequency) plane, and a close-up near the neutral axis."""
+    from matplotlib.ticker import MaxNLocator
+
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
     growth, frequency, labels = ds["growth_rate"].values, ds["frequency"].values, ds["label"].values
     for ax in axes:
@@ -94,6 +415,7 @@ def plot_spectrum(ds, path: Path, title: str = "") -> Path:
         ax.axvline(0, color="k", lw=0.8)
         ax.set_xlabel("growth rate λ")
         ax.set_ylabel("frequency ω")
+        ax.xaxis.set_major_locator(MaxNLocator(6))  # long tick labels (-0.0125) would overlap
         ax.grid(alpha=0.3)
     axes[0].legend()
     axes[0].set_title(title or "spectrum")
@@ -138,22 +460,11 @@ def _mode_window(kind: str):
     return ((-1.0, 2.0), (-0.75, 0.75)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
 
 
-def _draw_body(ax, body) -> None:
-    from matplotlib.patches import Circle, FancyBboxPatch
-
-    if body.kind == "plate":
-        e = body.thickness
-        r = body.corner_radius * e
-        patch = FancyBboxPatch(
-            (-0.5 + r, -e / 2 + r), 1 - 2 * r, e - 2 * r, boxstyle=f"round,pad={r}", fc="0.6", ec="k", lw=0.6
-        )
-    else:
-        patch = Circle((0.0, 0.0), 0.5, fc="0.6", ec="k", lw=0.6)
-    ax.add_patch(patch)
-
-
-def mode_pressure(steady, fluid_index, fluid_vector: np.ndarray, phase: float = 0.0):
-    """``Re(p̂ e^{iφ})`` of a mode at the mesh vertices, with the matching triangulation.
+def mode_pressure(
+    steady, fluid_index, fluid_vector: np.ndarray, phase: float = 0.0, subdivisions: int = 2, window=None
+):
+    """``Re(p̂ e^{iφ})`` of a mode at the nodes of :func:`sample_mesh` (``subdivisions``, ``window``),
+    with that :class:`SampledMesh`.
 
     ``fluid_vector`` holds the fluid unknowns (the dofs ``fluid_index`` of ``steady.space``); the
     pressure dofs are all free, so the wall lifting of the solid states does not enter.
@@ -162,45 +473,86 @@ def mode_pressure(steady, fluid_index, fluid_vector: np.ndarray, phase: float = 
 
     field = GridFunction(steady.space)
     field.vec.FV().NumPy()[fluid_index] = (np.asarray(fluid_vector) * np.exp(1j * phase)).real
-    tri = _triangulation(steady.mesh)
-    values = np.asarray(field.components[1](steady.mesh(tri.x, tri.y))).reshape(-1)
-    return tri, values
+    sampled = sample_mesh(steady.mesh, subdivisions, window)
+    return sampled, sampled.values(field.components[1])
 
 
+def _area_quantile(tri: mtri.Triangulation, values: np.ndarray, window, q: float) -> float:
+    """The ``q`` quantile of ``values`` (at the nodes of ``tri``) over the area of ``window``: the
+    colour range of a field whose peak (a sharp edge) would otherwise wash out the rest, on meshes
+    refined near the body where most nodes lie."""
+    corners = np.stack([tri.x[tri.triangles], tri.y[tri.triangles]], axis=2)
+    centre = corners.mean(axis=1)
+    (x0, x1), (y0, y1) = window
+    inside = (centre[:, 0] >= x0) & (centre[:, 0] <= x1) & (centre[:, 1] >= y0) & (centre[:, 1] <= y1)
+    if not inside.any():
+        return float(np.max(values, initial=0.0))
+    a, b, c = corners[inside, 0], corners[inside, 1], corners[inside, 2]
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+    mean = values[tri.triangles[inside]].mean(axis=1)
+    order = np.argsort(mean)
+    cumulative = np.cumsum(area[order])
+    return float(mean[order][np.searchsorted(cumulative, q * cumulative[-1])])
+
+
+def displaced_outline(outline: np.ndarray, heave: float, pitch: float) -> np.ndarray:
+    """The outline moved by the linearised rigid displacement of a mode, heave ``h`` along ``e_y`` and
+    pitch ``θ`` about G at the origin (MODEL.md §3, §4): ``X + h e_y + θ e_z∧X = (X − θ Y, Y + h + θ X)``."""
+    outline = np.asarray(outline, dtype=float)
+    x, y = outline[:, 0], outline[:, 1]
+    return np.column_stack([x - pitch * y, y + heave + pitch * x])
+
+
+def mode_display_scale(kind: str, solid: np.ndarray) -> float:
+    """The factor drawing a mode's body displacement with its largest amplitude a quarter of the
+    body length: ``|ĥ|``, and for the plate the edges' ``|θ̂|/2`` (0 when the body does not move)."""
+    amplitude = max(abs(solid[0]), 0.5 * abs(solid[1]) if kind == "plate" and len(solid) > 1 else 0.0)
+    return 0.25 / amplitude if amplitude > 0 else 0.0
+
+
+@_styled
 def plot_mode_snapshot(
     steady, fluid_index, pair, system, path: Path, phase: float = 0.0, window=None
 ) -> Path:
-    """Pressure ``Re(p̂ e^{iφ})`` of an eigenmode near the body, with the body's motion as arrows.
+    """Pressure ``Re(p̂ e^{iφ})`` of an eigenmode near the body, with the body's motion drawn.
 
     ``pair`` is an :class:`fsistab.eigen.Eigenpair` of ``system`` (its vector holds the active solid
     states, then the fluid unknowns ``fluid_index`` of ``steady.space``). At phase ``φ`` the heave
     ``h = Re(ĥ e^{iφ})`` is drawn at G along ``e_y`` (red) and, for the plate, the pitch rotation
     ``θ = Re(θ̂ e^{iφ})`` as the displacements ``θ e_z∧X = (0, ±θ/2)`` of the leading and trailing
-    edges ``X = ∓1/2`` (green), with the displaced chord dashed. Arrows are scaled so that the
-    largest amplitude is a quarter of a body length (the scale is in the legend).
+    edges ``X = ∓1/2`` (green), with the displaced chord dashed and the displaced body outlined
+    (:func:`displaced_outline`). Displacements are scaled by :func:`mode_display_scale` (the largest
+    amplitude a quarter of a body length; the factor is in the legend).
     """
+    from matplotlib.ticker import MaxNLocator
+
     kind = steady.mesh_spec.body.kind
     n_solid = system.n_solid
-    tri, pressure = mode_pressure(steady, fluid_index, pair.vector[n_solid:], phase)
     window = window or _mode_window(kind)
-    inside = (
-        (tri.x >= window[0][0]) & (tri.x <= window[0][1]) & (tri.y >= window[1][0]) & (tri.y <= window[1][1])
-    )
-    vmax = float(np.percentile(np.abs(pressure[inside]), 99.5)) if inside.any() else 1.0
+    sampled, pressure = mode_pressure(steady, fluid_index, pair.vector[n_solid:], phase, window=window)
+    tri = sampled.triangulation
+    vmax = _area_quantile(tri, np.abs(pressure), window, 0.98)
     vmax = vmax if vmax > 0 else 1.0
-    fig, ax = plt.subplots(figsize=(10, 4.6))
+    fig, ax = plt.subplots(figsize=(8.0, 4.2))
     levels = np.linspace(-vmax, vmax, 41)
     cs = ax.tricontourf(tri, np.clip(pressure, -vmax, vmax), levels=levels, cmap="RdBu_r", extend="both")
-    fig.colorbar(cs, ax=ax, label=f"Re(p̂ e^(iφ)), φ = {phase:.3g}")
-    _draw_body(ax, steady.mesh_spec.body)
+    cs.set_rasterized(True)
+    bar = fig.colorbar(cs, ax=ax, label=f"pressure Re(p̂ e^(iφ)), φ = {phase:.3g}", shrink=0.9)
+    ticks = MaxNLocator(7, symmetric=True).tick_values(-vmax, vmax)
+    bar.set_ticks(ticks[np.abs(ticks) <= vmax])
+    draw_body(ax, sampled.outline)
 
     rotation = np.exp(1j * phase)
     h_hat, theta_hat = pair.solid[0], pair.solid[1]
     h, theta = (h_hat * rotation).real, (theta_hat * rotation).real
-    amplitude = max(abs(h_hat), 0.5 * abs(theta_hat) if kind == "plate" else 0.0)
-    if n_solid and amplitude > 0:
-        scale = 0.25 / amplitude
-        arrow = {"angles": "xy", "scale_units": "xy", "scale": 1.0, "width": 0.004, "zorder": 5}
+    scale = mode_display_scale(kind, pair.solid) if n_solid else 0.0
+    if scale > 0:
+        pitch = theta if kind == "plate" else 0.0
+        for k, polygon in enumerate(sampled.outline):
+            moved = displaced_outline(polygon, scale * h, scale * pitch)
+            label = f"displaced body (×{scale:.3g})" if k == 0 else None
+            ax.fill(moved[:, 0], moved[:, 1], fc="none", ec="tab:orange", lw=1.6, zorder=6, label=label)
+        arrow = {"angles": "xy", "scale_units": "xy", "scale": 1.0, "width": 0.004, "zorder": 7}
         ax.quiver([0.0], [0.0], [0.0], [scale * h], color="tab:red", label=f"heave h (×{scale:.3g})", **arrow)
         if kind == "plate":
             ax.quiver(
@@ -218,17 +570,17 @@ def plot_mode_snapshot(
                 "k--",
                 lw=1.0,
                 label="displaced chord",
-                zorder=5,
+                zorder=7,
             )
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, frameon=False)
     ax.set_xlim(*window[0])
     ax.set_ylim(*window[1])
     ax.set_aspect("equal")
     ax.set_xlabel("X")
     ax.set_ylabel("Y")
     ax.set_title(
-        f"{kind}, Re = {steady.flow.reynolds:g}: mode σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i "
-        f"({pair.label}), pressure at phase {phase:.3g}"
+        f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: "
+        f"σ = {pair.value.real:+.5f} + {pair.value.imag:.5f}i ({pair.label}), phase {phase:.3g}"
     )
     return save_figure(fig, path)
 
@@ -259,6 +611,7 @@ def solid_motion(value: complex, solid: np.ndarray, n: int = 201) -> tuple[np.nd
     return t, heave, alpha, period
 
 
+@_styled
 def plot_solid_motion(pair, path: Path, n: int = 201) -> SolidMotion:
     """Heave ``h(t)`` and angle of attack ``α(t) = -θ(t)`` over one period of an eigenmode.
 
@@ -283,6 +636,7 @@ def plot_solid_motion(pair, path: Path, n: int = 201) -> SolidMotion:
     return SolidMotion(save_figure(fig, path), t, heave, alpha, period)
 
 
+@_styled
 def plot_branches(
     ds, path: Path, frequency_scale=None, scale_label: str = "", reference_lines=None, title: str = ""
 ) -> Path:
@@ -319,7 +673,7 @@ def plot_branches(
     for ax in axes:
         ax.set_xlabel("reduced velocity U*")
         ax.grid(alpha=0.3)
-    axes[1].legend(fontsize=8)
+    axes[1].legend()
     axes[0].set_title(title or "eigenvalue branches (filled: unstable)")
     return save_figure(fig, path)
 
@@ -330,6 +684,51 @@ def _reciprocal(values):
     return np.divide(1.0, values, out=np.full_like(values, np.inf), where=values != 0)
 
 
+_KIND_COLOURS = {"flutter": "tab:red", "viv": "tab:blue"}
+# 1, 2, ≥ 3 unstable modes, light to dark: purples, apart from the red and blue of the curves
+_UNSTABLE_COLOURS = ("#ebe5f2", "#cbbde0", "#a38cc6")
+SIDE_BAND = 1.08  # the unstable-side band of a curve spans U* to U* · 1.08^side (log axis: constant width)
+UNRESOLVED_LISTED = 4  # unresolved intervals named on a map (the others counted)
+
+
+def _side_bands(masses, velocities, side) -> list[np.ndarray]:
+    """Quadrilaterals ``(4, 2)`` along a curve, one per segment whose two ends have the same known
+    unstable side, spanning ``U*`` to ``U* · SIDE_BAND^side`` (the side where a growth rate is
+    positive at fixed m)."""
+    if side is None:
+        return []
+    masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
+    side = np.asarray(side, dtype=int)
+    quads = []
+    for k in range(len(side) - 1):
+        if side[k] and side[k] == side[k + 1]:
+            factor = SIDE_BAND ** side[k]
+            quads.append(
+                np.array(
+                    [
+                        (masses[k], velocities[k]),
+                        (masses[k + 1], velocities[k + 1]),
+                        (masses[k + 1], velocities[k + 1] * factor),
+                        (masses[k], velocities[k] * factor),
+                    ]
+                )
+            )
+    return quads
+
+
+def _unresolved_note(unresolved) -> str:
+    """The unresolved frequency intervals of the transfer method, one line each (the first few)."""
+    unresolved = list(unresolved)
+    if not unresolved:
+        return ""
+    lines = [f"ω ∈ [{low:.4g}, {high:.4g}]: {reason}" for low, high, reason in unresolved[:UNRESOLVED_LISTED]]
+    if len(unresolved) > UNRESOLVED_LISTED:
+        lines.append(f"and {len(unresolved) - UNRESOLVED_LISTED} more")
+    header = f"{len(unresolved)} unresolved frequency intervals (curves may be missing there):"
+    return "\n".join([header, *lines])
+
+
+@_styled
 def plot_stability_map(
     curves,
     divergence,
@@ -340,81 +739,83 @@ def plot_stability_map(
     unstable=None,
     reference=(),
     sides=None,
+    unresolved=(),
 ) -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
     ``curves``: list of ``(kind, mass_ratios, reduced_velocities)`` for the dynamic neutral curves
-    (kind ``flutter`` or ``viv``), in order of arclength; ``divergence``: ``(mass_ratios,
-    reduced_velocities)``. Shaded: above the divergence curve (static instability, grey), above
-    each flutter curve (closed along the top of the plot, red) and inside each VIV curve (closed
-    by the segment joining its ends, which lie on the bounds of m, blue) — the side where a
-    growth rate is positive for the usual onset curves. ``turning_points`` (▽) and ``crossings``
-    (codimension-two points, ★) are ``(m, U*)`` pairs. ``unstable = (m, U*, count)`` (1-D, 1-D,
-    len(U*) × len(m)), when known (:func:`fsistab.transfer_map.unstable_grid`), replaces those
-    fills by the exact unstable regions, darker with more unstable modes. ``reference``: ``(m, U*)``
-    points of another method, drawn as open circles. ``sides``: per curve, the unstable side of
-    each point (+1: larger U*, −1: smaller, 0: unknown; :class:`fsistab.neutral.MapCurve`), drawn as
-    short ticks from about ``SIDE_TICKS`` points of the curve towards that side (one line of
-    ``NaN``-separated segments per curve).
+    (kind ``flutter`` or ``viv``, red and blue, numbered as in the tables when there are several), in
+    order of arclength; ``divergence``: ``(mass_ratios, reduced_velocities)``, static instability
+    above it (grey). ``sides``: per curve, the unstable side of each point (+1: larger U*, −1:
+    smaller, 0: unknown; :class:`fsistab.neutral.MapCurve`), shaded as a narrow band along the curve
+    on that side (:func:`_side_bands`): exact, and readable however many curves cross. ``unstable =
+    (m, U*, count)`` (1-D, 1-D, len(U*) × len(m)), when known
+    (:func:`fsistab.transfer_map.unstable_grid`), shades the exact unstable regions, darker with more
+    unstable modes (instead of the grey). ``turning_points`` (▽) and ``crossings`` (codimension-two
+    points, ★) are ``(m, U*)`` pairs; ``reference``: ``(m, U*)`` points of another method (open
+    circles); ``unresolved``: ``(low, high, reason)`` frequency intervals the transfer method left
+    unresolved, listed in a box. The legend is under the axes, where it hides nothing.
     """
-    colours = {"flutter": "tab:red", "viv": "tab:blue"}
-    fig, ax = plt.subplots(figsize=(7.5, 5.5))
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
+
+    fig, ax = plt.subplots(figsize=(7.0, 5.0))
     m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
     ok = np.isfinite(u_div)
     all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
+    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
     top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
+    shading = []
     if unstable is not None:
         m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
         top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
         filled = ax.contourf(
-            m_grid,
-            u_grid,
-            counts,
-            levels=[0.5, 1.5, 2.5, 99],
-            colors=["#f4c7c3", "#e8877f", "#c0392b"],
-            zorder=0,
+            m_grid, u_grid, counts, levels=[0.5, 1.5, 2.5, np.inf], colors=_UNSTABLE_COLOURS, zorder=0
         )
-        fig.colorbar(filled, ax=ax, pad=0.12, label="unstable modes", ticks=[1, 2, 3])
+        filled.set_rasterized(True)
+        names = ("1 unstable mode", "2 unstable modes", "≥ 3 unstable modes")
+        shading += [Patch(fc=c, ec="none", label=n) for c, n in zip(_UNSTABLE_COLOURS, names, strict=True)]
     if ok.any():
         ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
         if unstable is None:
-            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.85", zorder=0)
+            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.9", lw=0, zorder=0)
+            shading.append(Patch(fc="0.9", ec="none", label="static divergence"))
     labelled = set()
-    for kind, masses, velocities in curves:
+    for i, (kind, masses, velocities) in enumerate(curves):
         masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
-        colour = colours.get(kind, "tab:purple")
+        colour = _KIND_COLOURS.get(kind, "tab:purple")
         label = kind if kind not in labelled else None
         labelled.add(kind)
-        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label)
-        if len(masses) < 2 or unstable is not None:
-            continue
-        if kind == "viv":
-            ax.fill(masses, velocities, color=colour, alpha=0.2, lw=0, zorder=0)
-        else:
-            ax.fill(
-                np.concatenate([masses, [masses[-1], masses[0]]]),
-                np.concatenate([velocities, [top * 10, top * 10]]),
+        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label, zorder=3)
+        if len(curves) > 1 and len(masses):
+            middle = len(masses) // 2
+            ax.annotate(
+                str(i),
+                (masses[middle], velocities[middle]),
+                xytext=(3, 3),
+                textcoords="offset points",
                 color=colour,
-                alpha=0.12,
-                lw=0,
-                zorder=0,
+                fontweight="bold",
+                zorder=6,
             )
-    ticked = False
+    banded = False
     for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
-        ticks = _side_ticks(masses, velocities, side)
-        if ticks is not None:
-            label = None if ticked else "unstable side"
-            ax.plot(*ticks, "-", color=colours.get(kind, "tab:purple"), lw=0.9, label=label)
-            ticked = True
+        quads = _side_bands(masses, velocities, side)
+        if quads:
+            colour = _KIND_COLOURS.get(kind, "tab:purple")
+            ax.add_collection(PolyCollection(quads, fc=colour, ec="none", alpha=0.3, zorder=2, gid="side"))
+            banded = True
+    if banded:
+        shading.append(Patch(fc=_KIND_COLOURS["flutter"], ec="none", alpha=0.3, label="unstable side"))
     if len(reference):
         m_r, u_r = np.asarray(reference, dtype=float).T
-        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation")
+        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation", zorder=4)
     if len(turning_points):
         m_t, u_t = np.asarray(turning_points, dtype=float).T
-        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point")
+        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point", zorder=5)
     if len(crossings):
         m_c, u_c = np.asarray(crossings, dtype=float).T
-        ax.plot(m_c, u_c, "*", color="tab:green", ms=11, label="codimension two")
+        ax.plot(m_c, u_c, "*", color="tab:green", mec="k", mew=0.4, ms=11, label="codimension two", zorder=5)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(bottom, top)
@@ -423,30 +824,25 @@ def plot_stability_map(
     secondary = ax.secondary_yaxis("right", functions=(_reciprocal, _reciprocal))
     secondary.set_ylabel("ω_θ = 1/U*")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="upper left")
-    ax.set_title(title or "stability map (grey: static divergence)")
+    lines, names = ax.get_legend_handles_labels()
+    legend = ax.legend(
+        lines + shading,
+        names + [h.get_label() for h in shading],
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.12),
+        ncol=3,
+        frameon=False,
+    )
+    ax.set_title(title or "stability map")
+    note = _unresolved_note(unresolved)
+    if note:  # under the legend: nothing of the map is hidden
+        fig.draw_without_rendering()
+        below = legend.get_window_extent().transformed(fig.transFigure.inverted())
+        fig.text(below.x0, below.y0, note, va="top", ha="left", fontsize="small")
     return save_figure(fig, path)
 
 
-SIDE_TICKS = 12  # unstable-side ticks per curve on the map figure
-SIDE_TICK_LENGTH = 1.06  # a tick spans U* to U* · 1.06^side (log axes: the same length everywhere)
-
-
-def _side_ticks(masses, velocities, side):
-    """``(x, y)`` of the unstable-side ticks of one curve (segments separated by NaN), or None
-    when no side is known."""
-    if side is None:
-        return None
-    masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
-    side = np.asarray(side, dtype=int)
-    chosen = [k for k in np.unique(np.linspace(0, len(side) - 1, SIDE_TICKS).round().astype(int)) if side[k]]
-    if not chosen:
-        return None
-    x = np.concatenate([[masses[k], masses[k], np.nan] for k in chosen])
-    y = np.concatenate([[velocities[k], velocities[k] * SIDE_TICK_LENGTH ** side[k], np.nan] for k in chosen])
-    return x, y
-
-
+@_styled
 def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Path:
     """Neutral curves in the ``(Re, U*)`` (log Re axis) or ``(α0, U*)`` plane; ``curves`` is a list
     of ``(kind, parameter_values, reduced_velocities, fold_parameters, fold_velocities)``; turning
@@ -472,6 +868,7 @@ def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Pa
     return save_figure(fig, path)
 
 
+@_styled
 def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: str = "") -> Path:
     """Theodorsen neutral curves (:func:`fsistab.theodorsen.neutral_curves`) in log–log ``(m, U*)``.
 
@@ -516,7 +913,7 @@ def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: st
     ax.set_xlabel("mass ratio m")
     ax.set_ylabel("reduced velocity U*")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(loc="upper left")
     ax.set_title(title or "Theodorsen typical section (filled: onset, open: restabilisation)")
     if comparison is not None:
         err_ax = axes[0, 1]
@@ -532,6 +929,7 @@ def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: st
     return save_figure(fig, path)
 
 
+@_styled
 def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
     """The viscous Theodorsen function: ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` against the reduced
     frequency ``k = ω/2``, real and imaginary parts, from the linearised Navier–Stokes equations
@@ -554,17 +952,18 @@ def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
                 ax.plot(k, values, **style)
             symbol = "C_L" if coefficient == "lift" else "C_M"
             unit = "θ̂" if motion == "pitch" else "ĥ"
-            ax.set_title(f"{'Re' if part == 'real' else 'Im'} {symbol}/{unit}", fontsize=10)
+            ax.set_title(f"{'Re' if part == 'real' else 'Im'} {symbol}/{unit}")
             ax.set_xscale("log")
             ax.grid(alpha=0.3, which="both")
             if row == 1:
                 ax.set_xlabel("k = ω c / (2 U∞)")
-    axes[0, 0].legend(fontsize=8)
+    axes[0, 0].legend()
     fig.suptitle(title or f"viscous Theodorsen function, Re = {ds.attrs.get('reynolds', float('nan')):g}")
     fig.tight_layout()
     return save_figure(fig, path)
 
 
+@_styled
 def plot_slopes(ds, path: Path, title: str = "") -> Path:
     """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, MODEL.md §9) against Re,
     with the thin-airfoil values 2π and π/2 as lines; ``ds`` as written by ``fsistab slopes``."""
@@ -580,7 +979,7 @@ def plot_slopes(ds, path: Path, title: str = "") -> Path:
         ax.set_xlabel("Re")
         ax.set_ylabel(f"{label} [1/rad]")
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8)
+        ax.legend()
     fig.suptitle(
         title or f"static slopes, α0 = {ds.attrs.get('alpha0_deg', 0):g}°, mesh {ds.attrs.get('mesh', '')}"
     )
@@ -591,16 +990,19 @@ def plot_slopes(ds, path: Path, title: str = "") -> Path:
 # --- figures of the workflows' Datasets (fsistab.workflows) -----------------------------------------
 
 
+@_styled
 def plot_map(ds, path: Path, title: str = "") -> Path:
     """The stability map of :func:`fsistab.workflows.stability_map` (its Dataset) by
     :func:`plot_stability_map`: curves (legend by kind: flutter, viv), divergence, turning points,
-    codimension-two points (★), unstable-side ticks and, for the transfer method, the unstable
-    regions of ``unstable_count``."""
+    codimension-two points (★), unstable-side bands and, for the transfer method, the unstable
+    regions of ``unstable_count`` and the unresolved frequency intervals."""
     from fsistab.neutral import map_curves
 
     unstable = None
     if "unstable_count" in ds:
         unstable = (ds.grid_mass_ratio.values, ds.grid_reduced_velocity.values, ds.unstable_count.values)
+    if not title and {"reynolds", "alpha0_deg"} <= set(ds.attrs):
+        title = f"stability map, Re = {ds.attrs['reynolds']:g}, α0 = {ds.attrs['alpha0_deg']:g}°"
     return plot_stability_map(
         [(kind, m, u) for kind, m, u, _ in map_curves(ds)],
         (ds.mass_ratio.values, ds.divergence_reduced_velocity.values),
@@ -612,9 +1014,15 @@ def plot_map(ds, path: Path, title: str = "") -> Path:
         sides=[ds.curve_unstable_side.values[ds.curve.values == i] for i in range(ds.sizes["curve_index"])]
         if "curve_unstable_side" in ds
         else None,
+        unresolved=list(
+            zip(ds.unresolved_low.values, ds.unresolved_high.values, ds.unresolved_reason.values, strict=True)
+        )
+        if "unresolved_low" in ds
+        else (),
     )
 
 
+@_styled
 def plot_flow_neutral_curves(ds, path: Path, title: str = "") -> Path:
     """The curves of :func:`fsistab.workflows.flow_neutral_curves` by :func:`plot_flow_neutral`."""
     from fsistab.flow_neutral import flow_curves
@@ -623,6 +1031,7 @@ def plot_flow_neutral_curves(ds, path: Path, title: str = "") -> Path:
     return plot_flow_neutral(curves, ds.attrs["parameter"], path, title=title)
 
 
+@_styled
 def plot_theodorsen_comparison(ds, path: Path, title: str = "") -> Path:
     """The Dataset of :func:`fsistab.workflows.theodorsen_comparison` by
     :func:`plot_theodorsen_map`, with the viscous curves and the relative error if it has them."""
@@ -656,6 +1065,7 @@ def _study_label(dim: str, value: float) -> str:
     return f"Re = {value:g}" if dim == "reynolds" else f"α0 = {value:g}°"
 
 
+@_styled
 def plot_study_coefficients(ds, path: Path, title: str = "") -> Path:
     """Steady ``C_L``, ``C_M`` (about G) and the recirculation length of a study
     (:func:`fsistab.study.run_study` with slopes) against α0 (one line per Re), or against Re."""
@@ -676,11 +1086,12 @@ def plot_study_coefficients(ds, path: Path, title: str = "") -> Path:
         if x_dim == "reynolds":
             ax.set_xscale("log")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    axes[0].legend()
     fig.suptitle(title)
     return save_figure(fig, path)
 
 
+@_styled
 def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
     """The leading fixed-body growth rate (with modes) and every threshold's critical U* (with
     thresholds), marker by class (coupled-mode, pitch or heave single-mode flutter, divergence,
@@ -699,7 +1110,7 @@ def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
                 ax.plot(x, lead.values, "o-", color=colour, label=_study_label(line_dim, value))
             ax.axhline(0.0, color="k", lw=0.8)
             ax.set_ylabel("leading growth rate λ (fixed body)")
-            ax.legend(fontsize=8)
+            ax.legend()
         else:
             k = 0
             for value in ds[line_dim].values:
@@ -717,7 +1128,8 @@ def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
                 ax.scatter([], [], marker=marker, color="grey", label=kind)
             ax.set_ylabel("critical U*")
             ax.set_yscale("log")
-            ax.legend(fontsize=7)
+            # one entry per (flow point, mass ratio): beside the axes, where it hides no marker
+            ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
         ax.set_xlabel("α0 [deg]" if x_dim == "alpha0" else "Re")
         if x_dim == "reynolds":
             ax.set_xscale("log")
@@ -726,6 +1138,7 @@ def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+@_styled
 def plot_study_maps(ds, path: Path, title: str = "") -> Path:
     """The ``(m, U*)`` neutral curves of every point of a study with ``--map`` overlaid, one colour
     per point, and each point's divergence law ``U*_D = c √m`` dashed."""
@@ -753,6 +1166,6 @@ def plot_study_maps(ds, path: Path, title: str = "") -> Path:
     ax.set_xlabel("mass ratio m")
     ax.set_ylabel("U*")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, title="flutter/VIV —, divergence --")
+    ax.legend(title="flutter/VIV —, divergence --", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.set_title(title)
     return save_figure(fig, path)

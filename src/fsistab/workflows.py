@@ -972,6 +972,7 @@ _PAYLOADS = {
     "transfer": _transfer_payload,
     "onset": _onset_payload,
     "study": lambda ds: _study_payload(ds),  # defined at the end, with the studies
+    "sensitivity": lambda ds: _sensitivity_payload(ds),  # defined at the end
 }
 
 
@@ -1074,4 +1075,157 @@ def _study_payload(ds):
         "execution": a["execution"],
         "thresholds": thresholds,
         "figures": json.loads(a.get("figures", "[]")),
+    }
+
+
+# --- adjoint sensitivities (fsistab.sensitivity) ----------------------------------------------------
+
+
+def sensitivity(
+    case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, out: Path, progress: Progress = None
+) -> xr.Dataset:
+    """Every threshold along U* at one mass ratio (as :func:`critical_points`) with its derivatives
+    with respect to every parameter (adjoint, implicit function theorem; MODEL.md §8,
+    docs/reference/sensitivity.md), and the spatial sensitivity maps of each threshold and, with
+    ``sweep.wake_shift``, of the fixed body's wake mode near ``Im(wake_shift)``: a steady force, a
+    control cylinder, the structural sensitivity. U* and its derivatives in the body's convention
+    (MODEL.md §10). Writes ``sensitivity_{stem}.nc`` (thresholds), ``sensitivity_{stem}_maps.nc``
+    (maps at the mesh vertices), ``.vtu`` and a figure; their paths in attributes ``netcdf``,
+    ``maps``, ``vtk``, ``figure`` (None without any map)."""
+    from fsistab import sensitivity as adjoint
+    from fsistab.coupled import CoupledSystem
+    from fsistab.critical import wake_mode_near
+    from fsistab.linalg import FactorCounter
+    from fsistab.params import CONVENTIONS
+    from fsistab.store import write_dataset
+
+    say = _say(progress)
+    scale = body_velocity_scale(case.kind)
+    velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
+    solid = replace(solid, reduced_velocity=float(velocities[0]))
+    counter = FactorCounter()
+    steady, fluid = _fluid(case, cache_dir, say)
+
+    def tracking(i: int, velocity: float) -> None:
+        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
+
+    factors: dict = {}
+    thresholds, results = adjoint.sensitivity_results(
+        fluid,
+        solid,
+        velocities,
+        wake_shift=sweep.wake_shift,
+        counter=counter,
+        progress=tracking,
+        factors=factors,
+    )
+    say(f"sensitivity maps of {len(results)} threshold(s)")
+    if 0j not in factors:
+        factors[0j] = adjoint.steady_factor(fluid, counter)
+    maps = []
+    for i, (threshold, result) in enumerate(zip(thresholds, results, strict=True)):
+        at_point = replace(solid, reduced_velocity=result.reduced_velocity, mass_ratio=result.mass_ratio)
+        slope = result.eigenvalue["reduced_velocity"]
+        maps.append(
+            adjoint.sensitivity_maps(
+                CoupledSystem(fluid, at_point),
+                result.adjoint,
+                f"{threshold.kind}{i}",
+                factor=factors[0j],
+                slope=slope,
+            )
+        )
+    if sweep.wake_shift is not None:
+        say("fixed body's wake mode and its adjoint")
+        pair = wake_mode_near(fluid, sweep.wake_shift.imag, counter=counter)
+        fixed = CoupledSystem(fluid, Solid(dofs=()))
+        mode = adjoint.adjoint_mode(fixed, pair.value, pair.vector, counter=counter)
+        maps.append(adjoint.sensitivity_maps(fixed, mode, "wake", factor=factors[0j]))
+    attrs = {
+        "body": case.kind,
+        "reynolds": case.flow.reynolds,
+        "alpha0_deg": case.flow.alpha0_deg,
+        "preset": case.preset,
+        "mass_ratio": sweep.mass_ratio,
+        "velocity_range": list(sweep.velocity_range),
+        "points": sweep.points,
+        "factorisations": counter.count,
+        "conventions": CONVENTIONS[case.kind] + "; alpha0 derivatives per degree",
+    }
+    ds = adjoint.sensitivity_dataset(thresholds, results, adjoint.PARAMETERS, attrs)
+    # the body's conventions: U* = scale U*_g, and the cylinder's m = 2 m_g / π (MODEL.md §10)
+    per_mass = xr.where(ds.parameter == "mass_ratio", math.pi / 2 if case.kind == "cylinder" else 1.0, 1.0)
+    ds["reduced_velocity"] = ds.reduced_velocity * scale
+    ds["d_reduced_velocity"] = ds.d_reduced_velocity * scale * per_mass
+    for name in ("d_frequency", "d_growth_rate", "d_eigenfrequency"):
+        ds[name] = ds[name] * per_mass
+    flow, preset = case.flow, case.preset
+    stem = f"sensitivity_{case.kind}_Re{flow.reynolds:g}_a{flow.alpha0_deg:g}_m{sweep.mass_ratio:g}_{preset}"
+    paths = {"maps": None, "vtk": None, "figure": None}
+    if maps:
+        say("writing the maps (NetCDF, VTK, figure)")
+        maps_ds = adjoint.maps_dataset(maps, steady.mesh, attrs, scale)
+        paths["maps"] = str(write_dataset(maps_ds, Path(out) / f"{stem}_maps.nc"))
+        paths["vtk"] = str(adjoint.write_maps_vtk(maps, steady.mesh, Path(out) / f"{stem}_maps"))
+        paths["figure"] = str(
+            adjoint.plot_sensitivity_maps(maps, steady, Path(out) / f"{stem}_maps.png", scale)
+        )
+        restabilising = {f"{t.kind}{i}" for i, t in enumerate(thresholds) if t.boundary == "restabilisation"}
+        best = _best_control(maps_ds, restabilising)
+        ds = ds.assign_attrs(best_control=json.dumps(best))
+    netcdf = write_dataset(ds, Path(out) / f"{stem}.nc")
+    return ds.assign_attrs(netcdf=str(netcdf), **{k: v if v is not None else "" for k, v in paths.items()})
+
+
+def _best_control(maps_ds: xr.Dataset, restabilising: set[str] = frozenset()) -> dict:
+    """Per map target, the mesh vertex where the control cylinder helps most: the largest
+    ``δU*_c`` for an onset threshold (the most negative for a restabilisation, in
+    ``restabilising``: the unstable interval shrinks), the most negative growth-rate change for the
+    wake mode — among the vertices where the cylinder clears the body by its diameter (nearer,
+    the model of a small isolated cylinder does not hold)."""
+    best = {}
+    near = maps_ds.wall_distance.values < maps_ds.attrs["control_diameter"]
+    for k, target in enumerate(maps_ds.target.values):
+        gain = np.where(near, np.nan, maps_ds.d_reduced_velocity_control.values[k])
+        if np.isfinite(gain).any():
+            pick = np.nanargmin if str(target) in restabilising else np.nanargmax
+            i, value = int(pick(gain)), "d_reduced_velocity"
+            amount = float(gain[i])
+        else:
+            growth = np.where(near, np.nan, maps_ds.control.values[k, :, 0])
+            i, value = int(np.nanargmin(growth)), "d_growth_rate"
+            amount = float(growth[i])
+        best[str(target)] = {"x": float(maps_ds.x.values[i]), "y": float(maps_ds.y.values[i]), value: amount}
+    return best
+
+
+def _sensitivity_payload(ds):
+    """``fsistab sensitivity --json`` (docs/cli.md)."""
+    thresholds = []
+    for k in range(ds.sizes["threshold"]):
+        row = ds.isel(threshold=k)
+        parameters = [str(p) for p in ds.parameter.values]
+        thresholds.append(
+            {
+                "kind": str(row.kind.values),
+                "boundary": str(row.boundary.values),
+                "reduced_velocity": float(row.reduced_velocity),
+                "frequency": float(row.frequency),
+                "derivatives": dict(zip(parameters, map(float, row.d_reduced_velocity.values), strict=True)),
+                "frequency_derivatives": dict(
+                    zip(parameters, map(float, row.d_frequency.values), strict=True)
+                ),
+                "adjoint_residual": float(row.adjoint_residual),
+            }
+        )
+    a = ds.attrs
+    return {
+        "mass_ratio": float(a["mass_ratio"]),
+        "thresholds": thresholds,
+        "maps": a["maps"] or None,
+        "vtk": a["vtk"] or None,
+        "figure": a["figure"] or None,
+        "best_control": json.loads(a.get("best_control", "{}")),
+        "data": a["netcdf"],
+        "factorisations": int(a["factorisations"]),
     }
