@@ -163,3 +163,24 @@ def test_wake_mode_is_refined_from_a_guess(plate_operators):
     assert from_other_guess.value == pytest.approx(wake.value, rel=1e-8)
     with pytest.raises(InputError):
         wake_mode_near(plate_operators, -1.0)
+
+
+def test_thresholds_at_re_100_hold_each_point_once(tmp_path):
+    """At Re 100 (coarse, m = 1000, the study's sweep: 24 values of U* in [2, 10]) the pitch
+    branch's frequency falls to zero at divergence: its sign change used to be refined into a
+    second, "flutter" copy of the divergence point (ω ≈ -1.7e-13). Every point is reported once,
+    the static one as divergence only."""
+    from fsistab.critical import find_thresholds
+    from fsistab.mesh import mesh_spec
+    from fsistab.params import Flow, Plate
+    from fsistab.steady import solve_steady
+
+    spec = mesh_spec(Plate(), "coarse", 100.0)
+    fluid = fluid_operators(solve_steady(spec, Flow(100.0), cache_dir=tmp_path))
+    found, _ = find_thresholds(fluid, Solid(1000.0, 2.0), np.geomspace(2.0, 10.0, 24))
+    assert [t.kind for t in found].count("divergence") == 1
+    for t in found:
+        if t.kind != "divergence":
+            assert abs(t.point.frequency) > 1e-6
+    points = [(t.kind, round(t.reduced_velocity, 6), round(abs(t.point.frequency), 6)) for t in found]
+    assert len(points) == len(set(points))

@@ -29,7 +29,7 @@ from fsistab.coupled import CoupledSystem, solid_stiffness, velocity_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
-from fsistab.neutral_point import divergence_velocity, unit_index
+from fsistab.neutral_point import STATIC_FREQUENCY, divergence_velocity, unit_index
 from fsistab.operators import FluidOperators, fluid_operators
 from fsistab.params import Solid
 from fsistab.slopes import static_slopes
@@ -386,6 +386,14 @@ def solid_mode_starts(
     return starts
 
 
+def _same_point(point, threshold, rtol: float = 1e-7) -> bool:
+    """Whether ``point`` is ``threshold``'s neutral point (U* and ω within ``rtol``)."""
+    other = threshold.point
+    return abs(point.reduced_velocity - other.reduced_velocity) <= rtol * abs(other.reduced_velocity) and abs(
+        point.frequency - other.frequency
+    ) <= rtol * max(abs(other.frequency), 1.0)
+
+
 def find_thresholds(
     fluid: FluidOperators,
     solid: Solid,
@@ -434,6 +442,10 @@ def find_thresholds(
                 branch.vectors[i + 1],
                 counter=counter,
             )
+            if abs(point.frequency) <= STATIC_FREQUENCY:
+                continue  # the branch met ω = 0 on the way: the divergence point, found below
+            if any(_same_point(point, t) for t in found if t.branch == name):
+                continue  # two sign changes refined to one point (a growth rate touching zero)
             is_viv = name == "wake" or (
                 wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
             )

@@ -39,6 +39,8 @@ import numpy as np
 from fsistab.continuation import CurveProblem, SquareProblem
 from fsistab.errors import InputError
 
+STATIC_FREQUENCY = 1e-8  # |ω| below which a neutral point is static (divergence; U∞/L units)
+
 
 def _checked(name: str, value, positive: bool) -> np.ndarray:
     try:

@@ -77,6 +77,7 @@ import numpy as np
 import xarray as xr
 
 from fsistab.errors import CacheError, FsistabError, InputError
+from fsistab.neutral_point import STATIC_FREQUENCY
 from fsistab.params import (
     MAX_MASS_RATIO,
     MAX_REYNOLDS,
@@ -103,7 +104,6 @@ MAX_MASS_RATIOS = 20
 MAX_ALPHA0 = 45.0  # degrees, as fsistab.params.Flow
 VIV_FREQUENCY_BAND = 0.3  # |ω_c/ω_w - 1| below which a threshold may be VIV (as find_thresholds)
 SINGLE_MODE_SHARE = 0.75  # share of the solid energy in one dof beyond which flutter is single-mode
-STATIC_FREQUENCY = 1e-8  # |ω_c| below which a threshold is static (divergence)
 
 
 def _values(name: str, values, low: float, high: float, positive: bool) -> tuple[float, ...]:
