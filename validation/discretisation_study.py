@@ -51,6 +51,10 @@ from fsistab.transfer import transfer_flutter_point
 REYNOLDS = 2900.0
 MASS_RATIO = 1000.0
 
+# The variants are built on the sizes of fsistab 0.3's presets, which this study measured (medium
+# was then far 2.5, wake box 8 chords, no middle box; the presets since take their values from it).
+BASE = {"medium": {"far": 2.5, "wake_length": 8.0, "middle": None, "middle_box": None}}
+
 CANDIDATE = {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}
 FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 
@@ -85,8 +89,32 @@ VARIANTS = {
     "cand-middle0.5": ("medium", {"wake_length": 20.0, **CANDIDATE, "middle": 0.5}, (80, 160, 80)),
     "cand-dom160": ("medium", {"wake_length": 20.0, **CANDIDATE}, (160, 320, 160)),
     "cand-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (80, 160, 80)),
+    # candidate default (nested-40 with a 20-chord wake box) and its refinements
+    "d1": ("medium", {"wake_length": 20.0, **CANDIDATE}, (40, 80, 40)),
+    "d1-dom80": (
+        "medium",
+        {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
+        (80, 160, 80),
+    ),
+    "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
+    "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
+    "d1-dom80-wake40": (
+        "medium",
+        {"wake_length": 40.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
+        (80, 160, 80),
+    ),
+    "coarse": ("coarse", {}, (20, 40, 20)),
+    "coarse-d1": ("coarse", CANDIDATE, (40, 80, 40)),
     "nested-80-box30": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (30, 60, 30)}, (80, 160, 80)),
 }
+
+
+def variant_spec(name: str):
+    """The mesh of a variant: its preset's 0.3 sizes (``BASE``) with the variant's overrides."""
+    preset, sizes, (up, down, lateral) = VARIANTS[name]
+    return mesh_spec(
+        Plate(), preset, REYNOLDS, Domain(up, down, lateral), **{**BASE.get(preset, {}), **sizes}
+    )
 
 
 WAKE_BOX = (0.5, 20.0, 1.5)  # x from the trailing edge to 20 chords, |y| < 1.5
@@ -131,7 +159,7 @@ def wake_mode(modes) -> list[float]:
 
 def run_variant(name: str, cache: Path, flutter_guess: tuple[float, float]) -> dict:
     preset, sizes, (up, down, lateral) = VARIANTS[name]
-    spec = mesh_spec(Plate(), preset, REYNOLDS, Domain(up, down, lateral), **sizes)
+    spec = variant_spec(name)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     steady = solve_steady(spec, Flow(REYNOLDS), cache_dir=cache)
     fluid = fluid_operators(steady)
@@ -174,7 +202,7 @@ def wake_onset(name: str, cache: Path) -> dict:
     from fsistab.onset import critical_onset
 
     preset, sizes, (up, down, lateral) = VARIANTS[name]
-    spec = mesh_spec(Plate(), preset, REYNOLDS, Domain(up, down, lateral), **sizes)
+    spec = variant_spec(name)
     wall0 = time.perf_counter()
     result = critical_onset(spec, Flow(REYNOLDS), "reynolds", REYNOLDS, 11.2j, cache_dir=cache)
     return {

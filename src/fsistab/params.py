@@ -161,6 +161,20 @@ DEFAULT_DOMAINS = {
     "cylinder": Domain(upstream=50.0, downstream=100.0, lateral=50.0),
 }
 
+# Presets whose domain differs from the body's default. The plate's flutter point moves by 1.5 %
+# from [-20, 40] x [-20, 20] to [-40, 80] x [-40, 40] (the shed vorticity of one flutter period is
+# about 35 chords long; docs/discretisation.md); the presets meant to be converged reach twice as far,
+# with 1-chord elements up to [-40, 80] x [-40, 40] (fsistab.mesh).
+PRESET_DOMAINS = {
+    ("plate", "medium"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
+    ("plate", "fine"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
+}
+
+
+def default_domain(kind: str, preset: str) -> Domain:
+    """The domain of a mesh preset when none is given: :data:`PRESET_DOMAINS`, else the body's."""
+    return PRESET_DOMAINS.get((kind, preset), DEFAULT_DOMAINS[kind])
+
 
 SOLID_DOFS = ("heave", "pitch")
 
@@ -290,7 +304,7 @@ def parse_complex(name: str, text: str, high: float = MAX_FREQUENCY) -> complex:
 @dataclass(frozen=True)
 class Case:
     """One body in one steady flow on one mesh preset: what a steady state (and everything
-    linearised about it) depends on. ``domain`` None is the body's default (DEFAULT_DOMAINS)."""
+    linearised about it) depends on. ``domain`` None is the preset's default (:func:`default_domain`)."""
 
     body: Body
     flow: Flow
