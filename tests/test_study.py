@@ -25,7 +25,7 @@ from typer.testing import CliRunner
 from fsistab import study
 from fsistab.cli import _study_lists, app
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.params import Case, MapSettings
+from fsistab.params import Case, MapSettings, Solid
 from fsistab.study import (
     CLASSES,
     StudySettings,
@@ -50,6 +50,38 @@ EXECUTION = ("point_steady_start", "point_seconds", "point_factorisations")
 def _classify(frequency=0.2, heave=1.0, pitch=1.0, fluid=0.1, wake=math.nan, branch=False):
     # in-vacuo frequencies of Ω = 0.8 at U* = 5: ω_h = 0.16, ω_θ = 0.2
     return classify(frequency, heave, pitch, fluid, 0.16, 0.2, wake, branch)
+
+
+def test_classes_by_mechanism_when_the_one_dof_rates_are_known():
+    """Rule 3: the one-dof growth rates decide, whatever the energy shares say."""
+    both = {"heave": 9.0, "pitch": 1.0}  # single-mode by energy
+    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, -0.003, -0.014) == (
+        "coupled-mode flutter"
+    )
+    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, 0.0, -0.014) == (
+        "heave single-mode flutter"
+    )
+    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, 0.001, 0.002) == (
+        "pitch single-mode flutter"
+    )
+    # VIV and divergence are decided before
+    assert classify(0.0, 1.0, 1.0, 0.1, 0.16, 0.2, math.nan, False, 0.1, 0.1) == "divergence"
+    assert classify(0.2, 1.0, 1.0, 5.0, 0.16, 0.2, math.nan, False, 0.1, 0.1) == "viv"
+
+
+def test_plate_flutter_at_re_2900_is_coupled_mode(plate_operators):
+    """REFERENCE.md §E: the plate's flutter at Re 2900, m = 1000 is coupled-mode flutter. Its
+    critical mode holds 94 % of the near-body kinetic energy in heave (coarse mesh, U*_c 4.3928,
+    ω_c 0.18762), but heave alone and pitch alone are both stable there."""
+    from fsistab.study import single_dof_growth
+
+    solid = Solid(mass_ratio=1000.0, reduced_velocity=4.3928)
+    heave = single_dof_growth(plate_operators, solid, 4.3928, 0.18762, "heave")
+    pitch = single_dof_growth(plate_operators, solid, 4.3928, 0.18762, "pitch")
+    assert heave < -1e-3 and pitch < -1e-3
+    assert classify(0.18762, 0.94, 0.01, 0.05, 0.8 / 4.3928, 1 / 4.3928, math.nan, False, heave, pitch) == (
+        "coupled-mode flutter"
+    )
 
 
 def test_classes_by_energy_shares():

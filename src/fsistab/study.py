@@ -27,11 +27,18 @@ frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, whe
 2. ``viv``: the threshold lies on the tracked wake branch, or the fluid holds at least half the
    energy (``e_f ≥ 1/2``: a wake mode carrying the body), or ``ω_c`` is within 30 % of ``ω_w``
    and nearer to it than to both ``ω_h`` and ``ω_θ``;
-3. ``heave single-mode flutter``: ``s_h ≥ 3/4`` (heave holds three quarters of the solid energy);
-4. ``pitch single-mode flutter``: ``s_h ≤ 1/4``;
-5. ``coupled-mode flutter``: otherwise, both solid dofs hold at least a quarter of the solid
-   energy (the heave and pitch branches coalesce; ``ω_c`` then lies near or between ``ω_h`` and
-   ``ω_θ``).
+3. for a body with heave and pitch, by mechanism (:func:`single_dof_growth`): the growth rates
+   ``λ_h``, ``λ_θ`` of the structural modes of the body with only heave (pitch clamped) and with
+   only pitch, at the same ``m`` and ``U*_c``. ``heave single-mode flutter`` if ``λ_h ≥ 0`` (heave
+   alone is unstable there), ``pitch single-mode flutter`` if ``λ_θ ≥ 0`` (the larger one if
+   both), else ``coupled-mode flutter``: neither dof alone is unstable, the coupling of the two
+   makes the instability (the textbook definition of coupled-mode flutter);
+4. otherwise (one dof, or the one-dof rates not computed), by energy: ``heave single-mode
+   flutter`` when ``s_h ≥ 3/4``, ``pitch single-mode flutter`` when ``s_h ≤ 1/4``, else
+   ``coupled-mode flutter``. Energy alone misleads for the plate: its coupled-mode flutter at
+   Re 2900, m = 1000 holds 94 % of the kinetic energy in heave (``r_θ² = 0.084`` weighs pitch
+   down), yet heave alone and pitch alone are both stable there (growth rates −0.003 and −0.014 on
+   the coarse mesh), as REFERENCE.md §E says.
 
 The shares and the ratios ``ω_c/ω_h``, ``ω_c/ω_θ``, ``ω_c/ω_w`` are kept in the study's data, so
 that the class can be checked or redrawn with other thresholds.
@@ -267,12 +274,16 @@ def classify(
     pitch_frequency: float,
     wake_frequency: float = math.nan,
     wake_branch: bool = False,
+    heave_alone_growth: float = math.nan,
+    pitch_alone_growth: float = math.nan,
 ) -> str:
     """The class of a threshold (one of :data:`CLASSES`) by the criteria of the module docstring:
     divergence if ``ω_c = 0``; VIV on the wake branch, when ``E_f ≥ (E_h + E_θ + E_f)/2``, or
-    when ``|ω_c/ω_w - 1| < 0.3`` and ``ω_c`` is nearer ``ω_w`` than ``ω_h`` and ``ω_θ``; else
-    heave (pitch) single-mode flutter when heave (pitch) holds at least 3/4 of the solid energy,
-    coupled-mode flutter otherwise. ``*_frequency`` in the same units (``U∞/L``)."""
+    when ``|ω_c/ω_w - 1| < 0.3`` and ``ω_c`` is nearer ``ω_w`` than ``ω_h`` and ``ω_θ``; else, when
+    both one-dof growth rates are given (:func:`single_dof_growth`), heave (pitch) single-mode
+    flutter if that dof alone is unstable (rate ≥ 0), coupled-mode flutter if neither is; without
+    them, heave (pitch) single-mode flutter when heave (pitch) holds at least 3/4 of the solid
+    energy, coupled-mode flutter otherwise. ``*_frequency`` in the same units (``U∞/L``)."""
     values = (frequency, heave_energy, pitch_energy, fluid_energy, heave_frequency, pitch_frequency)
     if not all(math.isfinite(v) for v in values):
         raise InputError(f"classification needs finite frequencies and energies, got {values}")
@@ -290,12 +301,45 @@ def classify(
             abs(omega - heave_frequency), abs(omega - pitch_frequency)
         ):
             return "viv"
+    if math.isfinite(heave_alone_growth) and math.isfinite(pitch_alone_growth):
+        if max(heave_alone_growth, pitch_alone_growth) < 0:
+            return "coupled-mode flutter"
+        return (
+            "heave single-mode flutter"
+            if heave_alone_growth >= pitch_alone_growth
+            else "pitch single-mode flutter"
+        )
     heave_share = heave_energy / solid_energy
     if heave_share >= SINGLE_MODE_SHARE:
         return "heave single-mode flutter"
     if heave_share <= 1 - SINGLE_MODE_SHARE:
         return "pitch single-mode flutter"
     return "coupled-mode flutter"
+
+
+STRUCTURAL_SHARE = 0.05  # solid share of the near-body energy above which a mode is structural
+
+
+def single_dof_growth(fluid, solid, velocity: float, frequency: float, dof: str, counter=None) -> float:
+    """Growth rate of the body with ``dof`` alone (the other clamped) at ``U* = velocity`` (module
+    docstring, rule 3): the largest of its structural modes (solid share of the near-body energy at
+    least :data:`STRUCTURAL_SHARE`; else the most structural one) among the 4 eigenvalues nearest
+    ``iω_c`` and the 4 nearest the dof's in-vacuo frequency. Two factorisations."""
+    from dataclasses import replace
+
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near
+
+    one = replace(solid, dofs=(dof,), reduced_velocity=float(velocity))
+    system = CoupledSystem(fluid, one)
+    natural = (one.freq_ratio if dof == "heave" else 1.0) / velocity
+    pairs = eigenpairs_near(system, [1j * abs(frequency), 1j * natural], 4, counter=counter)
+    scored = []
+    for pair in pairs:
+        e_h, e_t, e_f = mode_energies(system, pair.vector)
+        scored.append((pair.value.real, (e_h + e_t) / (e_h + e_t + e_f)))
+    structural = [growth for growth, share in scored if share >= STRUCTURAL_SHARE]
+    return max(structural) if structural else max(scored, key=lambda t: t[1])[0]
 
 
 def mode_energies(system, vector: np.ndarray) -> tuple[float, float, float]:
@@ -437,6 +481,8 @@ THRESHOLD_FLOATS = (
     "frequency_over_heave",
     "frequency_over_pitch",
     "frequency_over_wake",
+    "heave_alone_growth",
+    "pitch_alone_growth",
 )
 THRESHOLD_STRINGS = ("kind", "boundary", "branch", "class")
 
@@ -464,6 +510,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
             system = CoupledSystem(fluid, replace(solid, reduced_velocity=u))
             heave_f, pitch_f = solid.freq_ratio / u, 1.0 / u
             w = abs(t.frequency)
+            alone = [math.nan, math.nan]  # one-dof growth rates (rule 3), flutter of heave + pitch only
             if t.kind == "divergence":
                 shares = (math.nan, math.nan, math.nan)
                 label = "divergence"
@@ -471,7 +518,11 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
                 e_h, e_t, e_f = mode_energies(system, t.point.mode)
                 total = e_h + e_t + e_f
                 shares = (e_h / total, e_t / total, e_f / total)
-                label = classify(w, e_h, e_t, e_f, heave_f, pitch_f, wake, t.branch == "wake")
+                if set(solid.dofs) == {"heave", "pitch"} and t.kind == "flutter":
+                    alone = [
+                        single_dof_growth(fluid, solid, u, w, dof, counter) for dof in ("heave", "pitch")
+                    ]
+                label = classify(w, e_h, e_t, e_f, heave_f, pitch_f, wake, t.branch == "wake", *alone)
             row.append(
                 {
                     "reduced_velocity": u * scale,
@@ -482,6 +533,8 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
                     "frequency_over_heave": w / heave_f if "heave" in solid.dofs else math.nan,
                     "frequency_over_pitch": w / pitch_f if "pitch" in solid.dofs else math.nan,
                     "frequency_over_wake": w / wake if math.isfinite(wake) else math.nan,
+                    "heave_alone_growth": alone[0],
+                    "pitch_alone_growth": alone[1],
                     "kind": t.kind,
                     "boundary": t.boundary,
                     "branch": t.branch,
