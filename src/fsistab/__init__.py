@@ -8,5 +8,5 @@ coefficients ``F / (1/2 rho U^2 L s)``. Eigenvalues are ``sigma = lambda + i ome
 
 from fsistab.errors import FsistabError, InputError
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 __all__ = ["FsistabError", "InputError", "__version__"]

@@ -232,6 +232,22 @@ def static_slopes_study(
 # --- thresholds along U* ---------------------------------------------------------------------------
 
 
+def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings, say):
+    """``(scale, velocities, solid, counter, tracking)`` of a search for every threshold along U*:
+    the sweep in the generic U* (the body's divided by ``scale``, MODEL.md §10), the solid at its
+    first value, a factorisation counter and the branch-tracking progress callback."""
+    from fsistab.linalg import FactorCounter
+
+    scale = body_velocity_scale(case.kind)
+    velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
+    counter = FactorCounter()
+
+    def tracking(i: int, velocity: float) -> None:
+        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
+
+    return scale, velocities, replace(solid, reduced_velocity=float(velocities[0])), counter, tracking
+
+
 def critical_points(
     case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, progress: Progress = None
 ) -> xr.Dataset:
@@ -239,18 +255,10 @@ def critical_points(
     Newton on the augmented system at each crossing, divergence from the static system. U* in the
     body's convention (×2π for the cylinder, MODEL.md §10)."""
     from fsistab.critical import find_thresholds
-    from fsistab.linalg import FactorCounter
 
     say = _say(progress)
-    scale = body_velocity_scale(case.kind)
-    velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
-    solid = replace(solid, reduced_velocity=float(velocities[0]))
-    counter = FactorCounter()
+    scale, velocities, solid, counter, tracking = _threshold_sweep(case, solid, sweep, say)
     _, fluid = _fluid(case, cache_dir, say)
-
-    def tracking(i: int, velocity: float) -> None:
-        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
-
     thresholds, _ = find_thresholds(
         fluid, solid, velocities, wake_shift=sweep.wake_shift, counter=counter, progress=tracking
     )
@@ -1095,20 +1103,12 @@ def sensitivity(
     from fsistab import sensitivity as adjoint
     from fsistab.coupled import CoupledSystem
     from fsistab.critical import wake_mode_near
-    from fsistab.linalg import FactorCounter
     from fsistab.params import CONVENTIONS
     from fsistab.store import write_dataset
 
     say = _say(progress)
-    scale = body_velocity_scale(case.kind)
-    velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
-    solid = replace(solid, reduced_velocity=float(velocities[0]))
-    counter = FactorCounter()
+    scale, velocities, solid, counter, tracking = _threshold_sweep(case, solid, sweep, say)
     steady, fluid = _fluid(case, cache_dir, say)
-
-    def tracking(i: int, velocity: float) -> None:
-        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
-
     factors: dict = {}
     thresholds, results = adjoint.sensitivity_results(
         fluid,
