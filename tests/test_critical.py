@@ -168,8 +168,8 @@ def test_wake_mode_is_refined_from_a_guess(plate_operators):
 def test_thresholds_at_re_100_hold_each_point_once(tmp_path):
     """At Re 100 (coarse, m = 1000, the study's sweep: 24 values of U* in [2, 10]) the pitch
     branch's frequency falls to zero at divergence: its sign change used to be refined into a
-    second, "flutter" copy of the divergence point (ω ≈ -1.7e-13). Every point is reported once,
-    the static one as divergence only."""
+    second, "flutter" copy of the divergence point (ω ≈ -1.7e-13). Every threshold is reported
+    once, the static one as divergence only."""
     from fsistab.critical import find_thresholds
     from fsistab.mesh import mesh_spec
     from fsistab.params import Flow, Plate
@@ -182,5 +182,7 @@ def test_thresholds_at_re_100_hold_each_point_once(tmp_path):
     for t in found:
         if t.kind != "divergence":
             assert abs(t.point.frequency) > 1e-6
-    points = [(t.kind, round(t.reduced_velocity, 6), round(abs(t.point.frequency), 6)) for t in found]
+    points = [
+        (t.kind, t.boundary, round(t.reduced_velocity, 6), round(abs(t.point.frequency), 6)) for t in found
+    ]
     assert len(points) == len(set(points))

@@ -444,12 +444,13 @@ def find_thresholds(
             )
             if abs(point.frequency) <= STATIC_FREQUENCY:
                 continue  # the branch met ω = 0 on the way: the divergence point, found below
-            if any(_same_point(point, t) for t in found if t.branch == name):
-                continue  # two sign changes refined to one point (a growth rate touching zero)
+            boundary = "onset" if growth[i] < 0 else "restabilisation"
+            if any(_same_point(point, t) and t.boundary == boundary for t in found if t.branch == name):
+                continue  # the same threshold found twice; an onset and a restabilisation at one
+                # point stay both: the growth rate touches zero there (or one crossing is unresolved)
             is_viv = name == "wake" or (
                 wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
             )
-            boundary = "onset" if growth[i] < 0 else "restabilisation"
             found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
     if "pitch" in solid.dofs:
         # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
