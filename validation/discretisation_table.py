@@ -40,7 +40,7 @@ def main() -> None:
             change = (r[key] - reference[key]) / abs(reference[key]) * 100
             cells.append(f"{r[key]:.5g} ({change:+.2f} %)")
         # a wake mode only from the runs that identify it by its energy in the wake box
-        wake = complex(*r["wake_mode"]) if "wake_mode" in r else None
+        wake = complex(*r["wake_mode"]) if r.get("wake_mode") else None
         wake_cell = "—" if wake is None else f"{wake.real:+.4f} {wake.imag:+.4f}i"
         print(
             f"| {r['variant']} | {r['unknowns']} | "
