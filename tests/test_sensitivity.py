@@ -608,3 +608,35 @@ def test_cli_sensitivity_json_and_maps(tmp_path, plate_alpha, flutter, flutter_d
         else:
             assert best["d_reduced_velocity"] > 0
     assert Path(payload["vtk"]).stat().st_size > 0 and Path(payload["figure"]).stat().st_size > 0
+
+
+def test_cylinder_viv_threshold_derivatives_match_finite_differences(cylinder_50):
+    """The heave-only cylinder at Re 50 (coarse), m = 20 in its convention: the VIV restabilisation
+    on the wake branch (U* = 7.17 in diameter units). Its dU*_c/dm and dU*_c/dζ_h against central
+    differences of re-converged points; with ζ_h = 0 the neutral frequency solves Im T(iω) = 0
+    alone (MODEL.md §8, one dof), so dω_c/dm = 0 exactly."""
+    from fsistab.critical import find_thresholds
+    from fsistab.params import solid_for
+
+    fluid = fluid_operators(cylinder_50)
+    solid = solid_for("cylinder", 20.0, 4.0)
+    velocities = np.geomspace(4.0, 8.0, 24) / (2 * np.pi)
+    found, _ = find_thresholds(fluid, solid, velocities, wake_shift=0.75j)
+    viv = [t for t in found if t.kind == "viv"]
+    assert len(viv) == 1
+    point = viv[0].point
+    at_point = replace(solid, reduced_velocity=point.reduced_velocity)
+    result = threshold_sensitivity(fluid, at_point, point, ("mass_ratio", "zeta_h"))
+    assert abs(result.frequency_derivative["mass_ratio"]) < 1e-8
+    # central differences in m; one-sided second-order ones in ζ_h, which is 0 and cannot go below
+    for parameter, step, offsets, weights in (
+        ("mass_ratio", 1e-4 * solid.mass_ratio, (1, -1), (0.5, -0.5)),
+        ("zeta_h", 1e-4, (0, 1, 2), (-1.5, 2.0, -0.5)),
+    ):
+        values = []
+        for offset in offsets:
+            moved_solid = replace(at_point, **{parameter: getattr(solid, parameter) + offset * step})
+            moved = flutter_point(fluid, moved_solid, point.frequency, point.mode)
+            values.append(moved.reduced_velocity)
+        difference = sum(w * v for w, v in zip(weights, values, strict=True)) / step
+        assert _relative_error(difference, result.velocity[parameter]) < RELATIVE, parameter
