@@ -883,19 +883,11 @@ def forced_steady(steady, force: np.ndarray, *, tol: float = 1e-12, maxit: int =
     problem = SteadyProblem.on(steady.mesh, steady.space)
     state = GridFunction(steady.space)
     state.vec.data = steady.state.vec
-    problem.set_flow(steady.flow)
-    problem.impose_wall(state, steady.flow)
-    residual = state.vec.CreateVector()
-    values = state.vec.FV().NumPy()
-    history = []
-    for _ in range(maxit + 1):
-        problem.form.Apply(state.vec, residual)
-        r = residual.FV().NumPy()[problem.free] - force
-        history.append(float(np.linalg.norm(r)))
-        if history[-1] < tol:
-            return replace(steady, state=state, history=tuple(history), from_cache=False)
-        values[problem.free] -= problem.newton_solver(state)(r)
-    raise ConvergenceError(f"the forced steady state did not converge (residuals {history[-3:]})")
+    try:
+        history = problem.newton(state, steady.flow, tol=tol, maxit=maxit, force=force)
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"the forced steady state did not converge: {exc}") from None
+    return replace(steady, state=state, history=tuple(history), from_cache=False)
 
 
 @dataclass(frozen=True)

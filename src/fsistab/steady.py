@@ -231,12 +231,21 @@ class SteadyProblem:
         return solve
 
     def newton(
-        self, state, flow: Flow, *, tol: float = NEWTON_TOL, maxit: int = 12, growth_limit: float = 1e3
+        self,
+        state,
+        flow: Flow,
+        *,
+        tol: float = NEWTON_TOL,
+        maxit: int = 12,
+        growth_limit: float = 1e3,
+        force: np.ndarray | None = None,
     ) -> list[float]:
         """Newton iterations on ``state`` in place; returns the residual history.
 
-        Raises ConvergenceError when the residual grows by ``growth_limit`` over its best value,
-        becomes NaN, or ``maxit`` iterations do not reach ``tol``.
+        ``force``: a steady volume force on the free dofs (``R_f(q⁰) = F``; adjoint checks,
+        :func:`fsistab.sensitivity.forced_steady`). Raises ConvergenceError when the residual grows
+        by ``growth_limit`` over its best value, becomes NaN, or ``maxit`` iterations do not reach
+        ``tol``.
         """
         self.set_flow(flow)
         self.impose_wall(state, flow)
@@ -246,6 +255,8 @@ class SteadyProblem:
         for _ in range(maxit + 1):
             self.form.Apply(state.vec, residual)
             free_residual = residual.FV().NumPy()[self.free]
+            if force is not None:
+                free_residual = free_residual - force
             norm = float(np.linalg.norm(free_residual))
             history.append(norm)
             if not math.isfinite(norm) or norm > growth_limit * min(history):
