@@ -101,16 +101,11 @@ def _check_parameters(parameters: Iterable[str]) -> tuple[str, ...]:
 # adjoint solves and adjoint modes
 
 
-def _adjoint_fluid_solve(factor: FluidFactor, b: np.ndarray, refine: bool = True) -> np.ndarray:
-    """``K_ff⁻ᴴ b`` with the factors of ``factor`` (UMFPACK's conjugate-transpose solve,
-    :meth:`fsistab.linalg.FluidFactor.solve` with ``transpose=True``; the NGSolve backend refuses)."""
-    return factor.solve(b, refine, transpose=True)
-
-
 class AdjointSolver:
     """Solves ``(J + sM)ᴴ x = b`` for a coupled system by the bordered elimination of the module
     doc, with the transposed factors of ``fluid_factor`` (made here if not given: one
-    factorisation). Setup: ``n_s`` adjoint fluid solves; each :meth:`solve`: one."""
+    factorisation; UMFPACK's conjugate-transpose solve, which the NGSolve backend refuses). Setup:
+    ``n_s`` adjoint fluid solves; each :meth:`solve`: one."""
 
     def __init__(
         self,
@@ -129,14 +124,14 @@ class AdjointSolver:
         if system.n_solid:
             ksf_h = (system.jsf + value * system.msf).conj().T.toarray()  # n_f × n_s
             self._kfs_h = np.conj(system.jfs + value * system.mfs).T  # n_s × n_f
-            self._y = _adjoint_fluid_solve(fluid_factor, ksf_h)
+            self._y = fluid_factor.solve(ksf_h, transpose=True)
             schur_h = np.conj(system.jss + value * system.mss).T - self._kfs_h @ self._y
             self._schur_h = np.linalg.inv(schur_h)
 
     def solve(self, b: np.ndarray, refine: bool = True) -> np.ndarray:
         """``(J + sM)⁻ᴴ b``."""
         ns = self.system.n_solid
-        z = _adjoint_fluid_solve(self.fluid_factor, b[ns:], refine)
+        z = self.fluid_factor.solve(b[ns:], refine, transpose=True)
         if not ns:
             return z
         x_s = self._schur_h @ (b[:ns] - self._kfs_h @ z)
