@@ -60,3 +60,37 @@ def test_singular_matrix_is_reported():
 def test_wrong_right_hand_side_refused():
     with pytest.raises(ValueError, match="right-hand side"):
         umfpack.LU(_matrix(50, 8, False)).solve(np.ones(49))
+
+
+def _grid_laplacian(n: int) -> sp.csc_matrix:
+    """The 5-point Laplacian of an n × n grid plus a non-symmetric convection part (the pattern of
+    a 2-D finite-element Jacobian: symmetric pattern, non-symmetric values)."""
+    one = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    upwind = sp.diags([-0.3, 0.3], [-1, 1], shape=(n, n))
+    eye = sp.identity(n)
+    return (sp.kron(one, eye) + sp.kron(eye, one) + sp.kron(upwind, eye)).tocsc()
+
+
+def test_nested_dissection_is_a_permutation():
+    a = _grid_laplacian(30)
+    order = umfpack.nested_dissection(a)
+    assert order.dtype == np.int64
+    assert np.array_equal(np.sort(order), np.arange(a.shape[0]))
+
+
+@pytest.mark.parametrize("complex_values", [False, True])
+def test_symmetric_analysis_with_nested_dissection_solves(complex_values):
+    a = _grid_laplacian(40)
+    if complex_values:
+        a = (a + 0.7j * sp.identity(a.shape[0])).tocsc()
+    b = np.random.default_rng(9).standard_normal(a.shape[0]) * (1 - 2j if complex_values else 1)
+    analysis = umfpack.symmetric_analysis(a)
+    x = umfpack.LU(a, analysis).solve(b, refine=False)
+    reference = spla.splu(a).solve(b)
+    assert np.linalg.norm(x - reference) < 1e-11 * np.linalg.norm(reference)
+
+
+def test_given_ordering_of_the_wrong_size_refused():
+    a = _grid_laplacian(10)
+    with pytest.raises(ValueError, match="ordering"):
+        umfpack.Analysis(umfpack._Pattern(a), ordering=np.arange(5))

@@ -77,8 +77,10 @@ class FluidFactor:
 
     def solve(self, b: np.ndarray, refine: bool = True, transpose: bool = False) -> np.ndarray:
         """``K_ff⁻¹ b`` for one vector or the columns of a matrix (fluid unknowns). ``refine=False``
-        skips the refinement step (relative residual ~1e-7 instead of ~1e-12, a third of the cost):
-        for Krylov bases whose results are checked against the exact residual afterwards.
+        skips the refinement step (a third of the cost; relative residual about 1e-12 instead of
+        round-off with the symmetric nested-dissection analysis): for Krylov bases whose results
+        are checked against the exact residual afterwards, and for samples that only bracket a
+        root that is then converged with refined solves.
         ``transpose``: ``K_ffᴴ x = b`` with the same factors (adjoint modes; umfpack backend only)."""
         if b.ndim == 2:
             return np.column_stack([self.solve(col, refine, transpose) for col in b.T])
