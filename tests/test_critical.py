@@ -108,8 +108,12 @@ def test_thresholds_along_reduced_velocity(plate_operators):
     from fsistab.critical import find_thresholds
 
     counter = FactorCounter()
-    thresholds, branches = find_thresholds(
-        plate_operators, Solid(mass_ratio=1000, reduced_velocity=3.0), np.geomspace(3, 9, 12), counter=counter
+    thresholds, details = find_thresholds(
+        plate_operators,
+        Solid(mass_ratio=1000, reduced_velocity=3.0),
+        np.geomspace(3, 9, 12),
+        counter=counter,
+        method="tracking",
     )
     kinds = [(t.kind, t.boundary) for t in thresholds]
     assert kinds[0] == ("flutter", "onset") and ("divergence", "onset") in kinds
@@ -123,7 +127,7 @@ def test_thresholds_along_reduced_velocity(plate_operators):
     divergence = next(t for t in thresholds if t.kind == "divergence")
     slope = static_slopes(plate_operators).moment
     assert divergence.reduced_velocity == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
-    heave = branches["heave"]
+    heave = details["branches"]["heave"]
     assert all(label != "fluid" for label in heave.labels)  # the branch kept its identity
 
 

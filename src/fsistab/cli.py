@@ -307,13 +307,13 @@ def _table(title: str, columns, rows):
     return table
 
 
-def _threshold_sweep(opts, velocity_range, points, wake_shift, what: str):
+def _threshold_sweep(opts, velocity_range, points, wake_shift, what: str, method: str = "transfer"):
     """``(case, sweep, solid)`` of a command that finds every threshold along U* at one mass ratio
     (the body's default when ``--mass-ratio`` is not given); ``what`` names it in the error."""
     case = opts.case()
     mass = params.DEFAULT_MASS_RATIO[case.kind] if opts.mass_ratio is None else opts.mass_ratio
     wake = None if wake_shift is None else params.parse_complex("wake shift", wake_shift)
-    sweep = params.SweepSettings(velocity_range, points, wake, mass)
+    sweep = params.SweepSettings(velocity_range, points, wake, mass, method)
     solid = opts.solid(case.kind, reduced_velocity=sweep.velocity_range[0])
     if not solid.dofs:
         raise InputError(f"{what} need at least one solid degree of freedom (--dofs)")
@@ -466,12 +466,20 @@ def critical(
     velocity_range: VelocityRange = (2.0, 10.0),
     points: Points = 24,
     wake_shift: Annotated[
-        str | None, typer.Option("--wake-shift", help="shift near the wake mode, to follow it too (VIV)")
+        str | None, typer.Option("--wake-shift", help="shift near the wake mode: its frequency labels VIV")
     ] = None,
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="transfer (G(iω) swept in frequency; --points unused) or tracking (eigenvalue branches)",
+        ),
+    ] = "transfer",
 ):
-    """Every instability threshold along U* at one mass ratio (MODEL.md §8): branch tracking,
-    then Newton on the augmented system at each crossing; divergence from the static system."""
-    case, sweep, solid = _threshold_sweep(opts, velocity_range, points, wake_shift, "critical points")
+    """Every instability threshold along U* at one mass ratio (MODEL.md §8): by default the exact
+    transfer function swept in frequency, each crossing converged by Newton on det T(iω; U*), and
+    divergence from G(0); --method tracking follows eigenvalue branches over --points values."""
+    case, sweep, solid = _threshold_sweep(opts, velocity_range, points, wake_shift, "critical points", method)
     out, cache = _prepare(opts, [case])
     from fsistab import workflows
 

@@ -20,6 +20,7 @@ once for all iterations.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -31,7 +32,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
 from fsistab.neutral_point import STATIC_FREQUENCY, divergence_velocity, unit_index
 from fsistab.operators import FluidOperators, fluid_operators
-from fsistab.params import Solid
+from fsistab.params import THRESHOLD_METHODS, Solid
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.tracking import track_branches
@@ -401,28 +402,97 @@ def find_thresholds(
     *,
     wake_shift: complex | None = None,
     counter: FactorCounter | None = None,
-    progress=None,
+    progress: Callable[[str], None] | None = None,
+    static_factor: FluidFactor | None = None,
+    method: str = "transfer",
+) -> tuple[list[Threshold], dict]:
+    """Every threshold with U* between ``velocities[0]`` and ``velocities[-1]`` (increasing) at
+    ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue, whose
+    frequency labels VIV (a dynamic threshold within 30 % of it).
+
+    ``method="transfer"`` (default): the exact transfer function swept in frequency
+    (:func:`fsistab.frequency_sweep.sweep_thresholds`), every neutral point of the range, each
+    converged by Newton on ``det T``; ``velocities`` only give the range.
+    ``method="tracking"``: the eigenvalue branches of the solid modes (and the wake mode) followed
+    over ``velocities`` (:func:`track_thresholds`); a crossing of a mode no branch follows is
+    missed. Both converge each threshold to the same equation (MODEL.md §8).
+
+    Returns the thresholds sorted by U* and details: ``wake_frequency`` (None without
+    ``wake_shift``), and ``frequencies`` sampled (transfer) or the tracked ``branches``.
+    """
+    if method not in THRESHOLD_METHODS:
+        raise InputError(f"unknown threshold method {method!r}: choose {', '.join(THRESHOLD_METHODS)}")
+    counter = counter if counter is not None else FactorCounter()
+    velocities = np.asarray(velocities, dtype=float)
+    if velocities.ndim != 1 or len(velocities) < 2 or np.any(np.diff(velocities) <= 0) or velocities[0] <= 0:
+        raise InputError("the reduced velocities must be positive and increasing (at least two)")
+    if method == "tracking":
+        return track_thresholds(
+            fluid, solid, velocities, wake_shift=wake_shift, counter=counter, progress=progress,
+            static_factor=static_factor,
+        )  # fmt: skip
+    from fsistab.frequency_sweep import sweep_thresholds
+
+    wake = None
+    if wake_shift is not None:
+        wake = wake_mode_near(fluid, float(complex(wake_shift).imag), counter=counter).frequency
+    result = sweep_thresholds(
+        fluid, solid, (float(velocities[0]), float(velocities[-1])), wake_frequency=wake,
+        static_factor=static_factor, counter=counter, progress=progress,
+    )  # fmt: skip
+    thresholds = []
+    for t in result.thresholds:
+        at = replace(solid, reduced_velocity=t.reduced_velocity)
+        if t.kind == "divergence":  # real, θ̂ = 1 (as divergence_point)
+            mode = (t.mode / t.mode[CoupledSystem(fluid, at).state_labels().index("theta")]).real
+            point = CriticalPoint("divergence", t.mass_ratio, t.reduced_velocity, 0.0, mode, (), 0)
+        else:  # Re(ĥ) = 0, q̂ᴴMq̂ = 1 (as flutter_point: the curves of fsistab.neutral start from it)
+            problem = AugmentedProblem(fluid, at)
+            mode = problem.unpack(problem.start(t.mode, t.frequency, t.reduced_velocity, t.mass_ratio))[0]
+            point = CriticalPoint(
+                "flutter", t.mass_ratio, t.reduced_velocity, t.frequency, mode, t.residuals, t.factorisations
+            )
+        thresholds.append(Threshold(t.kind, t.boundary, t.branch, point))
+    return thresholds, {
+        "wake_frequency": wake,
+        "frequencies": result.frequencies,
+        "unresolved": result.unresolved,
+    }
+
+
+def track_thresholds(
+    fluid: FluidOperators,
+    solid: Solid,
+    velocities: np.ndarray,
+    *,
+    wake_shift: complex | None = None,
+    counter: FactorCounter | None = None,
+    progress: Callable[[str], None] | None = None,
     static_factor: FluidFactor | None = None,
 ) -> tuple[list[Threshold], dict]:
-    """Every threshold along ``velocities`` (increasing U*) at ``solid.mass_ratio``.
+    """Every threshold along ``velocities`` (increasing U*) at ``solid.mass_ratio`` by branch
+    tracking.
 
     Branches are tracked (:mod:`fsistab.tracking`); each sign change of a growth rate is refined by
     :func:`flutter_point` from the interpolated crossing; divergence comes from
     :func:`divergence_point` when pitch is active. A crossing is ``viv`` when its branch is the
     wake mode or its frequency is within 30 % of the wake frequency, ``flutter`` otherwise.
-    Returns the thresholds sorted by U* and the tracked branches.
+    Returns the thresholds sorted by U* and ``{"branches", "wake_frequency"}``.
     """
     counter = counter if counter is not None else FactorCounter()
     velocities = np.asarray(velocities, dtype=float)
-    if velocities.ndim != 1 or len(velocities) < 2 or np.any(np.diff(velocities) <= 0) or velocities[0] <= 0:
-        raise InputError("the reduced velocities must be positive and increasing (at least two)")
+    say = progress or (lambda message: None)
 
     def system_at(velocity: float) -> CoupledSystem:
         return CoupledSystem(fluid, replace(solid, reduced_velocity=float(velocity)))
 
     starts = solid_mode_starts(system_at(velocities[0]), wake_shift)
+
+    def tracking(i: int, velocity: float) -> None:
+        say(f"tracking branches: point {i + 1}/{len(velocities)}, {counter.count} factorisations")
+
     branches = track_branches(
-        system_at, velocities, starts, inverse_scaling=solid.dofs, counter=counter, progress=progress
+        system_at, velocities, starts, inverse_scaling=solid.dofs, counter=counter, progress=tracking
     )
     wake_frequency = starts["wake"].frequency if "wake" in starts else None
     found: list[Threshold] = []
@@ -464,7 +534,10 @@ def find_thresholds(
             )
             if velocities[0] <= point.reduced_velocity <= velocities[-1]:
                 found.append(Threshold("divergence", "onset", "static", point))
-    return sorted(found, key=lambda t: t.reduced_velocity), branches
+    return sorted(found, key=lambda t: t.reduced_velocity), {
+        "branches": branches,
+        "wake_frequency": wake_frequency,
+    }
 
 
 @dataclass(frozen=True)

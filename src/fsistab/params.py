@@ -450,15 +450,20 @@ class SpectrumSettings:
 
 @dataclass(frozen=True)
 class SweepSettings:
-    """A sweep in U* (``points`` log-spaced values over ``velocity_range``, body conventions) at
-    one ``mass_ratio`` (body conventions), optionally following the wake mode near ``wake_shift``."""
+    """A search for every threshold over ``velocity_range`` (body conventions) at one
+    ``mass_ratio`` (body conventions) by ``method`` (``transfer``: the exact transfer function swept
+    in frequency; ``tracking``: eigenvalue branches over ``points`` log-spaced values of U*), the
+    wake mode near ``wake_shift`` labelling VIV (and followed too, by tracking)."""
 
     velocity_range: tuple[float, float] = (2.0, 10.0)
     points: int = 24
     wake_shift: complex | None = None
     mass_ratio: float = 1000.0
+    method: str = "transfer"
 
     def __post_init__(self):
+        if self.method not in THRESHOLD_METHODS:
+            raise InputError(f"--method must be one of {', '.join(THRESHOLD_METHODS)}, got {self.method!r}")
         interval = _interval("--reduced-velocity-range", self.velocity_range, MAX_REDUCED_VELOCITY)
         object.__setattr__(self, "velocity_range", interval)
         object.__setattr__(self, "points", _count("--points", self.points, 2, MAX_SWEEP_POINTS))
@@ -466,6 +471,7 @@ class SweepSettings:
 
 
 MAP_METHODS = ("transfer", "continuation")
+THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,8 @@ A study is a grid of flow points ``(Re, α0)`` (:class:`StudySettings`); at each
 * ``modes``: the fixed body's least stable eigenvalues ``σ = λ + iω`` near given shifts
   (MODEL.md §7), growth rate and frequency;
 * ``thresholds``: at each given mass ratio every threshold along U* (MODEL.md §8, the branch
-  tracking and Newton of :func:`fsistab.critical.find_thresholds`), each **classified** (below);
+  frequency sweep of the exact transfer function of :func:`fsistab.critical.find_thresholds`), each
+  **classified** (below);
 * ``map``: the whole ``(m, U*)`` map of :func:`fsistab.workflows.stability_map` (plate only).
 
 Classification of a threshold (:func:`classify`)
@@ -499,10 +500,10 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
         solid = settings.solid(kind, mass, settings.velocity_range[0])
         velocities = np.geomspace(*settings.velocity_range, settings.points) / scale
         say(f"thresholds at m = {mass:g}: {settings.points} values of U*")
-        found, branches = find_thresholds(
+        found, details = find_thresholds(
             fluid, solid, velocities, wake_shift=settings.wake_shift, counter=counter, static_factor=static
         )
-        wake = float(branches["wake"].values[0].imag) if "wake" in branches else math.nan
+        wake = details["wake_frequency"] if details["wake_frequency"] is not None else math.nan
         wakes.append(wake)
         row = []
         for t in found:

@@ -30,7 +30,9 @@ exactly by :func:`transfer_flutter_point` (the transfer-determinant formulation 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -55,6 +57,87 @@ from fsistab.store import ResumableTable, complex_variable
 LOADS = ("force_x", "force_y", "moment")
 
 
+@dataclass(frozen=True)
+class TransferSample:
+    """``G(s)``, ``dG/ds`` (3 × 4 each) and the fluid's response ``X = K_ff(s)⁻¹(J_fs + s M_fs)``
+    (``n_fluid`` × 4, one column per solid state ``h, θ, ḣ, θ'``) at one ``s``: what one
+    factorisation of ``K_ff(s)`` gives (:func:`transfer_sample`)."""
+
+    s: complex
+    value: np.ndarray
+    rate: np.ndarray
+    response: np.ndarray
+
+    def mode(self, solid: Solid, theta0: float, loads0: np.ndarray) -> np.ndarray:
+        """The coupled vector ``(q̂_s, q̂_f)`` of the eigenvalue ``σ = s`` for ``solid``, where
+        ``det T(s) = 0`` (MODEL.md §7): ``q̂_s`` the null vector of ``T(s)`` on the active solid
+        states, ``q̂_f = -X q̂_s`` (the fluid rows of (E)); unit norm. At a neutral point
+        converged to a step δω, its residual is O(δω)."""
+        t = characteristic_matrix(self.value, solid, self.s, theta0, loads0)
+        solid_part = np.linalg.svd(t)[2][-1].conj()
+        fluid_part = -self.response[:, active_states(solid)] @ solid_part
+        vector = np.concatenate([solid_part, fluid_part])
+        return vector / np.linalg.norm(vector)
+
+
+def transfer_sample(
+    fluid: FluidOperators,
+    s: complex,
+    counter: FactorCounter | None = None,
+    factor: FluidFactor | None = None,
+    refine: bool = True,
+) -> TransferSample:
+    """:class:`TransferSample` at ``s`` from one sparse factorisation of ``K_ff(s)`` (or ``factor``
+    if given) and two block back-substitutions::
+
+        X = K⁻¹(J_fs + s M_fs),   X' = K⁻¹(M_fs - M_f X),
+        G = load_s + s load_mass_s - (load_f + s load_mass_f) X,
+        dG/ds = load_mass_s - load_mass_f X - (load_f + s load_mass_f) X'
+
+    ``refine=False``: solves without the refinement step (relative residual about 1e-12 instead of
+    round-off, :meth:`fsistab.linalg.FluidFactor.solve`), for samples that only bracket a root."""
+    factor = factor if factor is not None else FluidFactor(fluid, s, counter)
+    response = factor.solve(fluid.jfs + s * fluid.mfs, refine)
+    load_rows = lambda x: fluid.load_f @ x + s * (fluid.load_mass_f @ x)  # noqa: E731
+    value = fluid.load_s + s * fluid.load_mass_s - load_rows(response)
+    response_rate = factor.solve(fluid.mfs - fluid.mff @ response, refine)
+    rate = fluid.load_mass_s - fluid.load_mass_f @ response - load_rows(response_rate)
+    return TransferSample(complex(s), value, rate, response)
+
+
+def transfer_samples(
+    fluid: FluidOperators,
+    shifts,
+    counter: FactorCounter | None = None,
+    *,
+    refine: bool = True,
+    threads: int | None = None,
+) -> list[TransferSample]:
+    """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
+    at most 2; each holds one factorisation in memory). UMFPACK, called through ctypes, runs
+    without the GIL, so threads factorise in parallel; the first factorisation of an arithmetic
+    makes the symbolic analysis that the others share, so it runs alone."""
+    shifts = [complex(s) for s in shifts]
+    threads = min(2, os.cpu_count() or 1) if threads is None else int(threads)
+    if threads < 1:
+        raise InputError(f"threads must be at least 1, got {threads}")
+    counter = counter if counter is not None else FactorCounter()
+    done: list[TransferSample] = []
+    if shifts and threads > 1 and len(shifts) > 1 and not fluid.analyses.get(complex):
+        done.append(transfer_sample(fluid, shifts.pop(0), counter, refine=refine))
+
+    def one(s: complex) -> TransferSample:
+        return transfer_sample(fluid, s, refine=refine)  # counted below, in the calling thread
+
+    if threads > 1 and len(shifts) > 1:
+        with ThreadPoolExecutor(min(threads, len(shifts))) as pool:
+            done += list(pool.map(one, shifts))
+    else:
+        done += [one(s) for s in shifts]
+    counter.count += len(shifts)
+    return done
+
+
 def exact_transfer(
     fluid: FluidOperators,
     s: complex,
@@ -63,19 +146,16 @@ def exact_transfer(
     derivative: bool = False,
 ):
     """``G(s)`` (3 × 4) from one sparse factorisation of ``K_ff(s)`` (or ``factor`` if given); with
-    ``derivative``, also ``dG/ds`` from one more back-substitution with the same factorisation::
-
-        X = K⁻¹(J_fs + s M_fs),   X' = K⁻¹(M_fs - M_f X),
-        dG/ds = load_mass_s - load_mass_f X - (load_f + s load_mass_f) X'
-    """
+    ``derivative``, also ``dG/ds`` from one more back-substitution with the same factorisation
+    (the formulas of :func:`transfer_sample`)."""
     factor = factor if factor is not None else FluidFactor(fluid, s, counter)
+    if derivative:
+        sample = transfer_sample(fluid, s, factor=factor)
+        return sample.value, sample.rate
     response = factor.solve(fluid.jfs + s * fluid.mfs)
-    load_rows = lambda x: fluid.load_f @ x + s * (fluid.load_mass_f @ x)  # noqa: E731
-    value = fluid.load_s + s * fluid.load_mass_s - load_rows(response)
-    if not derivative:
-        return value
-    rate = factor.solve(fluid.mfs - fluid.mff @ response)
-    return value, fluid.load_mass_s - fluid.load_mass_f @ response - load_rows(rate)
+    return (
+        fluid.load_s + s * fluid.load_mass_s - (fluid.load_f @ response + s * (fluid.load_mass_f @ response))
+    )
 
 
 def aerodynamic_loads(transfer: np.ndarray, theta0: float, loads0: np.ndarray, s: complex) -> np.ndarray:
@@ -146,11 +226,11 @@ class TransferDeterminant:
 
     def __init__(self, fluid: FluidOperators, solid: Solid, counter: FactorCounter, scale: float = 1.0):
         self.fluid, self.solid, self.counter, self.scale = fluid, solid, counter, scale
-        self._samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self._samples: dict[float, TransferSample] = {}
 
-    def sample(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
+    def sample(self, omega: float) -> TransferSample:
         if omega not in self._samples:
-            self._samples[omega] = exact_transfer(self.fluid, 1j * omega, self.counter, derivative=True)
+            self._samples[omega] = transfer_sample(self.fluid, 1j * omega, self.counter)
         return self._samples[omega]
 
     def matrix(self, y: np.ndarray) -> tuple[np.ndarray, complex, np.ndarray]:
@@ -161,8 +241,10 @@ class TransferDeterminant:
         # the given mass ratio itself while m is held (exp(log m) may differ from it in the last bit)
         mass = self.solid.mass_ratio if log_mass == math.log(self.solid.mass_ratio) else math.exp(log_mass)
         solid = replace(self.solid, reduced_velocity=math.exp(log_u), mass_ratio=mass)
-        value, rate = self.sample(omega)
-        return determinant_gradient(value, rate, solid, omega, self.fluid.theta0, self.fluid.loads0)
+        sample = self.sample(omega)
+        return determinant_gradient(
+            sample.value, sample.rate, solid, omega, self.fluid.theta0, self.fluid.loads0
+        )
 
     def characteristic(self, y: np.ndarray, gradient: bool):
         _, det, grad = self.matrix(y)
@@ -174,7 +256,10 @@ class TransferDeterminant:
 
 @dataclass(frozen=True)
 class TransferCriticalPoint:
-    """A neutral point ``det T(iω_c; U*_c) = 0`` at fixed ``mass_ratio`` (time unit ``L/U∞``)."""
+    """A neutral point ``det T(iω_c; U*_c) = 0`` at fixed ``mass_ratio`` (time unit ``L/U∞``);
+    ``sample`` the last evaluation of ``G`` (its frequency within the last Newton step of
+    ``ω_c``), from which the critical mode (:meth:`TransferSample.mode`) and the crossing rate
+    follow with no further factorisation."""
 
     mass_ratio: float
     reduced_velocity: float
@@ -182,6 +267,7 @@ class TransferCriticalPoint:
     iterations: int
     residuals: tuple[float, ...]
     factorisations: int
+    sample: TransferSample | None = None
 
 
 def transfer_flutter_point(
@@ -231,8 +317,9 @@ def transfer_flutter_point(
             f"ω = 0 at U* = {velocity:.5g} (a divergence, not a flutter point); "
             "start closer to the dynamic crossing"
         )
+    last = determinant.sample(float(result.path[-1][0]))  # the factorisation nearest the root
     return TransferCriticalPoint(
-        solid.mass_ratio, velocity, omega, result.iterations, tuple(residuals), counter.count - start
+        solid.mass_ratio, velocity, omega, result.iterations, tuple(residuals), counter.count - start, last
     )
 
 

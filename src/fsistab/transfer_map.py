@@ -74,7 +74,7 @@ from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.reduced_model import ReducedModels
 from fsistab.store import ResumableTable
-from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity
+from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity, transfer_samples
 
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
@@ -597,6 +597,7 @@ def transfer_neutral_map(
     reduced: ReducedModels | None = None,
     counter: FactorCounter | None = None,
     progress: Callable[[str], None] | None = None,
+    threads: int | None = None,
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
@@ -621,6 +622,9 @@ def transfer_neutral_map(
     model, built there; an isolated one is sampled exactly. Factorisations then stop growing with
     the refinement, and the defaults are finer: ``tolerance`` 3e-3 (Hermite error ~1e-5),
     ``min_step`` 1e-7, ``max_samples`` 4000.
+
+    The exact samples of each round (the initial frequencies, then each round's bisections) are
+    factorised ``threads`` at a time (:func:`fsistab.transfer.transfer_samples`).
     """
     tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else 1e-2)
     min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
@@ -674,6 +678,21 @@ def transfer_neutral_map(
             keep(AxisSample(omega, g, dg))
         return stored[omega]
 
+    def prefetch(frequencies) -> None:
+        """The exact samples among ``frequencies`` (those no reduced model covers or will cover),
+        factorised ``threads`` at a time (:func:`fsistab.transfer.transfer_samples`)."""
+        exact = [
+            float(w)
+            for w in dict.fromkeys(frequencies)
+            if w > 0
+            and w not in stored
+            and (reduced is None or (reduced.covering(w) is None and not refined(w)))
+        ]
+        for w, data in zip(
+            exact, transfer_samples(fluid, [1j * w for w in exact], counter, threads=threads), strict=True
+        ):
+            keep(AxisSample(w, data.value, data.rate))
+
     roots: dict[float, list[NeutralRoot]] = {}
     tracks: dict[float, np.ndarray] = {}
 
@@ -688,7 +707,9 @@ def transfer_neutral_map(
 
     static = sample(0.0)
     saved = [w for w in stored if omega_range[0] <= w <= omega_range[1]]  # free: use them all
-    for omega in sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved}):
+    first = sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved})
+    prefetch(first)
+    for omega in first:
         add(float(omega))
     unresolved: dict[tuple[float, float], str] = {}  # interval -> reason (UNRESOLVED_REASONS)
     while True:
@@ -714,8 +735,10 @@ def transfer_neutral_map(
             unresolved.update({(w0, w1): "budget" for _, w0, w1 in todo})
             say(f"stopped at {max_samples} frequencies with {len(todo)} intervals unresolved")
             break
-        for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]:
-            add(0.5 * (w0 + w1))
+        batch = [0.5 * (w0 + w1) for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]]
+        prefetch(batch)
+        for omega in batch:
+            add(omega)
         save()  # the round's reduced samples: a rerun samples the same frequencies
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):

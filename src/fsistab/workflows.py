@@ -232,35 +232,37 @@ def static_slopes_study(
 # --- thresholds along U* ---------------------------------------------------------------------------
 
 
-def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings, say):
-    """``(scale, velocities, solid, counter, tracking)`` of a search for every threshold along U*:
-    the sweep in the generic U* (the body's divided by ``scale``, MODEL.md §10), the solid at its
-    first value, a factorisation counter and the branch-tracking progress callback."""
+def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings):
+    """``(scale, velocities, solid, counter)`` of a search for every threshold along U*: the sweep
+    in the generic U* (the body's divided by ``scale``, MODEL.md §10), the solid at its first
+    value and a factorisation counter."""
     from fsistab.linalg import FactorCounter
 
     scale = body_velocity_scale(case.kind)
     velocities = np.geomspace(*sweep.velocity_range, sweep.points) / scale
-    counter = FactorCounter()
-
-    def tracking(i: int, velocity: float) -> None:
-        say(f"tracking branches: point {i + 1}/{sweep.points}, {counter.count} factorisations")
-
-    return scale, velocities, replace(solid, reduced_velocity=float(velocities[0])), counter, tracking
+    return scale, velocities, replace(solid, reduced_velocity=float(velocities[0])), FactorCounter()
 
 
 def critical_points(
     case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, progress: Progress = None
 ) -> xr.Dataset:
-    """Every threshold along U* at one mass ratio (MODEL.md §8): branch tracking over the sweep,
-    Newton on the augmented system at each crossing, divergence from the static system. U* in the
-    body's convention (×2π for the cylinder, MODEL.md §10)."""
+    """Every threshold along U* at one mass ratio (MODEL.md §8) over the sweep's range: the exact
+    transfer function swept in frequency, each crossing converged by Newton on ``det T``,
+    divergence from ``G(0)`` (:func:`fsistab.critical.find_thresholds`). U* in the body's
+    convention (×2π for the cylinder, MODEL.md §10)."""
     from fsistab.critical import find_thresholds
 
     say = _say(progress)
-    scale, velocities, solid, counter, tracking = _threshold_sweep(case, solid, sweep, say)
+    scale, velocities, solid, counter = _threshold_sweep(case, solid, sweep)
     _, fluid = _fluid(case, cache_dir, say)
-    thresholds, _ = find_thresholds(
-        fluid, solid, velocities, wake_shift=sweep.wake_shift, counter=counter, progress=tracking
+    thresholds, details = find_thresholds(
+        fluid,
+        solid,
+        velocities,
+        wake_shift=sweep.wake_shift,
+        counter=counter,
+        progress=say,
+        method=sweep.method,
     )
     return xr.Dataset(
         {
@@ -275,6 +277,8 @@ def critical_points(
             "mass_ratio": sweep.mass_ratio,
             "velocity_range": list(sweep.velocity_range),
             "points": sweep.points,
+            "method": sweep.method,
+            "frequencies_sampled": len(details.get("frequencies", ())),
             "factorisations": counter.count,
             "conventions": "U* and m in the body's conventions (MODEL.md §2, §10); frequency in U/L",
         },
@@ -482,10 +486,7 @@ def flow_neutral_curves(
     velocities = np.geomspace(*settings.velocity_range, settings.points)
     solid = replace(solid, reduced_velocity=float(velocities[0]), dofs=("heave", "pitch"))
 
-    def tracking(i: int, velocity: float) -> None:
-        say(f"tracking branches: point {i + 1}/{settings.points}, {counter.count} factorisations")
-
-    thresholds, _ = find_thresholds(fluid, solid, velocities, counter=counter, progress=tracking)
+    thresholds, _ = find_thresholds(fluid, solid, velocities, counter=counter, progress=say)
     dynamic = [t for t in thresholds if t.kind != "divergence"]
     halves = []
     for k, threshold in enumerate(dynamic):
@@ -1107,7 +1108,7 @@ def sensitivity(
     from fsistab.store import write_dataset
 
     say = _say(progress)
-    scale, velocities, solid, counter, tracking = _threshold_sweep(case, solid, sweep, say)
+    scale, velocities, solid, counter = _threshold_sweep(case, solid, sweep)
     steady, fluid = _fluid(case, cache_dir, say)
     factors: dict = {}
     thresholds, results = adjoint.sensitivity_results(
@@ -1116,7 +1117,7 @@ def sensitivity(
         velocities,
         wake_shift=sweep.wake_shift,
         counter=counter,
-        progress=tracking,
+        progress=say,
         factors=factors,
     )
     say(f"sensitivity maps of {len(results)} threshold(s)")

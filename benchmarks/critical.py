@@ -1,0 +1,81 @@
+"""Benchmark of the threshold search at one mass ratio (``fsistab critical``): plate, Re = 2900,
+α0 = 0, m = 1000, U* in [2, 10].
+
+* **transfer** (the default, ``fsistab.frequency_sweep``): ``G(iω)`` sampled over the frequencies of
+  the velocity range (``--threads`` samples factorised at once), each crossing converged by Newton
+  on ``det T``, divergence from ``G(0)``;
+* **tracking** (``--method tracking``): eigenvalue branches over 24 values of U*, each crossing
+  converged by Newton on the augmented sparse system.
+
+Prints, per method: unknowns, wall and CPU time, factorisations, samples, peak memory of the
+process, the thresholds (to 10 digits); with both, their largest relative difference. The steady
+state comes from the cache (``FSISTAB_CACHE`` or ``--cache``) or is computed first (not timed).
+Usage: python benchmarks/critical.py [coarse|medium|fine] [--method both|transfer|tracking]
+"""
+
+import argparse
+import resource
+import time
+
+import numpy as np
+from ngsolve import SetNumThreads
+
+from fsistab.critical import find_thresholds
+from fsistab.linalg import FactorCounter
+from fsistab.mesh import mesh_spec
+from fsistab.operators import fluid_operators
+from fsistab.params import Flow, Plate, Solid
+from fsistab.steady import solve_steady
+from fsistab.store import default_cache_dir
+
+
+def _peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("preset", nargs="?", default="medium")
+    parser.add_argument("--method", choices=("both", "transfer", "tracking"), default="transfer")
+    parser.add_argument("--mass-ratio", type=float, default=1000.0)
+    parser.add_argument("--reynolds", type=float, default=2900.0)
+    parser.add_argument("--threads", type=int, default=2, help="samples factorised at once (transfer)")
+    parser.add_argument("--cache", default=None)
+    args = parser.parse_args()
+    SetNumThreads(1)
+    spec = mesh_spec(Plate(), args.preset, args.reynolds)
+    fluid = fluid_operators(
+        solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
+    )
+    solid = Solid(mass_ratio=args.mass_ratio, reduced_velocity=2.0)
+    velocities = np.geomspace(2.0, 10.0, 24)
+    print(f"preset {args.preset}, Re {args.reynolds:g}, m {args.mass_ratio:g}: {fluid.n_fluid + 4} unknowns")
+    found = {}
+    for method in ("transfer", "tracking") if args.method == "both" else (args.method,):
+        counter = FactorCounter()
+        wall, cpu = time.perf_counter(), time.process_time()
+        if method == "transfer":
+            from fsistab.frequency_sweep import sweep_thresholds
+
+            result = sweep_thresholds(fluid, solid, (2.0, 10.0), counter=counter, threads=args.threads)
+            thresholds = [(t.kind, t.boundary, t.reduced_velocity, t.frequency) for t in result.thresholds]
+            extra = f", {len(result.frequencies)} samples, {len(result.unresolved)} unresolved"
+        else:
+            tracked, _ = find_thresholds(fluid, solid, velocities, counter=counter, method="tracking")
+            thresholds = [(t.kind, t.boundary, t.reduced_velocity, t.frequency) for t in tracked]
+            extra = ", 24 values of U*"
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        found[method] = thresholds
+        print(f"{method}: wall {wall:.1f} s, CPU {cpu:.1f} s, {counter.count} factorisations{extra}")
+        for kind, boundary, velocity, frequency in thresholds:
+            print(f"  {kind:10s} {boundary:16s} U* = {velocity:.10f}  ω = {frequency:.10f}")
+        print(f"  peak memory {_peak_mb():.0f} MB")
+    if len(found) == 2 and len(found["transfer"]) == len(found["tracking"]):
+        difference = max(
+            abs(a[2] - b[2]) / b[2] for a, b in zip(found["transfer"], found["tracking"], strict=True)
+        )
+        print(f"largest relative difference in U*: {difference:.1e}")
+
+
+if __name__ == "__main__":
+    main()
