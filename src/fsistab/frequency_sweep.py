@@ -60,6 +60,10 @@ MATCH_SEPARATION = 0.2  # prediction error allowed, relative to the distance to 
 MATCH_SIZE = 0.1  # prediction error allowed, relative to |u|
 MAX_WIDENINGS = 2  # times the band may grow at each end (by INITIAL_RATIO² each)
 MAX_SAMPLES = 200
+BAND_MARGIN = 1.3  # the initial band: in-vacuo frequencies of the range, widened by this factor
+# Newton on det T stops after a relative step below this: converging quadratically from the
+# interpolated start, the next step (not taken) would be below NEWTON_STEP² ~ 1e-16
+NEWTON_STEP = 1e-8
 RESOLVED = 1.0  # misfit of the linear predictions of Im u allowed, relative to |Im u| (no crossing)
 RELEVANT_MARGIN = 1.5  # roots with 1/Re u within this factor of the velocity range are followed closely
 
@@ -204,9 +208,10 @@ def _branch(mode: np.ndarray, solid: Solid) -> str:
 
 def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[float, float]:
     """Initial frequency band: the in-vacuo frequencies (``Ω/U*`` heave, ``1/U*`` pitch) of the
-    active dofs over the velocity range, the lower end halved and the upper one increased by half."""
+    active dofs over the velocity range, widened by ``BAND_MARGIN`` (the sweep widens it further
+    where roots still lie in the range at an end)."""
     rates = [solid.freq_ratio if dof == "heave" else 1.0 for dof in solid.dofs]
-    return 0.5 * min(rates) / velocity_range[1], 1.5 * max(rates) / velocity_range[0]
+    return min(rates) / velocity_range[1] / BAND_MARGIN, BAND_MARGIN * max(rates) / velocity_range[0]
 
 
 def sweep_thresholds(
@@ -306,8 +311,9 @@ def sweep_thresholds(
                 if not low / 1.1 <= velocity <= high * 1.1:
                     continue
                 point = transfer_flutter_point(
-                    fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter
-                )
+                    fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter,
+                    tolerance=NEWTON_STEP,
+                )  # fmt: skip
                 u_c = point.reduced_velocity
                 if not low <= u_c <= high or any(
                     abs(u_c - p.reduced_velocity) < 1e-7 * u_c and abs(point.frequency - p.frequency) < 1e-7
