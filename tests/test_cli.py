@@ -102,6 +102,34 @@ def test_spectrum_refuses_bad_solid_before_work(tmp_path):
     assert result.exit_code == 2 and "cannot read the shift" in result.stderr
 
 
+def test_critical_json_matches_the_static_formula(tmp_path, plate_2900, plate_coarse_spec, plate_operators):
+    """``fsistab critical`` (frequency sweep, the default): flutter onset then divergence at
+    m = 1000 (REFERENCE.md §E order); the divergence speed is the torsional formula
+    √(m r_θ²/(dC_M/dθ)) of the static slope; the JSON names the method and has no unresolved
+    interval."""
+    import math
+
+    from fsistab.params import Flow
+    from fsistab.slopes import static_slopes
+    from fsistab.steady import save_steady, steady_path
+
+    cache = tmp_path / "cache"
+    save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
+    args = [
+        "critical", "--body", "plate", "--Re", "2900", "--mesh", "coarse", "--mass-ratio", "1000",
+        "--json", "--out", str(tmp_path / "out"), "--cache", str(cache),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    kinds = [(p["kind"], p["boundary"]) for p in payload["critical_points"]]
+    assert kinds == [("flutter", "onset"), ("divergence", "onset")]
+    assert payload["method"] == "transfer" and payload["unresolved_intervals"] == 0
+    slope = static_slopes(plate_operators).moment
+    divergence = payload["critical_points"][1]["reduced_velocity"]
+    assert divergence == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
+
+
 def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec, plate_operators):
     """``fsistab neutral``: one flutter curve through the m = 1000 threshold, the divergence
     curve, figure and map file; the rerun resumes the saved curves."""

@@ -286,6 +286,7 @@ def test_a_mesh_too_large_for_the_machine_is_refused_before_meshing(args, tmp_pa
         (["theodorsen", "--lift-slope-alpha", "6"], "need --slopes given"),
         (["theodorsen", "--elastic-axis", "0.7"], "elastic axis"),
         (["critical", "--dofs", "none"], "at least one solid degree of freedom"),
+        (["critical", "--method", "guess"], "--method must be one of transfer, tracking"),
         (["spectrum", "--body", "cylinder", "--dofs", "pitch"], "no pitch"),
         (["spectrum", "--body", "cylinder", "--zeta-theta", "-1"], "pitch damping ratio"),  # unused, refused
         (["spectrum", "--body", "cylinder", "--aspect-ratio", "0.5"], "chord/thickness"),  # unused, refused

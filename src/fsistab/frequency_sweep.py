@@ -14,19 +14,25 @@ point, ``U*_c = 1/u_k``, ``ω_c = ω``. Elsewhere they are complex, and near the
 ``du/dω = −i F_s/F_u`` (implicit differentiation, with ``dG/ds``), and the interval between two
 samples is bisected until every root is matched without ambiguity (:func:`_match`: mutual nearest
 predictions, prediction error below a fifth of the distance to the other roots and a tenth of
-``|u|``). A change of sign of ``Im u_k`` across an interval brackets a neutral point; the cubic
-Hermite interpolant of ``u_k(ω)`` starts Newton on the exact ``det T(iω; U*) = 0``
-(:func:`fsistab.transfer.transfer_flutter_point`: two factorisations from such a start), and the
-sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at the converged point says onset (> 0) or
-restabilisation as U* grows. Divergence (``ω = 0``) comes from ``G(0)`` exactly,
-``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real factorisation.
+``|u|``) and the sign of ``Im u`` is decided (:func:`_sign_certain`: the linear predictions of
+``Im u`` miss by no more than ``|Im u|`` itself, so that a narrow window of instability between
+two samples shows and is bisected until it is sampled). A change of sign of ``Im u_k`` across an
+interval brackets a neutral point; the cubic Hermite interpolant of ``u_k(ω)`` starts Newton on
+the exact ``det T(iω; U*) = 0`` (:func:`fsistab.transfer.transfer_flutter_point`: two or three
+factorisations from such a start), and the sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at
+the converged point says onset (> 0) or restabilisation as U* grows. Divergence (``ω = 0``) comes
+from ``G(0)`` exactly, ``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real
+factorisation.
 
 The sweep covers the frequencies where a root can lie in the velocity range: it starts from the
-in-vacuo frequencies of the range's ends (halved and increased by half) and widens the band until,
-at its low end, every root is below ``1/U*_max`` and, at its high end, above ``1/U*_min``. The
-samples themselves need no refined solves (they only bracket); each costs one factorisation of
-``K_ff(iω)``, independent of ``m`` and ``U*``, against one eigenvalue problem per U* point and
-branch for the branch tracking of :func:`fsistab.critical.track_thresholds`.
+in-vacuo frequencies of the range's ends widened by ``BAND_MARGIN`` and widens the band (at most
+``MAX_WIDENINGS`` times at each end) until, at its high end, every root is above ``1/U*_min`` and,
+at its low end, no root but those tending to the divergence speeds is below ``1/U*_max``. The
+samples need no refined solves (they only bracket) and are factorised two at a time
+(:func:`fsistab.transfer.transfer_samples`); each costs one factorisation of ``K_ff(iω)``,
+independent of ``m`` and ``U*``, against an eigenvalue problem per U* point and branch for the
+branch tracking of :func:`fsistab.critical.track_thresholds`. A narrow window is resolved only down
+to a relative step ``MIN_STEP`` in ω; intervals left unresolved there are reported.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 :class:`fsistab.params.Solid` (MODEL.md §2, §10).
@@ -48,9 +54,9 @@ from fsistab.params import Solid
 from fsistab.transfer import TransferSample, transfer_flutter_point, transfer_sample, transfer_samples
 from fsistab.transfer_map import (
     AxisSample,
-    _scaled_polynomials,
     characteristic_function,
     divergence_lines,
+    scaled_polynomials,
     second_order_loads,
 )
 
@@ -111,14 +117,14 @@ class SweepResult:
 def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> SweepSample:
     """The roots ``u`` of ``det(m W(iω, u) − A(iω)) = 0`` at ``solid.mass_ratio`` with ``Re u > 0``
     and ``du/dω = −i (∂F/∂s)/(∂F/∂u)`` (module docstring). With ``m̂ = m ω²`` and ``v = u/ω`` the
-    determinant is ``Σ P_k(v) m̂^k`` (:func:`fsistab.transfer_map._scaled_polynomials`)."""
+    determinant is ``Σ P_k(v) m̂^k`` (:func:`fsistab.transfer_map.scaled_polynomials`)."""
     omega = sample.s.imag
     if omega <= 0:
         raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
     scaled_mass = solid.mass_ratio * omega**2
     polynomial = np.zeros(1, dtype=complex)
-    for k, p in enumerate(_scaled_polynomials(loads, solid)):
+    for k, p in enumerate(scaled_polynomials(loads, solid)):
         polynomial = npoly.polyadd(polynomial, p * scaled_mass**k)
     roots = [omega * v for v in npoly.polyroots(npoly.polytrim(polynomial, tol=0.0)) if v.real > 0]
     roots.sort(key=lambda u: u.real)
@@ -300,6 +306,9 @@ def sweep_thresholds(
         if not todo:
             break
         add(*todo)
+    if unresolved:
+        where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
+        say(f"frequency sweep: {len(unresolved)} interval(s) of ω not resolved down to {MIN_STEP:g}: {where}")
     # converge each bracketed crossing on the exact transfer function
     found = []
     frequencies = sorted(samples)

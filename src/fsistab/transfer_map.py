@@ -167,7 +167,7 @@ def characteristic_function(
     return complex(value), complex(d_mass), complex(d_u), complex(d_s)
 
 
-def _scaled_polynomials(loads: np.ndarray, solid: Solid) -> list[np.ndarray]:
+def scaled_polynomials(loads: np.ndarray, solid: Solid) -> list[np.ndarray]:
     """``P₀, P₁[, P₂]`` of the module docstring (complex coefficient arrays in ``v``, ascending)."""
     omega_h, r2 = solid.freq_ratio, solid.r_theta**2
     s_h = np.array([-1.0, 2j * solid.zeta_h * omega_h, omega_h**2])
@@ -247,7 +247,7 @@ def resultant_tracks(loads: np.ndarray, omega: float, solid: Solid) -> np.ndarra
     ``(k, 2)`` rows ``(v, m)``. Between two frequencies a curve can sweep through the whole mass
     range (``m`` through ``∞`` or 0, a narrow window in ω, e.g. lock-in onsets near the wake
     frequency) without a root in range at either; its track still changes sign or side there."""
-    polys = _scaled_polynomials(loads, solid)
+    polys = scaled_polynomials(loads, solid)
     resultant = npoly.polytrim(_real_resultant(polys), tol=0.0)
     rows = []
     for v in npoly.polyroots(resultant) if len(resultant) > 1 else []:

@@ -279,6 +279,7 @@ def critical_points(
             "points": sweep.points,
             "method": sweep.method,
             "frequencies_sampled": len(details.get("frequencies", ())),
+            "unresolved_intervals": len(details.get("unresolved", ())),
             "factorisations": counter.count,
             "conventions": "U* and m in the body's conventions (MODEL.md §2, §10); frequency in U/L",
         },
@@ -780,6 +781,8 @@ def _critical_payload(ds):
         "mass_ratio": float(ds.attrs["mass_ratio"]),
         "critical_points": _thresholds(ds),
         "factorisations": int(ds.attrs["factorisations"]),
+        "method": str(ds.attrs.get("method", "transfer")),
+        "unresolved_intervals": int(ds.attrs.get("unresolved_intervals", 0)),
     }
 
 
