@@ -3,7 +3,10 @@
 Prints unknowns, triangles, mesh time, the steady solve's wall and CPU time, Newton iterations at
 the target, continuation steps, factorisations (one per Newton iteration, failed attempts included)
 and peak memory. Usage: python benchmarks/steady.py [coarse medium fine] [--backend ngsolve]
-[--threads 1]. ``--backend`` chooses the factorisation of the Newton matrices
+[--threads 1] [--middle SIZE] [--shift 11.2j]. ``--middle`` overrides the preset's element size
+(chords) in the middle box (e.g. ``fine --middle 0.5`` for about a million unknowns);
+``--shift`` adds one factorisation of ``J_ff + s M_f`` after the steady state (the memory of the
+eigenvalue and transfer paths). ``--backend`` chooses the factorisation of the Newton matrices
 (``fsistab.umfpack.BACKENDS``); without it the package's default is used, so that the script
 also measures an older version of the package (``PYTHONPATH=<old tree>/src``).
 """
@@ -25,11 +28,13 @@ def main() -> None:
     parser.add_argument("--reynolds", type=float, default=2900.0)
     parser.add_argument("--backend", default=None, help="umfpack | ngsolve (default: the package's)")
     parser.add_argument("--threads", type=int, default=2, help="NGSolve threads (default 2)")
+    parser.add_argument("--middle", type=float, default=None, help="middle-box element size (chords)")
+    parser.add_argument("--shift", type=complex, default=None, help="then factorise J_ff + s M_f")
     args = parser.parse_args()
     SetNumThreads(args.threads)
     options = {} if args.backend is None else {"backend": args.backend}
     for preset in args.presets:
-        spec = mesh_spec(Plate(), preset, args.reynolds)
+        spec = mesh_spec(Plate(), preset, args.reynolds, **({"middle": args.middle} if args.middle else {}))
         t0 = time.perf_counter()
         stats = mesh_statistics(build_mesh(spec))
         t_mesh = time.perf_counter() - t0
@@ -48,6 +53,18 @@ def main() -> None:
         print(f"  factorisations         {steady.factorisations}")
         print(f"  per factorisation [s]  {wall / max(steady.factorisations, 1):.3f} (incl. assembly)")
         print(f"  peak memory [MB]       {peak:.0f}")
+        if args.shift is not None:
+            from fsistab.linalg import FluidFactor
+            from fsistab.operators import fluid_operators
+
+            fluid = fluid_operators(steady)
+            t0 = time.perf_counter()
+            FluidFactor(fluid, args.shift)
+            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            print(
+                f"  factorisation at s = {args.shift}: {time.perf_counter() - t0:.1f} s (analysis included)"
+            )
+            print(f"  peak memory [MB]       {peak:.0f} (steady state and one complex factorisation)")
 
 
 if __name__ == "__main__":

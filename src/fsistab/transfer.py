@@ -105,6 +105,15 @@ def transfer_sample(
     return TransferSample(complex(s), value, rate, response)
 
 
+def sample_threads(threads: int | None = None) -> int:
+    """Samples factorised at once: ``threads``, or the CPU count but at most 2 (each holds a
+    factorisation in memory: 1.4 GB for the medium plate). A one-line InputError below 1."""
+    threads = min(2, os.cpu_count() or 1) if threads is None else int(threads)
+    if threads < 1:
+        raise InputError(f"threads must be at least 1, got {threads}")
+    return threads
+
+
 def transfer_samples(
     fluid: FluidOperators,
     shifts,
@@ -118,9 +127,7 @@ def transfer_samples(
     without the GIL, so threads factorise in parallel; the first factorisation of an arithmetic
     makes the symbolic analysis that the others share, so it runs alone."""
     shifts = [complex(s) for s in shifts]
-    threads = min(2, os.cpu_count() or 1) if threads is None else int(threads)
-    if threads < 1:
-        raise InputError(f"threads must be at least 1, got {threads}")
+    threads = sample_threads(threads)
     counter = counter if counter is not None else FactorCounter()
     done: list[TransferSample] = []
     if shifts and threads > 1 and len(shifts) > 1 and not fluid.analyses.get(complex):

@@ -74,7 +74,13 @@ from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.reduced_model import ReducedModels
 from fsistab.store import ResumableTable
-from fsistab.transfer import aerodynamic_loads, exact_transfer, flow_identity, transfer_samples
+from fsistab.transfer import (
+    aerodynamic_loads,
+    exact_transfer,
+    flow_identity,
+    sample_threads,
+    transfer_samples,
+)
 
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
@@ -688,10 +694,12 @@ def transfer_neutral_map(
             and w not in stored
             and (reduced is None or (reduced.covering(w) is None and not refined(w)))
         ]
-        for w, data in zip(
-            exact, transfer_samples(fluid, [1j * w for w in exact], counter, threads=threads), strict=True
-        ):
-            keep(AxisSample(w, data.value, data.rate))
+        chunk = sample_threads(threads)  # each chunk saved as it finishes: an interruption loses one at most
+        for k in range(0, len(exact), chunk):
+            part = exact[k : k + chunk]
+            data = transfer_samples(fluid, [1j * w for w in part], counter, threads=chunk)
+            for w, sample in zip(part, data, strict=True):
+                keep(AxisSample(w, sample.value, sample.rate))
 
     roots: dict[float, list[NeutralRoot]] = {}
     tracks: dict[float, np.ndarray] = {}
