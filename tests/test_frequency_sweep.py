@@ -97,3 +97,25 @@ def test_bad_range_refused_before_any_factorisation(plate_operators):
     with pytest.raises(InputError, match="method"):
         find_thresholds(plate_operators, Solid(), np.array([2.0, 3.0]), method="guess", counter=counter)
     assert counter.count == 0
+
+
+def test_samples_in_threads_equal_the_sequential_ones(plate_operators):
+    """Two factorisations at once in threads (UMFPACK without the GIL) give the same G, dG/ds and
+    response as one at a time, and each is counted once."""
+    from fsistab.transfer import transfer_samples
+
+    shifts = [0.3j, 0.5j, 0.7j]
+    counter = FactorCounter()
+    threaded = transfer_samples(plate_operators, shifts, counter, threads=2)
+    assert counter.count == 3
+    for s, sample in zip(shifts, threaded, strict=True):
+        alone = transfer_sample(plate_operators, s)
+        assert sample.s == s
+        for a, b in (
+            (sample.value, alone.value),
+            (sample.rate, alone.rate),
+            (sample.response, alone.response),
+        ):
+            assert np.linalg.norm(a - b) <= 1e-12 * np.linalg.norm(b)
+    with pytest.raises(InputError, match="threads"):
+        transfer_samples(plate_operators, shifts, threads=0)
