@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fsistab.continuation import CurveProblem, SquareProblem, newton
-from fsistab.coupled import CoupledSystem, solid_stiffness, velocity_derivative
+from fsistab.coupled import CoupledSystem, active_states, solid_stiffness, velocity_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
@@ -444,7 +444,7 @@ def find_thresholds(
     for t in result.thresholds:
         at = replace(solid, reduced_velocity=t.reduced_velocity)
         if t.kind == "divergence":  # real, θ̂ = 1 (as divergence_point)
-            mode = (t.mode / t.mode[CoupledSystem(fluid, at).state_labels().index("theta")]).real
+            mode = (t.mode / t.mode[active_states(at).index(1)]).real  # state 1 of (h, θ, ḣ, θ') is θ
             point = CriticalPoint("divergence", t.mass_ratio, t.reduced_velocity, 0.0, mode, (), 0)
         else:  # Re(ĥ) = 0, q̂ᴴMq̂ = 1 (as flutter_point: the curves of fsistab.neutral start from it)
             problem = AugmentedProblem(fluid, at)

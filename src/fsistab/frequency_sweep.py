@@ -268,8 +268,9 @@ def sweep_thresholds(
     # widen the band until no root can put a neutral point of the range beyond it; at low
     # frequency the roots of the static branches tend to the divergence speeds 1/U*_D (ω = 0,
     # found exactly below), which may lie in the range: those do not call for a wider band
-    static = _static_sample(fluid, static_factor, counter)
-    static_roots = [1.0 / v for v, _ in _divergence_velocities(static, solid, fluid)]
+    # (G(0) only where there is a static branch: pitch active; a heave-only body has none)
+    static = _static_sample(fluid, static_factor, counter) if "pitch" in solid.dofs else None
+    static_roots = [1.0 / v for v, _ in _divergence_velocities(static, solid, fluid)] if static else []
     for _ in range(MAX_WIDENINGS):
         lowest = samples[min(samples)]
         in_range = [u for u in lowest.roots if 1.0 / high <= u.real <= 1.0 / low]
@@ -344,7 +345,8 @@ def sweep_thresholds(
                         point.residuals, point.factorisations,
                     )
                 )  # fmt: skip
-    found += _divergence(static, solid, fluid, (low, high))
+    if static is not None:
+        found += _divergence(static, solid, fluid, (low, high))
     found.sort(key=lambda t: t.reduced_velocity)
     return SweepResult(tuple(found), np.array(sorted(samples)), tuple(unresolved), counter.count - start)
 
