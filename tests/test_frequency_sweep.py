@@ -119,3 +119,112 @@ def test_samples_in_threads_equal_the_sequential_ones(plate_operators):
             assert np.linalg.norm(a - b) <= 1e-12 * np.linalg.norm(b)
     with pytest.raises(InputError, match="threads"):
         transfer_samples(plate_operators, shifts, threads=0)
+
+
+def _synthetic_sample(frequency: float, loads: np.ndarray, slope: np.ndarray):
+    from fsistab.frequency_sweep import SweepSample
+
+    return SweepSample(frequency, np.array([]), np.array([]), loads, slope, None)
+
+
+@pytest.mark.parametrize("points", [2, 3])
+def test_loads_interpolant_reproduces_polynomials_of_its_degree(points):
+    """The Hermite interpolant through values and ω-derivatives at 2 (3) samples is a cubic
+    (quintic): it reproduces any complex matrix polynomial of that degree exactly, also away from
+    the samples (checked against the polynomial evaluated directly)."""
+    from fsistab.frequency_sweep import _loads_interpolant
+
+    rng = np.random.default_rng(points)
+    degree = 2 * points - 1
+    coefficients = rng.normal(size=(degree + 1, 2, 2)) + 1j * rng.normal(size=(degree + 1, 2, 2))
+    value = lambda w: sum(c * w**k for k, c in enumerate(coefficients))  # noqa: E731
+    slope = lambda w: sum(k * c * w ** (k - 1) for k, c in enumerate(coefficients) if k)  # noqa: E731
+    frequencies = [0.3, 0.45, 0.7][:points]
+    samples = [_synthetic_sample(w, value(w), slope(w)) for w in frequencies]
+    h = 0.15
+    coef = _loads_interpolant(samples, 0.3, h)
+    for w in (0.31, 0.4, 0.6, 0.8):
+        interpolated = np.polynomial.polynomial.polyval((w - 0.3) / h, coef).reshape(2, 2)
+        assert np.allclose(interpolated, value(w), rtol=1e-10, atol=1e-10 * np.abs(value(w)).max())
+
+
+@pytest.mark.parametrize(
+    ("values", "margin", "certain"),
+    [
+        ([0.3, 0.1, -0.1, -0.3], [0.0, 0.05, 0.05, 0.0], True),  # clear of the margin: one crossing
+        ([0.3, 0.01, -0.02, -0.3], [0.0, 0.05, 0.05, 0.0], True),  # enters and leaves on opposite sides
+        ([0.3, 0.01, 0.02, 0.3], [0.0, 0.05, 0.05, 0.0], False),  # a tangency within the error
+        ([0.3, 0.2, 0.1, 0.3], [0.0, 0.05, 0.05, 0.0], True),  # a dip that stays clear of zero
+        ([0.0, 0.2, 0.3], [0.0, 0.0, 0.0], False),  # exactly zero at an end: undecided
+    ],
+)
+def test_crossings_certain_only_for_transversal_crossings(values, margin, certain):
+    from fsistab.frequency_sweep import _crossings_certain
+
+    assert _crossings_certain(np.array(values), np.array(margin)) == certain
+
+
+def test_interpolated_roots_within_their_error_estimate(plate_operators):
+    """Coarse plate, m = 1000: the roots followed on the cubic between exact samples at ω = 0.30
+    and 0.35 differ at the midpoint from those of an exact sample there (one more factorisation)
+    by less than ERROR_SAFETY times the cubic-against-quintics estimate, which is not zero."""
+    from fsistab.frequency_sweep import ERROR_SAFETY, _loads_interpolant, _path_error, _paths
+
+    solid = Solid(mass_ratio=1000.0, reduced_velocity=3.0)
+    theta0, loads0 = plate_operators.theta0, plate_operators.loads0
+    samples = [
+        velocity_roots(transfer_sample(plate_operators, 1j * w, refine=False), solid, theta0, loads0)
+        for w in (0.25, 0.30, 0.35, 0.40, 0.325)
+    ]
+    outer, left, right, outer_right, middle = samples
+    h = right.frequency - left.frequency
+    taus, roots = _paths(_loads_interpolant([left, right], left.frequency, h), left.frequency, h, solid)
+    error = _path_error(taus, roots, left, right, [outer, outer_right], solid)
+    k = int(np.argmin(np.abs(taus - 0.5)))
+    assert taus[k] == pytest.approx(0.5)
+    exact = middle.roots
+    for u, e in zip(roots[k], error[k], strict=True):
+        if u.real > 0:
+            actual = np.min(np.abs(exact - u))
+            assert 0 < e and actual <= ERROR_SAFETY * e
+    assert np.allclose(np.sort_complex(roots[0][roots[0].real > 0]), np.sort_complex(left.roots), rtol=1e-9)
+    assert np.allclose(
+        np.sort_complex(roots[-1][roots[-1].real > 0]), np.sort_complex(right.roots), rtol=1e-9
+    )
+
+
+def test_real_and_complex_factorisations_share_one_ordering(plate_operators):
+    """J_ff (real) and J_ff + iω M_f (complex) have one pattern: the second symbolic analysis
+    reuses the first's nested-dissection ordering, and solves with it are exact to round-off."""
+    from fsistab.linalg import FluidFactor
+
+    fluid = replace(plate_operators, analyses={})
+    rng = np.random.default_rng(0)
+    b = rng.normal(size=fluid.n_fluid)
+    for shift in (0.4j, 0.0):
+        factor = FluidFactor(fluid, shift)
+        x = factor.solve(b)
+        matrix = fluid.jff + shift * fluid.mff
+        assert np.linalg.norm(matrix @ x - b) <= 1e-10 * np.linalg.norm(b)
+    assert fluid.analyses[float].ordering is fluid.analyses[complex].ordering
+
+
+def test_a_crossing_newton_cannot_converge_is_reported_not_fatal(plate_operators, monkeypatch):
+    """Coarse plate, m = 1000, with Newton on det T made to fail: the sweep still returns the
+    divergence, and reports the flutter crossing's interval as unresolved instead of raising."""
+    import fsistab.frequency_sweep as sweep
+    from fsistab.errors import ConvergenceError
+
+    def fails(*args, **kwargs):
+        raise ConvergenceError("Newton on det T(iω; U*) did not converge (test)")
+
+    monkeypatch.setattr(sweep, "transfer_flutter_point", fails)
+    messages = []
+    result = sweep_thresholds(
+        plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=2.0), (2.0, 10.0), progress=messages.append
+    )
+    assert [t.kind for t in result.thresholds] == ["divergence"]
+    assert len(result.unresolved) == 1
+    low, high = result.unresolved[0]
+    assert low < 0.1876 < high  # the flutter frequency (the branch tracking's, REFERENCE §E's coarse value)
+    assert any("unresolved" in m and "did not converge" in m for m in messages)

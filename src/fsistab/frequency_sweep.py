@@ -10,19 +10,25 @@ At each frequency its roots ``u_k(ω)`` with ``Re u_k > 0`` are the speeds at wh
 system would have a neutral mode of frequency ``ω`` if they were real: a real root is a neutral
 point, ``U*_c = 1/u_k``, ``ω_c = ω``. Elsewhere they are complex, and near the in-vacuo relations
 (``u ≈ ω/Ω`` in heave, ``u ≈ ω`` in pitch, MODEL.md §2) at large ``m``. Where ``G`` is smooth in
-``ω`` so are they: each root is followed from sample to sample, predicted by its exact derivative
-``du/dω = −i F_s/F_u`` (implicit differentiation, with ``dG/ds``), and the interval between two
-samples is bisected until every root is matched without ambiguity (:func:`_match`: mutual nearest
-predictions, prediction error below a fifth of the distance to the other roots and a tenth of
-``|u|``) and the sign of ``Im u`` is decided (:func:`_sign_certain`: the linear predictions of
-``Im u`` miss by no more than ``|Im u|`` itself, so that a narrow window of instability between
-two samples shows and is bisected until it is sampled). A change of sign of ``Im u_k`` across an
-interval brackets a neutral point; the cubic Hermite interpolant of ``u_k(ω)`` starts Newton on
-the exact ``det T(iω; U*) = 0`` (:func:`fsistab.transfer.transfer_flutter_point`: two or three
-factorisations from such a start), and the sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at
-the converged point says onset (> 0) or restabilisation as U* grows. Divergence (``ω = 0``) comes
-from ``G(0)`` exactly, ``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real
-factorisation.
+``ω`` so are they, and so is the 2 × 2 load matrix ``A(iω)``, whose derivative ``dA/dω`` each
+sample gives too (with ``dG/ds``). Between two samples the roots are followed on the cubic
+Hermite interpolant of ``A`` (exact at both ends; :func:`_follow`: each root continued in small
+steps of ``ω``, never an ambiguous identification), and the cubic is checked against the
+quintics through a neighbouring sample on either side: the distance ``e`` of their root paths
+estimates the cubic's error. An interval is split (in two, or in more parts when fewer intervals
+than threads need it) until ``e`` is below ``MAX_ROOT_ERROR |u|`` and ``1/ERROR_SAFETY`` of the
+distance to the other roots, and until ``Im u`` of every root that can reach the velocity range
+is either ``ERROR_SAFETY e`` clear of zero or crosses zero transversally (enters the band
+``|Im u| ≤ ERROR_SAFETY e`` on one side and leaves it on the other): a near tangency, which the
+error could turn into a narrow window of instability or hide one, is sampled until decided.
+A change of sign of ``Im u_k`` on the interpolated path brackets a neutral point. Two exact samples
+a quarter of the interval apart are then made around it (the interpolant's error falls by about
+``4⁴``), and Newton on the exact ``det T(iω; U*) = 0``
+(:func:`fsistab.transfer.transfer_flutter_point`, unrefined solves) converges it from the start
+found on them; the sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at the converged point says
+onset (> 0) or restabilisation as U* grows. Divergence (``ω = 0``) comes from ``G(0)`` exactly,
+``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real factorisation, made
+beside the first complex one (each has its own symbolic analysis).
 
 The sweep covers the frequencies where a root can lie in the velocity range: it starts from the
 in-vacuo frequencies of the range's ends widened by ``BAND_MARGIN`` and widens the band (at most
@@ -32,7 +38,8 @@ samples need no refined solves (they only bracket) and are factorised two at a t
 (:func:`fsistab.transfer.transfer_samples`); each costs one factorisation of ``K_ff(iω)``,
 independent of ``m`` and ``U*``, against an eigenvalue problem per U* point and branch for the
 branch tracking of :func:`fsistab.critical.track_thresholds`. A narrow window is resolved only down
-to a relative step ``MIN_STEP`` in ω; intervals left unresolved there are reported.
+to a relative step ``MIN_STEP`` in ω; intervals left unresolved there, and crossings whose Newton
+iteration does not converge (two crossings about to merge), are reported, not fatal.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 :class:`fsistab.params.Solid` (MODEL.md §2, §10).
@@ -42,6 +49,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -51,7 +59,13 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
-from fsistab.transfer import TransferSample, transfer_flutter_point, transfer_sample, transfer_samples
+from fsistab.transfer import (
+    TransferSample,
+    sample_threads,
+    transfer_flutter_point,
+    transfer_sample,
+    transfer_samples,
+)
 from fsistab.transfer_map import (
     AxisSample,
     characteristic_function,
@@ -62,26 +76,34 @@ from fsistab.transfer_map import (
 
 INITIAL_RATIO = 1.7  # ratio of neighbouring frequencies of the initial grid
 MIN_STEP = 1e-6  # relative step below which an interval is left unresolved
-MATCH_SEPARATION = 0.2  # prediction error allowed, relative to the distance to the other roots
-MATCH_SIZE = 0.1  # prediction error allowed, relative to |u|
+PATH_POINTS = 32  # points per interval at which the interpolated roots are followed (at least)
+PATH_STEP = 0.3  # a root may move this fraction of its distance to the others between two points
+MIN_PATH_STEP = 1.0 / 4096
+# the cubic's error estimate e (distance of its root paths to the quintics'): beyond
+# MAX_ROOT_ERROR |u| the interval is bisected; Im u must stay ERROR_SAFETY e clear of zero except
+# across a transversal crossing, and the roots ERROR_SAFETY e apart
+MAX_ROOT_ERROR = 0.02
+ERROR_SAFETY = 3.0
 MAX_WIDENINGS = 2  # times the band may grow at each end (by INITIAL_RATIO² each)
 MAX_SAMPLES = 200
 BAND_MARGIN = 1.3  # the initial band: in-vacuo frequencies of the range, widened by this factor
 # Newton on det T stops after a relative step below this: converging quadratically from the
 # interpolated start, the next step (not taken) would be below NEWTON_STEP² ~ 1e-16
 NEWTON_STEP = 1e-8
-RESOLVED = 1.0  # misfit of the linear predictions of Im u allowed, relative to |Im u| (no crossing)
 RELEVANT_MARGIN = 1.5  # roots with 1/Re u within this factor of the velocity range are followed closely
 
 
 @dataclass(frozen=True)
 class SweepSample:
     """The roots ``u_k`` (``Re u_k > 0``, sorted by ``Re u``) of ``F(u; ω) = 0`` at one frequency
-    and their derivatives ``du_k/dω``; ``sample`` the transfer data they come from."""
+    and their derivatives ``du_k/dω``; ``loads`` ``A(iω)`` and ``loads_slope`` ``dA/dω`` (2 × 2),
+    which the sweep interpolates between samples; ``sample`` the transfer data they come from."""
 
     frequency: float
     roots: np.ndarray
     slopes: np.ndarray
+    loads: np.ndarray
+    loads_slope: np.ndarray
     sample: TransferSample
 
 
@@ -106,7 +128,8 @@ class SweepThreshold:
 @dataclass(frozen=True)
 class SweepResult:
     """What :func:`sweep_thresholds` found: the thresholds sorted by U*, the sampled frequencies,
-    the intervals left unresolved and the factorisations made."""
+    the intervals left unresolved (narrower than ``MIN_STEP`` and still ambiguous, or holding a
+    crossing whose Newton iteration did not converge) and the factorisations made."""
 
     thresholds: tuple[SweepThreshold, ...]
     frequencies: np.ndarray
@@ -114,93 +137,187 @@ class SweepResult:
     factorisations: int
 
 
-def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> SweepSample:
-    """The roots ``u`` of ``det(m W(iω, u) − A(iω)) = 0`` at ``solid.mass_ratio`` with ``Re u > 0``
-    and ``du/dω = −i (∂F/∂s)/(∂F/∂u)`` (module docstring). With ``m̂ = m ω²`` and ``v = u/ω`` the
-    determinant is ``Σ P_k(v) m̂^k`` (:func:`fsistab.transfer_map.scaled_polynomials`)."""
-    omega = sample.s.imag
-    if omega <= 0:
-        raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
-    loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
+def _all_roots(loads: np.ndarray, solid: Solid, omega: float) -> np.ndarray:
+    """Every root ``u`` of ``det(m W(iω, u) − A(iω)) = 0`` (any sign of ``Re u``): with
+    ``m̂ = m ω²`` and ``v = u/ω`` the determinant is ``Σ P_k(v) m̂^k``
+    (:func:`fsistab.transfer_map.scaled_polynomials`)."""
     scaled_mass = solid.mass_ratio * omega**2
     polynomial = np.zeros(1, dtype=complex)
     for k, p in enumerate(scaled_polynomials(loads, solid)):
         polynomial = npoly.polyadd(polynomial, p * scaled_mass**k)
-    roots = [omega * v for v in npoly.polyroots(npoly.polytrim(polynomial, tol=0.0)) if v.real > 0]
-    roots.sort(key=lambda u: u.real)
+    return omega * npoly.polyroots(npoly.polytrim(polynomial, tol=0.0))
+
+
+def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> SweepSample:
+    """The roots ``u`` of ``det(m W(iω, u) − A(iω)) = 0`` at ``solid.mass_ratio`` with ``Re u > 0``
+    and ``du/dω = −i (∂F/∂s)/(∂F/∂u)`` (module docstring)."""
+    omega = sample.s.imag
+    if omega <= 0:
+        raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
+    loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
+    roots = sorted((u for u in _all_roots(loads, solid, omega) if u.real > 0), key=lambda u: u.real)
     slopes = []
     for u in roots:
         _, _, f_u, f_s = characteristic_function(loads, rate, solid, 1j * omega, solid.mass_ratio, u)
         slopes.append(-1j * f_s / f_u)
-    return SweepSample(omega, np.array(roots, dtype=complex), np.array(slopes, dtype=complex), sample)
-
-
-def _match(
-    left: SweepSample, right: SweepSample, band: tuple[float, float] = (0.0, math.inf)
-) -> list[tuple[int, int]] | None:
-    """Pairs ``(i, j)`` of the same root at two frequencies, or None if the identification is not
-    certain: the root counts differ, or a forward prediction ``u_i + h u_i'`` and the backward one
-    ``u_j − h u_j'`` are not mutual nearest, or a prediction misses by more than ``MATCH_SEPARATION``
-    of the distance to the other roots or ``MATCH_SIZE`` of ``|u|``. Only roots with ``Re u`` in
-    ``band`` at either end (those that can bracket a threshold of the velocity range) must pass
-    the last test."""
-    if len(left.roots) != len(right.roots):
-        return None
-    h = right.frequency - left.frequency
-    forward = left.roots + h * left.slopes
-    backward = right.roots - h * right.slopes
-    pairs = []
-    for i, predicted in enumerate(forward):
-        j = int(np.argmin(np.abs(right.roots - predicted)))
-        if int(np.argmin(np.abs(left.roots - backward[j]))) != i:
-            return None
-        others = np.delete(right.roots, j)
-        separation = float(np.min(np.abs(others - right.roots[j]))) if len(others) else math.inf
-        error = max(abs(predicted - right.roots[j]), abs(backward[j] - left.roots[i]))
-        relevant = any(band[0] <= u.real <= band[1] for u in (left.roots[i], right.roots[j]))
-        if relevant and (error > MATCH_SEPARATION * separation or error > MATCH_SIZE * abs(right.roots[j])):
-            return None
-        pairs.append((i, j))
-    return pairs
-
-
-def _hermite(y0: complex, d0: complex, y1: complex, d1: complex, h: float) -> np.ndarray:
-    """Cubic Hermite coefficients in ``τ ∈ [0, 1]`` (ascending; complex values)."""
-    d = y1 - y0
-    return np.array([y0, h * d0, 3 * d - h * (2 * d0 + d1), -2 * d + h * (d0 + d1)])
-
-
-def _crossings(left: SweepSample, right: SweepSample, i: int, j: int) -> list[tuple[float, float]]:
-    """``(ω, U*)`` starts where the Hermite interpolant of ``u`` from root ``i`` to root ``j`` is
-    real (``Im u = 0``), ``Re u > 0``."""
-    h = right.frequency - left.frequency
-    coef = _hermite(left.roots[i], left.slopes[i], right.roots[j], right.slopes[j], h)
-    imaginary = npoly.polytrim(coef.imag, tol=0.0)
-    starts = []
-    for tau in npoly.polyroots(imaginary) if len(imaginary) > 1 else []:
-        if abs(tau.imag) < 1e-9 and -1e-12 <= tau.real <= 1 + 1e-12:
-            u = npoly.polyval(float(tau.real), coef.real)
-            if u > 0:
-                starts.append((left.frequency + float(tau.real) * h, 1.0 / u))
-    return starts
-
-
-def _sign_certain(left: SweepSample, right: SweepSample, i: int, j: int) -> bool:
-    """Whether the interpolant decides the sign of ``Im u`` across the interval: it crosses zero
-    at most once, and ``Im u`` is resolved — the linear predictions of ``Im u`` from each end
-    (value and exact slope) miss the other end by at most ``RESOLVED`` of the larger ``|Im u|``
-    of the two ends. A narrow unstable window between two samples, where ``Im u`` dips through
-    zero and back, shows as such a miss and is bisected until it is sampled."""
-    if len(_crossings(left, right, i, j)) > 1:
-        return False
-    if np.sign(left.roots[i].imag) != np.sign(right.roots[j].imag):
-        return True  # one crossing, bracketed
-    h = right.frequency - left.frequency
-    misfit = max(
-        abs((left.roots[i] + h * left.slopes[i] - right.roots[j]).imag),
-        abs((right.roots[j] - h * right.slopes[j] - left.roots[i]).imag),
+    return SweepSample(
+        omega, np.array(roots, dtype=complex), np.array(slopes, dtype=complex), loads, 1j * rate, sample
     )
-    return misfit <= RESOLVED * max(abs(left.roots[i].imag), abs(right.roots[j].imag))
+
+
+def _loads_interpolant(points: list[SweepSample], origin: float, h: float) -> np.ndarray:
+    """Hermite coefficients (ascending in ``τ = (ω − origin)/h``, one column per entry of ``A``)
+    of the polynomial through the loads and their ``ω``-derivatives at ``points``: a cubic from two
+    samples, a quintic from three."""
+    powers = np.arange(2 * len(points))
+    rows, values = [], []
+    for p in points:
+        t = (p.frequency - origin) / h
+        rows += [t**powers, powers * t ** np.maximum(powers - 1, 0)]
+        values += [p.loads.ravel(), h * p.loads_slope.ravel()]
+    return np.linalg.solve(np.array(rows, dtype=float), np.array(values))
+
+
+@dataclass(frozen=True)
+class _Interval:
+    """A resolved interval: ``pairs`` ``(i, j)`` of the same root at its two ends (indices into
+    their ``roots``) and ``starts`` ``(ω, U*)`` where a followed root's interpolated ``Im u``
+    changes sign (:func:`_follow`)."""
+
+    pairs: list[tuple[int, int]]
+    starts: list[tuple[float, float]]
+
+
+def _paths(coef: np.ndarray, left: float, h: float, solid: Solid) -> tuple[np.ndarray, np.ndarray] | None:
+    """The roots of ``F`` with the loads of the interpolant ``coef`` followed from ``τ = 0`` to 1:
+    ``(taus, roots)`` with ``roots[k, i]`` root ``i`` at ``taus[k]``, the step halved where a root
+    moves by more than ``PATH_STEP`` of its distance to the others; None if that cannot be done."""
+
+    def at(tau: float) -> np.ndarray:
+        loads = npoly.polyval(tau, coef).reshape(2, 2)
+        return _all_roots(loads, solid, left + tau * h)
+
+    taus, rows = [0.0], [at(0.0)]
+    step = 1.0 / PATH_POINTS
+    while taus[-1] < 1.0:
+        tau = min(1.0, taus[-1] + step)
+        new, previous = at(tau), rows[-1]
+        order = _nearest(previous, new)
+        if order is None:
+            if step < MIN_PATH_STEP:
+                return None
+            step /= 2
+            continue
+        taus.append(tau)
+        rows.append(new[order])
+        step = min(1.0 / PATH_POINTS, 2 * step)
+    return np.array(taus), np.array(rows)
+
+
+def _nearest(previous: np.ndarray, new: np.ndarray) -> np.ndarray | None:
+    """``order`` with ``new[order][i]`` the continuation of ``previous[i]``, or None unless each
+    root moved by less than ``PATH_STEP`` of its distance to the others' new positions."""
+    if len(previous) != len(new):
+        return None
+    order = []
+    for i, u in enumerate(previous):
+        distances = np.abs(new - u)
+        j = int(np.argmin(distances))
+        others = np.delete(distances, j)
+        spacing = float(np.min(np.abs(np.delete(previous, i) - u))) if len(previous) > 1 else math.inf
+        if j in order or (len(others) and distances[j] > PATH_STEP * min(float(np.min(others)), spacing)):
+            return None
+        order.append(j)
+    return np.array(order)
+
+
+def _follow(
+    left: SweepSample, right: SweepSample, neighbours: list[SweepSample], solid: Solid, relevant, strict=True
+) -> _Interval | None:
+    """Follow every root across ``[left, right]`` on the cubic Hermite interpolant of the loads
+    (exact at both ends), and check it (``strict``) against the quintics through each of
+    ``neighbours``: their root paths' distance ``e`` estimates the cubic's error. None (bisect) if
+    a root followed in ``relevant`` (``Re u`` in that band somewhere) has ``e`` above
+    ``MAX_ROOT_ERROR |u|`` or ``1/ERROR_SAFETY`` of its distance to the other roots, or if its
+    ``Im u`` comes within ``ERROR_SAFETY e`` of zero and leaves on the side it came from (a
+    tangency the error could turn into a narrow window, or hide one); else the pairs of roots at
+    the two ends and the Newton starts where ``Im u`` changes sign."""
+    h = right.frequency - left.frequency
+    path = _paths(_loads_interpolant([left, right], left.frequency, h), left.frequency, h, solid)
+    if path is None or (strict and not neighbours):
+        return None
+    taus, roots = path
+    error = _path_error(taus, roots, left, right, neighbours if strict else [], solid)
+    ends = [_index(roots[0], left.roots), _index(roots[-1], right.roots)]
+    pairs = [(ends[0][i], ends[1][i]) for i in range(roots.shape[1]) if ends[0][i] >= 0 and ends[1][i] >= 0]
+    starts = []
+    for i in range(roots.shape[1]):
+        u, e = roots[:, i], error[:, i]
+        if not np.any((relevant[0] <= u.real) & (u.real <= relevant[1])):
+            continue
+        if strict:
+            spacing = np.min(np.abs(np.delete(roots, i, axis=1) - u[:, None]), axis=1, initial=math.inf)
+            if np.any(e > MAX_ROOT_ERROR * np.abs(u)) or np.any(ERROR_SAFETY * e > spacing):
+                return None
+            if not _crossings_certain(u.imag, ERROR_SAFETY * e):
+                return None
+        for k in np.flatnonzero(np.sign(u[:-1].imag) * np.sign(u[1:].imag) < 0):
+            weight = u[k].imag / (u[k].imag - u[k + 1].imag)
+            tau = taus[k] + weight * (taus[k + 1] - taus[k])
+            velocity = (u[k] + weight * (u[k + 1] - u[k])).real
+            if velocity > 0:
+                starts.append((left.frequency + tau * h, 1.0 / velocity))
+    return _Interval(pairs, starts)
+
+
+def _path_error(
+    taus: np.ndarray, roots: np.ndarray, left: SweepSample, right: SweepSample, neighbours, solid: Solid
+) -> np.ndarray:
+    """``e[k, i]``: the distance from root ``i`` of the cubic's path at ``taus[k]`` to the nearest
+    root of the quintic through ``left``, ``right`` and each of ``neighbours`` (the largest), an
+    estimate of the cubic's error (0 at both ends, where the interpolants agree exactly)."""
+    h = right.frequency - left.frequency
+    error = np.zeros(roots.shape)
+    for other in neighbours:
+        points = sorted([left, right, other], key=lambda p: p.frequency)
+        coef = _loads_interpolant(points, left.frequency, h)
+        for k, tau in enumerate(taus):
+            check = _all_roots(npoly.polyval(tau, coef).reshape(2, 2), solid, left.frequency + tau * h)
+            error[k] = np.maximum(error[k], np.min(np.abs(roots[k][:, None] - check[None, :]), axis=1))
+    return error
+
+
+def _index(path_roots: np.ndarray, sample_roots: np.ndarray) -> list[int]:
+    """Index into ``sample_roots`` (``Re u > 0``) of each root of a path's end, −1 if absent."""
+    if not len(sample_roots):
+        return [-1] * len(path_roots)
+    found = []
+    for u in path_roots:
+        j = int(np.argmin(np.abs(sample_roots - u)))
+        found.append(j if abs(sample_roots[j] - u) <= 1e-6 * abs(u) else -1)
+    return found
+
+
+def _crossings_certain(values: np.ndarray, margin: np.ndarray) -> bool:
+    """Whether the zeros of a function known as ``values ± margin`` on a path (exact at its ends,
+    where ``margin`` is 0) are certain: every run of points within the margin of zero is entered
+    and left with opposite signs (one transversal crossing), never on the same side."""
+    certain = np.abs(values) > margin
+    signs = np.sign(values)
+    k = 0
+    while k < len(values):
+        if certain[k]:
+            k += 1
+            continue
+        run_end = k
+        while run_end < len(values) and not certain[run_end]:
+            run_end += 1
+        before = signs[k - 1] if k > 0 else 0.0
+        after = signs[run_end] if run_end < len(values) else 0.0
+        if before == 0.0 or after == 0.0 or before == after:
+            return False
+        k = run_end
+    return True
 
 
 def _branch(mode: np.ndarray, solid: Solid) -> str:
@@ -264,91 +381,136 @@ def sweep_thresholds(
     )
     if wake_frequency is not None and omega_low < wake_frequency < omega_high:
         grid = np.concatenate([grid, wake_frequency * np.array([0.9, 0.95, 1.0, 1.05, 1.1])])
-    add(*np.unique(grid))
-    # widen the band until no root can put a neutral point of the range beyond it; at low
-    # frequency the roots of the static branches tend to the divergence speeds 1/U*_D (ω = 0,
-    # found exactly below), which may lie in the range: those do not call for a wider band
-    # (G(0) only where there is a static branch: pitch active; a heave-only body has none)
-    static = _static_sample(fluid, static_factor, counter) if "pitch" in solid.dofs else None
-    static_roots = [1.0 / v for v, _ in _divergence_velocities(static, solid, fluid)] if static else []
-    for _ in range(MAX_WIDENINGS):
-        lowest = samples[min(samples)]
-        in_range = [u for u in lowest.roots if 1.0 / high <= u.real <= 1.0 / low]
-        if len(in_range) <= sum(1.0 / high <= u <= 1.0 / low for u in static_roots):
-            break
-        add(min(samples) / INITIAL_RATIO**2)
-    for _ in range(MAX_WIDENINGS):
-        highest = samples[max(samples)]
-        if not np.any(highest.roots.real <= 1.0 / low):
-            break
-        add(max(samples) * INITIAL_RATIO**2)
-    # bisect until every root is followed without ambiguity and crossings are single
-    relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the velocity range, widened
+    with ThreadPoolExecutor(1) as pool:
+        static = _StaticSample(fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
+        add(*np.unique(grid))
+        # widen the band until no root can put a neutral point of the range beyond it; at low
+        # frequency the roots of the static branches tend to the divergence speeds 1/U*_D (ω = 0,
+        # found exactly from G(0)), which may lie in the range: those do not call for a wider band
+        for _ in range(MAX_WIDENINGS):
+            lowest = samples[min(samples)]
+            in_range = [u for u in lowest.roots if 1.0 / high <= u.real <= 1.0 / low]
+            if not in_range:
+                break
+            static_roots = (
+                [1.0 / v for v, _ in _divergence_velocities(static.get(), solid, fluid)] if static else []
+            )
+            if len(in_range) <= sum(1.0 / high <= u <= 1.0 / low for u in static_roots):
+                break
+            add(min(samples) / INITIAL_RATIO**2)
+        for _ in range(MAX_WIDENINGS):
+            highest = samples[max(samples)]
+            if not np.any(highest.roots.real <= 1.0 / low):
+                break
+            add(max(samples) * INITIAL_RATIO**2)
+        relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
+        intervals, unresolved = _bisect(samples, add, solid, relevant, sample_threads(threads))
+        if unresolved:
+            where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
+            say(f"frequency sweep: {len(unresolved)} interval(s) of ω unresolved at {MIN_STEP:g}: {where}")
+        # converge each bracketed crossing on the exact transfer function: two exact samples a
+        # quarter of its interval apart around the interpolated crossing (factorised together, all
+        # crossings at once) bring the interpolant's error down by about 4⁴, so that Newton on
+        # det T starts closer; G(0) is made meanwhile in the other thread
+        starts = []
+        for w0, w1, interval in intervals:
+            for omega, velocity in interval.starts if interval is not None else []:
+                if low / 1.1 <= velocity <= high * 1.1:
+                    eighth = 0.125 * (w1 - w0)
+                    starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth)))
+        add(*(w for _, _, a, b in starts for w in (a, b)))
+        if static is not None:
+            static.prefetch()
+        found = []
+        for omega, velocity, a, b in starts:
+            closer = _follow(samples[a], samples[b], [], solid, relevant, strict=False)
+            if closer is not None and closer.starts:
+                omega, velocity = min(
+                    closer.starts, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1)
+                )
+            try:
+                threshold = _converge(fluid, solid, omega, velocity, wake_frequency, counter)
+            except ConvergenceError as error:  # e.g. two crossings about to merge: reported, not fatal
+                unresolved.append((a, b))
+                say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
+                continue
+            if low <= threshold.reduced_velocity <= high and not any(
+                abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
+                and abs(threshold.frequency - p.frequency) < 1e-7
+                for p in found
+            ):
+                found.append(threshold)
+        if static is not None:
+            found += _divergence(static.get(), solid, fluid, (low, high))
+    found.sort(key=lambda t: t.reduced_velocity)
+    return SweepResult(tuple(found), np.array(sorted(samples)), tuple(unresolved), counter.count - start)
+
+
+class _StaticSample:
+    """``G(0)`` (:func:`_static_sample`) made at first need, or beforehand in ``pool``'s thread once
+    :meth:`prefetch` is called (a real factorisation with a symbolic analysis of its own,
+    overlapped with the serial Newton iterations); counted in ``counter`` when first got."""
+
+    def __init__(self, fluid, static_factor, counter: FactorCounter, pool: ThreadPoolExecutor):
+        self._args, self._counter, self._pool = (fluid, static_factor), counter, pool
+        self._job, self._sample = None, None
+
+    def prefetch(self) -> None:
+        if self._job is None:
+            self._job = self._pool.submit(_static_sample, *self._args)
+
+    def get(self) -> TransferSample:
+        if self._sample is None:
+            self.prefetch()
+            self._sample = self._job.result()
+            self._counter.count += 0 if self._args[1] is not None else 1
+        return self._sample
+
+
+def _bisect(samples: dict, add, solid: Solid, relevant, threads: int):
+    """Split the intervals between ``samples`` (``add`` makes new ones) until each is resolved
+    (:func:`_follow`) or narrower than ``MIN_STEP``: the final ``(w0, w1, interval)`` list and
+    the intervals left unresolved (their ``interval`` from the unchecked cubic)."""
     unresolved: list[tuple[float, float]] = []
     while True:
         frequencies = sorted(samples)
-        todo = []
-        for w0, w1 in zip(frequencies[:-1], frequencies[1:], strict=True):
-            if (w0, w1) in unresolved:
-                continue
-            left, right = samples[w0], samples[w1]
-            pairs = _match(left, right, relevant)
-            ok = pairs is not None and all(
-                _sign_certain(left, right, i, j)
-                for i, j in pairs
-                if any(relevant[0] <= u.real <= relevant[1] for u in (left.roots[i], right.roots[j]))
-            )
-            if ok:
-                continue
-            if w1 - w0 < MIN_STEP * w1:
-                unresolved.append((w0, w1))
-            else:
-                todo.append(0.5 * (w0 + w1))
+        todo, intervals = [], []
+        for k, (w0, w1) in enumerate(zip(frequencies[:-1], frequencies[1:], strict=True)):
+            neighbours = [samples[frequencies[n]] for n in (k - 1, k + 2) if 0 <= n < len(frequencies)]
+            strict = (w0, w1) not in unresolved
+            interval = _follow(samples[w0], samples[w1], neighbours, solid, relevant, strict=strict)
+            if interval is None and strict:
+                if w1 - w0 < MIN_STEP * w1:
+                    unresolved.append((w0, w1))
+                    interval = _follow(samples[w0], samples[w1], [], solid, relevant, strict=False)
+                else:
+                    todo.append((w0, w1))
+            intervals.append((w0, w1, interval))
         if not todo:
-            break
-        add(*todo)
-    if unresolved:
-        where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
-        say(f"frequency sweep: {len(unresolved)} interval(s) of ω not resolved down to {MIN_STEP:g}: {where}")
-    # converge each bracketed crossing on the exact transfer function
-    found = []
-    frequencies = sorted(samples)
-    for w0, w1 in zip(frequencies[:-1], frequencies[1:], strict=True):
-        left, right = samples[w0], samples[w1]
-        pairs = _match(left, right, relevant) or []
-        for i, j in pairs:
-            for omega, velocity in _crossings(left, right, i, j):
-                if not low / 1.1 <= velocity <= high * 1.1:
-                    continue
-                point = transfer_flutter_point(
-                    fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter,
-                    tolerance=NEWTON_STEP,
-                )  # fmt: skip
-                u_c = point.reduced_velocity
-                if not low <= u_c <= high or any(
-                    abs(u_c - p.reduced_velocity) < 1e-7 * u_c and abs(point.frequency - p.frequency) < 1e-7
-                    for p in found
-                ):
-                    continue
-                critical = replace(solid, reduced_velocity=u_c)
-                mode = point.sample.mode(critical, theta0, loads0)
-                rate = _crossing_rate(point.sample, critical, theta0, loads0)
-                is_viv = (
-                    wake_frequency is not None
-                    and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
-                )
-                kind = "viv" if is_viv else "flutter"
-                boundary = "onset" if rate > 0 else "restabilisation"
-                found.append(
-                    SweepThreshold(
-                        kind, boundary, _branch(mode, solid), solid.mass_ratio, u_c, point.frequency, mode,
-                        point.residuals, point.factorisations,
-                    )
-                )  # fmt: skip
-    if static is not None:
-        found += _divergence(static, solid, fluid, (low, high))
-    found.sort(key=lambda t: t.reduced_velocity)
-    return SweepResult(tuple(found), np.array(sorted(samples)), tuple(unresolved), counter.count - start)
+            return intervals, unresolved
+        # samples are factorised `threads` at a time: a round that splits fewer intervals than
+        # that splits each into more parts for the same wall time
+        parts = max(2, threads // len(todo) + 1)
+        add(*(w0 + (w1 - w0) * k / parts for w0, w1 in todo for k in range(1, parts)))
+
+
+def _converge(fluid, solid: Solid, omega: float, velocity: float, wake_frequency, counter) -> SweepThreshold:
+    """The neutral point from the start ``(ω, U*)`` by Newton on ``det T``
+    (:func:`fsistab.transfer.transfer_flutter_point`), labelled: viv within 30 % of
+    ``wake_frequency``, flutter otherwise; onset or restabilisation by the crossing rate."""
+    point = transfer_flutter_point(
+        fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter,
+        tolerance=NEWTON_STEP, refine=False,
+    )  # fmt: skip
+    critical = replace(solid, reduced_velocity=point.reduced_velocity)
+    mode = point.sample.mode(critical, fluid.theta0, fluid.loads0)
+    rate = _crossing_rate(point.sample, critical, fluid.theta0, fluid.loads0)
+    is_viv = wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
+    return SweepThreshold(
+        "viv" if is_viv else "flutter", "onset" if rate > 0 else "restabilisation",
+        _branch(mode, solid), solid.mass_ratio, point.reduced_velocity, point.frequency, mode,
+        point.residuals, point.factorisations,
+    )  # fmt: skip
 
 
 def _crossing_rate(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> float:
@@ -361,10 +523,10 @@ def _crossing_rate(sample: TransferSample, solid: Solid, theta0: float, loads0: 
     return float((u * f_u / f_s).real)
 
 
-def _static_sample(fluid, static_factor, counter) -> TransferSample:
+def _static_sample(fluid, static_factor) -> TransferSample:
     """``G(0)``, ``dG/ds(0)`` and the static response: one real factorisation of ``J_ff`` (or
-    ``static_factor``)."""
-    factor = static_factor if static_factor is not None else FluidFactor(fluid, 0.0, counter)
+    ``static_factor``), not counted here (the caller counts it)."""
+    factor = static_factor if static_factor is not None else FluidFactor(fluid, 0.0)
     return transfer_sample(fluid, 0.0, factor=factor)
 
 

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from fsistab import umfpack
 from fsistab.continuation import newton
 from fsistab.coupled import (
     active_states,
@@ -48,7 +49,7 @@ from fsistab.coupled import (
     stiffness_derivative,
 )
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.linalg import FactorCounter, FluidFactor, shared_analysis
 from fsistab.neutral_point import DeterminantProblem
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
@@ -125,13 +126,14 @@ def transfer_samples(
     """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
     at most 2; each holds one factorisation in memory). UMFPACK, called through ctypes, runs
     without the GIL, so threads factorise in parallel; the first factorisation of an arithmetic
-    makes the symbolic analysis that the others share, so it runs alone."""
+    share one symbolic analysis, made first (:func:`fsistab.linalg.shared_analysis`)."""
     shifts = [complex(s) for s in shifts]
     threads = sample_threads(threads)
     counter = counter if counter is not None else FactorCounter()
     done: list[TransferSample] = []
-    if shifts and threads > 1 and len(shifts) > 1 and not fluid.analyses.get(complex):
-        done.append(transfer_sample(fluid, shifts.pop(0), counter, refine=refine))
+    if threads > 1 and len(shifts) > 1 and umfpack.available():
+        for arithmetic in {s.imag != 0: s for s in shifts}.values():
+            shared_analysis(fluid, arithmetic)
 
     def one(s: complex) -> TransferSample:
         return transfer_sample(fluid, s, refine=refine)  # counted below, in the calling thread
@@ -229,15 +231,24 @@ class TransferDeterminant:
     """The exact-transfer formulation of the neutral point in the ``(m, U*)`` plane (MODEL.md §8):
     ``f(y) = det T(iω; U*, m) / scale`` for :class:`fsistab.neutral_point.DeterminantProblem`, in
     ``y = (ω, log U*, log m)``. ``G(iω)`` and ``dG/ds`` are memoised per frequency: the residual
-    and the Jacobian at one Newton iterate share one factorisation of ``K_ff(iω)``."""
+    and the Jacobian at one Newton iterate share one factorisation of ``K_ff(iω)``. ``refine``:
+    refined solves (:func:`transfer_sample`)."""
 
-    def __init__(self, fluid: FluidOperators, solid: Solid, counter: FactorCounter, scale: float = 1.0):
+    def __init__(
+        self,
+        fluid: FluidOperators,
+        solid: Solid,
+        counter: FactorCounter,
+        scale: float = 1.0,
+        refine: bool = True,
+    ):
         self.fluid, self.solid, self.counter, self.scale = fluid, solid, counter, scale
+        self.refine = refine
         self._samples: dict[float, TransferSample] = {}
 
     def sample(self, omega: float) -> TransferSample:
         if omega not in self._samples:
-            self._samples[omega] = transfer_sample(self.fluid, 1j * omega, self.counter)
+            self._samples[omega] = transfer_sample(self.fluid, 1j * omega, self.counter, refine=self.refine)
         return self._samples[omega]
 
     def matrix(self, y: np.ndarray) -> tuple[np.ndarray, complex, np.ndarray]:
@@ -285,11 +296,15 @@ def transfer_flutter_point(
     tolerance: float = 1e-10,
     max_iterations: int = 12,
     counter: FactorCounter | None = None,
+    refine: bool = True,
 ) -> TransferCriticalPoint:
     """Dynamic neutral point from the exact transfer function: :func:`fsistab.continuation.newton` on
     the two real equations ``det T(iω; U*) = 0`` in ``(ω, log U*)`` (:class:`TransferDeterminant`,
     ``m`` held), starting from ``(frequency, solid.reduced_velocity)``, until the step is below
     ``tolerance`` (relative in ω). ``residuals`` are ``σ_min(T)/‖T‖₂`` at the iterates.
+    ``refine=False``: solves without the refinement step (relative residual about 1e-12), which
+    moves the root by about that much, far below a ``tolerance`` of 1e-8, for a third of the
+    solve cost.
 
     Each iteration costs one factorisation of ``K_ff(iω)`` and two back-substitutions (``G`` and
     ``dG/ds``); ``∂T/∂U*`` touches the solid part only. The counterpart, with a 4 × 4 determinant in
@@ -297,7 +312,7 @@ def transfer_flutter_point(
     """
     counter = counter if counter is not None else FactorCounter()
     start = counter.count
-    determinant = TransferDeterminant(fluid, solid, counter)
+    determinant = TransferDeterminant(fluid, solid, counter, refine=refine)
     log_mass = math.log(solid.mass_ratio)
     result = newton(
         determinant.problem().at(2, log_mass),
