@@ -10,7 +10,8 @@ VIV onset, with the body's displacement drawn (divergence: ω = 0, U*_D = √(m 
 
 Command-line equivalent (thresholds only, no figure)::
 
-    fsistab critical --body plate --Re 2900 --mass-ratio 1000 --wake-shift 11.2j --mesh coarse
+    fsistab critical --body plate --Re 2900 --mass-ratio 1000 --wake-shift 11.2j --method tracking \\
+        --mesh coarse
 
 Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000 flutter sets
 in at U*_F ≈ 4.5 and static divergence at U*_D ≈ 7.4; the wake mode is slightly stable with
@@ -57,7 +58,11 @@ def run(args: argparse.Namespace) -> None:
     velocities = np.geomspace(2.0, 10.0, args.points)
     solid = solid_for("plate", mass_ratio=1000.0, reduced_velocity=velocities[0])
     counter = FactorCounter()
-    thresholds, branches = find_thresholds(fluid, solid, velocities, wake_shift=11.2j, counter=counter)
+    # branch tracking (not the default frequency sweep): the branches themselves are drawn
+    thresholds, details = find_thresholds(
+        fluid, solid, velocities, wake_shift=11.2j, counter=counter, method="tracking"
+    )
+    branches = details["branches"]
 
     for t in thresholds:
         print(f"{t.kind:10s} {t.boundary:15s} U* = {t.reduced_velocity:.5f}, ω = {t.frequency:.5f}")
@@ -72,9 +77,10 @@ def run(args: argparse.Namespace) -> None:
     viv_solid = solid_for("plate", mass_ratio=1000.0, reduced_velocity=viv_velocities[0])
     wake = 1j * branches["wake"].values[0].imag
     try:
-        viv, viv_branches = find_thresholds(
-            fluid, viv_solid, viv_velocities, wake_shift=wake, counter=counter
+        viv, viv_details = find_thresholds(
+            fluid, viv_solid, viv_velocities, wake_shift=wake, counter=counter, method="tracking"
         )
+        viv_branches = viv_details["branches"]
     except ConvergenceError as exc:  # reported, and the rest is still drawn
         print(f"VIV sweep: {exc}")
         viv = []

@@ -10,7 +10,7 @@ changes stability.
 Command-line equivalent (thresholds only, no figure)::
 
     fsistab critical --body cylinder --Re 60 --mass-ratio 20 --reduced-velocity-range 3 12 \\
-        --points 36 --wake-shift 0.75j --mesh coarse
+        --points 36 --wake-shift 0.75j --method tracking --mesh coarse
 
 Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §B, and §A for the fixed
 cylinder: σ = 0.046839 + 0.74518i at Re = 60): two branches, a fluid mode tending to the fixed
@@ -61,9 +61,10 @@ def run(args: argparse.Namespace) -> None:
     scale = body_velocity_scale("cylinder")  # the generic U* of fsistab.params.Solid is U*/2π
     solid = Solid.cylinder(MASS_RATIO, velocities[0])
     counter = FactorCounter()
-    thresholds, branches = find_thresholds(
-        fluid, solid, velocities / scale, wake_shift=0.75j, counter=counter
+    thresholds, details = find_thresholds(  # tracking: the two branches are drawn
+        fluid, solid, velocities / scale, wake_shift=0.75j, counter=counter, method="tracking"
     )
+    branches = details["branches"]
 
     names = {"heave": "solid", "wake": "fluid"}
     values = np.array([branches[name].values for name in names]).T  # (velocity, branch)
