@@ -178,16 +178,6 @@ def _loads_interpolant(points: list[SweepSample], origin: float, h: float) -> np
     return np.linalg.solve(np.array(rows, dtype=float), np.array(values))
 
 
-@dataclass(frozen=True)
-class _Interval:
-    """A resolved interval: ``pairs`` ``(i, j)`` of the same root at its two ends (indices into
-    their ``roots``) and ``starts`` ``(ω, U*)`` where a followed root's interpolated ``Im u``
-    changes sign (:func:`_follow`)."""
-
-    pairs: list[tuple[int, int]]
-    starts: list[tuple[float, float]]
-
-
 def _paths(coef: np.ndarray, left: float, h: float, solid: Solid) -> tuple[np.ndarray, np.ndarray] | None:
     """The roots of ``F`` with the loads of the interpolant ``coef`` followed from ``τ = 0`` to 1:
     ``(taus, roots)`` with ``roots[k, i]`` root ``i`` at ``taus[k]``, the step halved where a root
@@ -233,23 +223,21 @@ def _nearest(previous: np.ndarray, new: np.ndarray) -> np.ndarray | None:
 
 def _follow(
     left: SweepSample, right: SweepSample, neighbours: list[SweepSample], solid: Solid, relevant, strict=True
-) -> _Interval | None:
+) -> list[tuple[float, float]] | None:
     """Follow every root across ``[left, right]`` on the cubic Hermite interpolant of the loads
     (exact at both ends), and check it (``strict``) against the quintics through each of
     ``neighbours``: their root paths' distance ``e`` estimates the cubic's error. None (bisect) if
     a root followed in ``relevant`` (``Re u`` in that band somewhere) has ``e`` above
     ``MAX_ROOT_ERROR |u|`` or ``1/ERROR_SAFETY`` of its distance to the other roots, or if its
     ``Im u`` comes within ``ERROR_SAFETY e`` of zero and leaves on the side it came from (a
-    tangency the error could turn into a narrow window, or hide one); else the pairs of roots at
-    the two ends and the Newton starts where ``Im u`` changes sign."""
+    tangency the error could turn into a narrow window, or hide one); else the Newton starts
+    ``(ω, U*)`` where a followed root's interpolated ``Im u`` changes sign."""
     h = right.frequency - left.frequency
     path = _paths(_loads_interpolant([left, right], left.frequency, h), left.frequency, h, solid)
     if path is None or (strict and not neighbours):
         return None
     taus, roots = path
     error = _path_error(taus, roots, left, right, neighbours if strict else [], solid)
-    ends = [_index(roots[0], left.roots), _index(roots[-1], right.roots)]
-    pairs = [(ends[0][i], ends[1][i]) for i in range(roots.shape[1]) if ends[0][i] >= 0 and ends[1][i] >= 0]
     starts = []
     for i in range(roots.shape[1]):
         u, e = roots[:, i], error[:, i]
@@ -267,7 +255,7 @@ def _follow(
             velocity = (u[k] + weight * (u[k + 1] - u[k])).real
             if velocity > 0:
                 starts.append((left.frequency + tau * h, 1.0 / velocity))
-    return _Interval(pairs, starts)
+    return starts
 
 
 def _path_error(
@@ -285,17 +273,6 @@ def _path_error(
             check = _all_roots(npoly.polyval(tau, coef).reshape(2, 2), solid, left.frequency + tau * h)
             error[k] = np.maximum(error[k], np.min(np.abs(roots[k][:, None] - check[None, :]), axis=1))
     return error
-
-
-def _index(path_roots: np.ndarray, sample_roots: np.ndarray) -> list[int]:
-    """Index into ``sample_roots`` (``Re u > 0``) of each root of a path's end, −1 if absent."""
-    if not len(sample_roots):
-        return [-1] * len(path_roots)
-    found = []
-    for u in path_roots:
-        j = int(np.argmin(np.abs(sample_roots - u)))
-        found.append(j if abs(sample_roots[j] - u) <= 1e-6 * abs(u) else -1)
-    return found
 
 
 def _crossings_certain(values: np.ndarray, margin: np.ndarray) -> bool:
@@ -413,8 +390,8 @@ def sweep_thresholds(
         # crossings at once) bring the interpolant's error down by about 4⁴, so that Newton on
         # det T starts closer; G(0) is made meanwhile in the other thread
         starts = []
-        for w0, w1, interval in intervals:
-            for omega, velocity in interval.starts if interval is not None else []:
+        for w0, w1, crossings in intervals:
+            for omega, velocity in crossings or []:
                 if low / 1.1 <= velocity <= high * 1.1:
                     eighth = 0.125 * (w1 - w0)
                     starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth)))
@@ -424,10 +401,8 @@ def sweep_thresholds(
         found = []
         for omega, velocity, a, b in starts:
             closer = _follow(samples[a], samples[b], [], solid, relevant, strict=False)
-            if closer is not None and closer.starts:
-                omega, velocity = min(
-                    closer.starts, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1)
-                )
+            if closer:
+                omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
             try:
                 threshold = _converge(fluid, solid, omega, velocity, wake_frequency, counter)
             except ConvergenceError as error:  # e.g. two crossings about to merge: reported, not fatal
@@ -469,8 +444,9 @@ class _StaticSample:
 
 def _bisect(samples: dict, add, solid: Solid, relevant, threads: int):
     """Split the intervals between ``samples`` (``add`` makes new ones) until each is resolved
-    (:func:`_follow`) or narrower than ``MIN_STEP``: the final ``(w0, w1, interval)`` list and
-    the intervals left unresolved (their ``interval`` from the unchecked cubic)."""
+    (:func:`_follow`) or narrower than ``MIN_STEP``: the final ``(w0, w1, starts)`` list (the
+    Newton starts in each interval) and the intervals left unresolved (their starts from the
+    unchecked cubic)."""
     unresolved: list[tuple[float, float]] = []
     while True:
         frequencies = sorted(samples)
@@ -478,14 +454,14 @@ def _bisect(samples: dict, add, solid: Solid, relevant, threads: int):
         for k, (w0, w1) in enumerate(zip(frequencies[:-1], frequencies[1:], strict=True)):
             neighbours = [samples[frequencies[n]] for n in (k - 1, k + 2) if 0 <= n < len(frequencies)]
             strict = (w0, w1) not in unresolved
-            interval = _follow(samples[w0], samples[w1], neighbours, solid, relevant, strict=strict)
-            if interval is None and strict:
+            crossings = _follow(samples[w0], samples[w1], neighbours, solid, relevant, strict=strict)
+            if crossings is None and strict:
                 if w1 - w0 < MIN_STEP * w1:
                     unresolved.append((w0, w1))
-                    interval = _follow(samples[w0], samples[w1], [], solid, relevant, strict=False)
+                    crossings = _follow(samples[w0], samples[w1], [], solid, relevant, strict=False)
                 else:
                     todo.append((w0, w1))
-            intervals.append((w0, w1, interval))
+            intervals.append((w0, w1, crossings))
         if not todo:
             return intervals, unresolved
         # samples are factorised `threads` at a time: a round that splits fewer intervals than
