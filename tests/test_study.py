@@ -442,6 +442,7 @@ def test_thresholds_at_one_point(base_case, serial):
     ds = study.run_point(base_case, settings, root / "cache").sel(mass_ratio=1000.0)
     kinds = ds.threshold_kind.values.tolist()
     assert "divergence" in kinds and "flutter" in kinds
+    assert int(ds.threshold_unresolved_intervals) == 0
     assert set(ds.threshold_class.values.tolist()) <= set(CLASSES)
     divergence = ds.threshold_reduced_velocity.values[kinds.index("divergence")]
     expected = math.sqrt(1000.0 * settings.r_theta**2 / float(ds.moment_slope_alpha))

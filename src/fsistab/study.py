@@ -495,7 +495,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
 
     scale = body_velocity_scale(kind)
     rows: list[list[dict]] = []
-    wakes = []
+    wakes, unresolved = [], []
     for mass in settings.thresholds:
         solid = settings.solid(kind, mass, settings.velocity_range[0])
         velocities = np.geomspace(*settings.velocity_range, settings.points) / scale
@@ -505,6 +505,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
         )
         wake = details["wake_frequency"] if details["wake_frequency"] is not None else math.nan
         wakes.append(wake)
+        unresolved.append(len(details.get("unresolved", ())))  # frequency intervals the sweep left
         row = []
         for t in found:
             u = t.reduced_velocity
@@ -555,6 +556,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
             ("mass_ratio", "threshold"),
             table.astype(str) if is_text else table,
         )
+    variables["threshold_unresolved_intervals"] = ("mass_ratio", np.array(unresolved, dtype=np.int64))
     return variables, np.array(wakes)
 
 
