@@ -125,8 +125,8 @@ def transfer_samples(
 ) -> list[TransferSample]:
     """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
     at most 2; each holds one factorisation in memory). UMFPACK, called through ctypes, runs
-    without the GIL, so threads factorise in parallel; the first factorisation of an arithmetic
-    share one symbolic analysis, made first (:func:`fsistab.linalg.shared_analysis`)."""
+    without the GIL, so threads factorise in parallel; the factorisations of an arithmetic share
+    one symbolic analysis, made before them (:func:`fsistab.linalg.shared_analysis`)."""
     shifts = [complex(s) for s in shifts]
     threads = sample_threads(threads)
     counter = counter if counter is not None else FactorCounter()
