@@ -26,10 +26,15 @@ Usage:
 
 ``--zone`` is ``z_d`` (and ``z_u`` unless ``--upstream-zone`` is given); ``--domain`` overrides the
 preset's domain, ``--far`` its far-field element size, ``--middle`` adds (or replaces) the graded
-far field's middle box (``fsistab.mesh.MeshSizes``). Examples (docs/discretisation.md, "A sponge layer"):
+far field's middle box (``fsistab.mesh.MeshSizes``); ``--velocity-range`` replaces the default U*
+range of every sweep (``[2, 10]`` for m ≥ 100, ``[1.5, 6]`` below). ``--slip`` imposes only
+``U·N = 0`` on the inlet and lateral sides for the perturbation (tried once on ``coarse``: the sweeps
+then need more than 200 samples). Examples (docs/discretisation.md, "A sponge layer"):
 
-    python validation/sponge_check.py coarse --regions downstream --sigma 0.05 0.1 --zone 0.5
-    python validation/sponge_check.py coarse --domain 20 160 20 --mass-ratios 1000
+    python validation/sponge_check.py coarse --regions upstream --no-baseline
+    python validation/sponge_check.py coarse --far 1 --domain 20 160 20 --no-sponge --mass-ratios 1000 10
+    python validation/sponge_check.py medium --regions downstream --sigma 0.2 --zone 0.25 \
+        --rotation-target --no-baseline --mass-ratios 1000     # the recommended sponge
 """
 
 import argparse
@@ -263,13 +268,22 @@ def main() -> None:
     parser.add_argument("--no-sponge", action="store_true", help="only the sweeps without sponge")
     parser.add_argument("--out", help="append one JSON record per sweep to this file")
     args = parser.parse_args()
-    regions = REGIONS if "all" in args.regions else tuple(r for r in REGIONS if r in args.regions)
-    sponges = [
-        Sponge(sigma, regions, zone, args.upstream_zone or zone, args.lateral_zone, args.rotation_target)
-        for sigma in args.sigma
-        for zone in args.zone
-    ]
-    spec = build_spec(args)
+    try:  # bad input: one line, before any mesh or steady state is built
+        regions = REGIONS if "all" in args.regions else tuple(r for r in REGIONS if r in args.regions)
+        sponges = [
+            Sponge(sigma, regions, zone, args.upstream_zone or zone, args.lateral_zone, args.rotation_target)
+            for sigma in args.sigma
+            for zone in args.zone
+        ]
+        spec = build_spec(args)
+        if args.no_baseline and args.no_sponge:
+            raise InputError("--no-baseline and --no-sponge leave nothing to compute")
+        for mass in args.mass_ratios:
+            Solid(mass_ratio=mass)  # validates the mass ratio
+        if args.velocity_range and not 0 < args.velocity_range[0] < args.velocity_range[1]:
+            raise InputError(f"the velocity range must satisfy 0 < low < high, got {args.velocity_range}")
+    except InputError as exc:
+        parser.error(str(exc))
     steady = solve_steady(spec, Flow(REYNOLDS), cache_dir=default_cache_dir())
     fluid = fluid_operators(with_slip_far_field(steady) if args.slip else steady)
     domain = spec.domain
