@@ -28,7 +28,8 @@ a quarter of the interval apart are then made around it (the interpolant's error
 found on them; the sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at the converged point says
 onset (> 0) or restabilisation as U* grows. Divergence (``ω = 0``) comes from ``G(0)`` exactly,
 ``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real factorisation, made
-beside the first complex one (each has its own symbolic analysis).
+when the band's low end first needs it, or else in a second thread during the serial Newton
+iterations.
 
 The sweep covers the frequencies where a root can lie in the velocity range: it starts from the
 in-vacuo frequencies of the range's ends widened by ``BAND_MARGIN`` and widens the band (at most
@@ -423,8 +424,8 @@ def sweep_thresholds(
 
 class _StaticSample:
     """``G(0)`` (:func:`_static_sample`) made at first need, or beforehand in ``pool``'s thread once
-    :meth:`prefetch` is called (a real factorisation with a symbolic analysis of its own,
-    overlapped with the serial Newton iterations); counted in ``counter`` when first got."""
+    :meth:`prefetch` is called (a real factorisation, its symbolic analysis on the complex one's
+    ordering, overlapped with the serial Newton iterations); counted in ``counter`` when first got."""
 
     def __init__(self, fluid, static_factor, counter: FactorCounter, pool: ThreadPoolExecutor):
         self._args, self._counter, self._pool = (fluid, static_factor), counter, pool
