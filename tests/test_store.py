@@ -538,3 +538,19 @@ def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeyp
     assert [p.mass_ratio for p in traced] == [7.0, 14.0]
     saved = store.read_dataset(path, expect=attrs)
     assert saved.mass_ratio.values.tolist() == [7.0, 14.0] and saved.attrs["complete"] == 1
+
+
+def test_a_cache_variable_naming_a_file_is_refused_in_one_line(tmp_path, monkeypatch):
+    """``FSISTAB_CACHE`` pointing at a file: a one-line InputError, not a traceback from the first
+    write; a directory, or one still to be made, is accepted as it is."""
+    from fsistab.errors import InputError
+
+    a_file = tmp_path / "cache-file"
+    a_file.write_text("not a directory")
+    monkeypatch.setenv("FSISTAB_CACHE", str(a_file))
+    with pytest.raises(InputError, match="FSISTAB_CACHE=.* is not a directory") as refused:
+        store.default_cache_dir()
+    assert "\n" not in str(refused.value)
+    for directory in (tmp_path, tmp_path / "to-be-made"):
+        monkeypatch.setenv("FSISTAB_CACHE", str(directory))
+        assert store.default_cache_dir() == directory

@@ -53,8 +53,11 @@ def software_versions() -> dict[str, str]:
 
 
 def default_cache_dir() -> Path:
-    """``$FSISTAB_CACHE`` if set, else ``~/.cache/fsistab``."""
+    """``$FSISTAB_CACHE`` if set, else ``~/.cache/fsistab``; a one-line :class:`InputError` if
+    ``$FSISTAB_CACHE`` names something that exists and is not a directory (before any work)."""
     env = os.environ.get("FSISTAB_CACHE")
+    if env and Path(env).exists() and not Path(env).is_dir():
+        raise InputError(f"FSISTAB_CACHE={env} is not a directory: unset it or point it to a directory")
     return Path(env) if env else Path.home() / ".cache" / "fsistab"
 
 
