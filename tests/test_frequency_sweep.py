@@ -124,7 +124,7 @@ def test_samples_in_threads_equal_the_sequential_ones(plate_operators):
 def _synthetic_sample(frequency: float, loads: np.ndarray, slope: np.ndarray):
     from fsistab.frequency_sweep import SweepSample
 
-    return SweepSample(frequency, np.array([]), np.array([]), loads, slope, None)
+    return SweepSample(frequency, np.array([]), np.array([]), loads, slope)
 
 
 @pytest.mark.parametrize("points", [2, 3])

@@ -98,14 +98,14 @@ RELEVANT_MARGIN = 1.5  # roots with 1/Re u within this factor of the velocity ra
 class SweepSample:
     """The roots ``u_k`` (``Re u_k > 0``, sorted by ``Re u``) of ``F(u; ω) = 0`` at one frequency
     and their derivatives ``du_k/dω``; ``loads`` ``A(iω)`` and ``loads_slope`` ``dA/dω`` (2 × 2),
-    which the sweep interpolates between samples; ``sample`` the transfer data they come from."""
+    which the sweep interpolates between samples. The fluid response of the sample is not kept
+    (a 4-column field per sample, 22 MB on the medium plate)."""
 
     frequency: float
     roots: np.ndarray
     slopes: np.ndarray
     loads: np.ndarray
     loads_slope: np.ndarray
-    sample: TransferSample
 
 
 @dataclass(frozen=True)
@@ -162,7 +162,7 @@ def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: 
         _, _, f_u, f_s = characteristic_function(loads, rate, solid, 1j * omega, solid.mass_ratio, u)
         slopes.append(-1j * f_s / f_u)
     return SweepSample(
-        omega, np.array(roots, dtype=complex), np.array(slopes, dtype=complex), loads, 1j * rate, sample
+        omega, np.array(roots, dtype=complex), np.array(slopes, dtype=complex), loads, 1j * rate
     )
 
 
