@@ -99,11 +99,19 @@ def transfer_sample(
     round-off, :meth:`fsistab.linalg.FluidFactor.solve`), for samples that only bracket a root."""
     factor = factor if factor is not None else FluidFactor(fluid, s, counter)
     response = factor.solve(fluid.jfs + s * fluid.mfs, refine)
-    load_rows = lambda x: fluid.load_f @ x + s * (fluid.load_mass_f @ x)  # noqa: E731
-    value = fluid.load_s + s * fluid.load_mass_s - load_rows(response)
     response_rate = factor.solve(fluid.mfs - fluid.mff @ response, refine)
-    rate = fluid.load_mass_s - fluid.load_mass_f @ response - load_rows(response_rate)
-    return TransferSample(complex(s), value, rate, response)
+    rate = fluid.load_mass_s - fluid.load_mass_f @ response - _load_rows(fluid, s, response_rate)
+    return TransferSample(complex(s), _transfer_value(fluid, s, response), rate, response)
+
+
+def _load_rows(fluid: FluidOperators, s: complex, x: np.ndarray) -> np.ndarray:
+    """``(load_f + s load_mass_f) x``: the loads of fluid fields ``x``."""
+    return fluid.load_f @ x + s * (fluid.load_mass_f @ x)
+
+
+def _transfer_value(fluid: FluidOperators, s: complex, response: np.ndarray) -> np.ndarray:
+    """``G(s) = load_s + s load_mass_s − (load_f + s load_mass_f) X`` from the response ``X``."""
+    return fluid.load_s + s * fluid.load_mass_s - _load_rows(fluid, s, response)
 
 
 def sample_threads(threads: int | None = None) -> int:
@@ -161,10 +169,7 @@ def exact_transfer(
     if derivative:
         sample = transfer_sample(fluid, s, factor=factor)
         return sample.value, sample.rate
-    response = factor.solve(fluid.jfs + s * fluid.mfs)
-    return (
-        fluid.load_s + s * fluid.load_mass_s - (fluid.load_f @ response + s * (fluid.load_mass_f @ response))
-    )
+    return _transfer_value(fluid, s, factor.solve(fluid.jfs + s * fluid.mfs))
 
 
 def aerodynamic_loads(transfer: np.ndarray, theta0: float, loads0: np.ndarray, s: complex) -> np.ndarray:
