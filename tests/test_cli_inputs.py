@@ -293,6 +293,9 @@ def test_a_mesh_too_large_for_the_machine_is_refused_before_meshing(args, tmp_pa
         (["neutral", "--method", "transfer", "--seed-mass-ratio", "-3"], "--seed-mass-ratio"),  # unused
         (["neutral", "--body", "cylinder"], "implemented for the plate"),
         (["steady", "--Re", "1e300"], "at most"),
+        (["critical", "--sponge", "0.2"], "--sponge must be"),
+        (["spectrum", "--sponge", "0.2,0.9"], "sponge zone"),
+        (["neutral", "--sponge", "-1,0.25"], "sigma_max must be positive"),
     ],
 )
 def test_named_bad_values_are_refused_with_the_reason(args, reason, tmp_path):

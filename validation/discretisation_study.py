@@ -25,6 +25,7 @@ Usage: python validation/discretisation_study.py [VARIANT ...] [--out FILE] [--c
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import resource
@@ -42,7 +43,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import fluid_operators
-from fsistab.params import Domain, Flow, Plate, Solid
+from fsistab.params import Domain, Flow, Plate, Solid, Sponge
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -96,6 +97,12 @@ VARIANTS = {
         {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
         (80, 160, 80),
     ),
+    # the default `medium` since issue 14's sponge: d1-dom80 with the outlet sponge (fsistab.params.Sponge)
+    "d1-dom80-sponge": (
+        "medium",
+        {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
+        (80, 160, 80),
+    ),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
     "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
     "d1-dom80-wake40": (
@@ -111,10 +118,17 @@ VARIANTS = {
 
 def variant_spec(name: str, reynolds: float = REYNOLDS):
     """The mesh of a variant, fitted to ``reynolds``: its preset's 0.3 sizes (``BASE``) with the
-    variant's overrides."""
+    variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium` preset's)
+    only on the ``-sponge`` variants."""
     preset, sizes, (up, down, lateral) = VARIANTS[name]
+    sponge = Sponge() if name.endswith("-sponge") else None
     return mesh_spec(
-        Plate(), preset, reynolds, Domain(up, down, lateral), **{**BASE.get(preset, {}), **sizes}
+        Plate(),
+        preset,
+        reynolds,
+        Domain(up, down, lateral),
+        sponge=sponge,
+        **{**BASE.get(preset, {}), **sizes},
     )
 
 
@@ -183,6 +197,7 @@ def run_variant(
         "preset": preset,
         "sizes": sizes,
         "domain": [up, down, lateral],
+        "sponge": None if spec.sponge is None else dataclasses.asdict(spec.sponge),
         "unknowns": int(fluid.n_fluid),
         "drag_coefficient": float(2 * fluid.loads0[0]),
         "lift_slope_alpha": slopes.lift_slope_alpha,

@@ -12,8 +12,11 @@ The plate at Re = 2900 (steady state of the mesh, cached), solid parameters of M
 each part present only if its region is selected (``--regions``). A wave advected at ``U∞`` through
 the downstream part loses the factor ``exp(-∫σ dX) = exp(-σ_max z_d d / 2)`` (units ``U∞ = L = 1``).
 With ``--rotation-target`` the sponge term is ``σ (u - θ u_θ)``, ``u_θ = (∇U⁰)(-Y, X) - e_z∧U⁰``
-(:func:`rotation_target`): in the plate's axes the steady wake turns by ``-θ`` when the plate
-pitches, a perturbation growing like ``X θ`` downstream that is kinematics, not shed vorticity.
+(:func:`fsistab.operators.rotation_target`): in the plate's axes the steady wake turns by ``-θ``
+when the plate pitches, a perturbation growing like ``X θ`` downstream that is kinematics, not shed
+vorticity. The library's sponge (:class:`fsistab.params.Sponge`, on the ``medium`` and ``fine``
+presets) is this one's downstream part with the rotation target; this script builds its meshes
+without it (``sponge=None``) and adds its own.
 The thresholds at each mass ratio come from the frequency sweep
 (``fsistab.frequency_sweep.sweep_thresholds``), without the sponge (unless ``--no-baseline``) and
 with each combination of ``--sigma`` and ``--zone``.
@@ -46,7 +49,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import MeshSpec, mesh_spec
-from fsistab.operators import FluidOperators, _to_scipy, fluid_operators
+from fsistab.operators import FluidOperators, _to_scipy, fluid_operators, rotation_target
 from fsistab.params import Domain, Flow, Plate, Solid
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -106,17 +109,6 @@ def sponge_coefficient(domain: Domain, sponge: Sponge):
     for region in sponge.regions:
         outside = outside * (1 - parts[region])
     return sponge.sigma_max * (1 - outside)
-
-
-def rotation_target(steady):
-    """``u_θ = (∇U⁰)(-Y, X) - e_z∧U⁰``: the steady field carried by a pitch ``δθ`` when the far field
-    stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (MODEL.md §4, §7;
-    ``u_θ = -D_θ'``). In body axes the steady wake turns by ``-δθ`` about ``G`` when the plate
-    pitches, a perturbation ``∝ X δθ`` downstream that a sponge must not damp."""
-    from ngsolve import CF, Grad, x, y
-
-    base = steady.velocity
-    return Grad(base) * CF((-y, x)) - CF((-base[1], base[0]))
 
 
 def with_sponge(fluid: FluidOperators, spec: MeshSpec, sponge: Sponge) -> FluidOperators:
@@ -238,7 +230,7 @@ def build_spec(args) -> MeshSpec:
     if args.middle is not None:
         sizes["middle"], sizes["middle_box"] = args.middle[0], tuple(args.middle[1:])
     domain = Domain(*args.domain) if args.domain else None
-    return mesh_spec(Plate(), args.preset, REYNOLDS, domain, **sizes)
+    return mesh_spec(Plate(), args.preset, REYNOLDS, domain, sponge=None, **sizes)  # its own sponges only
 
 
 def main() -> None:

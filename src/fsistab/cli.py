@@ -107,6 +107,17 @@ CASE_OPTIONS = {
         ],
         None,
     ),
+    "sponge": (
+        Annotated[
+            str,
+            typer.Option(
+                "--sponge",
+                help="outlet sponge of the linear operators: preset (the mesh preset's, on its own "
+                "domain), none, or SIGMA_MAX,ZONE (e.g. 0.2,0.25)",
+            ),
+        ],
+        "preset",
+    ),
 }
 OUTPUT_OPTIONS = {
     "out": (
@@ -176,6 +187,7 @@ class Options(SimpleNamespace):
             self.aspect_ratio,
             self.corner_radius,
             self.domain,
+            self.sponge,
         )
 
     def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:

@@ -15,6 +15,7 @@ Meshes are mirror-symmetric about ``Y = 0``; elements touching the body are curv
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -24,7 +25,7 @@ import numpy as np
 from fsistab import store
 from fsistab.errors import CacheError, InputError
 from fsistab.geometry import WALL, fluid_half_geometry, wall_projection
-from fsistab.params import Body, Domain, Plate, _positive, default_domain
+from fsistab.params import Body, Domain, Plate, Sponge, _positive, default_domain, default_sponge
 
 PRESETS = ("coarse", "medium", "fine")
 
@@ -147,16 +148,31 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
 
 @dataclass(frozen=True)
 class MeshSpec:
-    """Everything a mesh depends on: body, domain, local sizes (and the preset it came from)."""
+    """Everything a mesh depends on: body, domain, local sizes (and the preset it came from); and
+    the outlet ``sponge`` of the linear operators on it (:class:`fsistab.params.Sponge`), which is
+    not part of the mesh (:meth:`key`) nor of the steady state, but of everything linearised
+    (:meth:`linear_identity`)."""
 
     body: Body
     domain: Domain
     sizes: MeshSizes
     preset: str = "custom"
+    sponge: Sponge | None = None
 
     def key(self) -> str:
         inputs = {"body": asdict(self.body), "domain": asdict(self.domain), "sizes": asdict(self.sizes)}
         return store.cache_key("mesh", inputs)
+
+    def linear_identity(self) -> dict:
+        """What results of the linear operators depend on besides the flow: the mesh and the sponge
+        (flat attributes; saved curves, maps, samples and study points carry them, so that results
+        with and without a sponge are never mixed)."""
+        sponge = "none" if self.sponge is None else json.dumps(asdict(self.sponge), sort_keys=True)
+        return {"mesh_key": self.key(), "sponge": sponge}
+
+    def linear_key(self) -> str:
+        """A file-name key of :meth:`linear_identity`: the mesh key itself without a sponge."""
+        return self.key() if self.sponge is None else store.cache_key("linear", self.linear_identity())
 
     def describe(self) -> dict:
         return {
@@ -164,25 +180,40 @@ class MeshSpec:
             "domain": asdict(self.domain),
             "sizes": asdict(self.sizes),
             "preset": self.preset,
+            "sponge": None if self.sponge is None else asdict(self.sponge),
         }
 
 
 def mesh_spec(
-    body: Body, preset: str = "medium", reynolds: float = 100.0, domain: Domain | None = None, **sizes
+    body: Body,
+    preset: str = "medium",
+    reynolds: float = 100.0,
+    domain: Domain | None = None,
+    sponge: Sponge | None | str = "preset",
+    **sizes,
 ) -> MeshSpec:
-    """Mesh specification from a preset fitted to ``reynolds``; keyword arguments override sizes."""
+    """Mesh specification from a preset fitted to ``reynolds``; keyword arguments override sizes.
+    ``sponge`` ``"preset"`` is the preset's (:func:`fsistab.params.default_sponge`) on the preset's
+    own domain, and none on another domain: where a layer may start depends on the domain (more than
+    a wake wavelength behind the body), so on a domain of one's own it is chosen explicitly."""
     base = preset_sizes(body, preset, reynolds)
     try:
         base = replace(base, **sizes)
     except TypeError as exc:
         raise InputError(f"unknown mesh size parameter: {exc}") from None
-    return MeshSpec(body=body, domain=domain or default_domain(body.kind, preset), sizes=base, preset=preset)
+    own_domain = default_domain(body.kind, preset)
+    domain = domain or own_domain
+    if isinstance(sponge, str):
+        if sponge != "preset":
+            raise InputError(f"sponge must be a Sponge, None or 'preset', got {sponge!r}")
+        sponge = default_sponge(body.kind, preset) if domain == own_domain else None
+    return MeshSpec(body=body, domain=domain, sizes=base, preset=preset, sponge=sponge)
 
 
 def spec_for(case) -> MeshSpec:
     """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its Re, its
-    body and domain."""
-    return mesh_spec(case.body, case.preset, case.flow.reynolds, case.domain)
+    body, domain and sponge."""
+    return mesh_spec(case.body, case.preset, case.flow.reynolds, case.domain, case.sponge)
 
 
 def _generate(spec: MeshSpec):

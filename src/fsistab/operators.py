@@ -135,8 +135,42 @@ def wall_lifting_matrix(steady: SteadyState) -> np.ndarray:
     return np.column_stack([liftings[k].vec.FV().NumPy().copy() for k in RIGID_MOTIONS])
 
 
+def sponge_coefficient(steady: SteadyState):
+    """``σ(X)`` of the mesh's outlet sponge (:class:`fsistab.params.Sponge`) as an NGSolve
+    coefficient function, or None without a sponge."""
+    from ngsolve import IfPos, x
+
+    spec = steady.mesh_spec
+    if spec.sponge is None:
+        return None
+    start, end = spec.sponge.start(spec.domain), spec.domain.downstream
+    t = IfPos(x - start, (x - start) / (end - start), 0.0)  # 0 before the layer, 1 at the outlet
+    return spec.sponge.sigma_max * t * t * (3 - 2 * t)
+
+
+def rotation_target(steady: SteadyState):
+    """``u_θ = (∇U⁰)(−Y, X) − e_z∧U⁰``: the steady field carried by a pitch ``δθ`` when the far
+    field stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (MODEL.md §4,
+    §7). In body axes the steady wake turns by ``−δθ`` when the body pitches, a perturbation growing
+    like ``X δθ`` downstream that is kinematics, not shed vorticity: the sponge relaxes towards it."""
+    from ngsolve import CF, Grad, x, y
+
+    base = steady.velocity
+    return Grad(base) * CF((-y, x)) - CF((-base[1], base[0]))
+
+
+def _with_sponge(steady: SteadyState, integrand, u, v):
+    """``integrand + σ u·v``, the sponge's part of the linearised momentum equation added (the
+    integrand itself without a sponge)."""
+    from ngsolve import InnerProduct
+
+    sigma = sponge_coefficient(steady)
+    return integrand if sigma is None else integrand + sigma * InnerProduct(u, v)
+
+
 def fluid_operators(steady: SteadyState) -> FluidOperators:
-    """Assemble every fluid block of MODEL.md §7 once at ``steady`` (one real assembly each)."""
+    """Assemble every fluid block of MODEL.md §7 once at ``steady`` (one real assembly each), with
+    the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one (:class:`fsistab.params.Sponge`)."""
     from ngsolve import CF, BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
     space, n_all = steady.space, steady.space.ndof
@@ -144,9 +178,11 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
     base = steady.velocity
     grid_velocity = CF(wall_velocity(theta0))
     (u, p), (v, q) = space.TnT()
+    sigma = sponge_coefficient(steady)
 
     jacobian = BilinearForm(space)
-    jacobian += momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds) * dx
+    linearisation = momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds)
+    jacobian += _with_sponge(steady, linearisation, u, v) * dx
     jacobian.Assemble()
     mass = BilinearForm(space)
     mass += InnerProduct(u, v) * dx
@@ -159,6 +195,8 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
     # shape derivatives: the residual's explicit dependence on (θ, ḣ, θ') through W and θ' e_z∧U
     dw = grid_velocity_derivatives(theta0)
     d_theta = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["theta"]), v))
+    if sigma is not None:  # the sponge's target turns with the body: -σ u_θ in the θ column
+        d_theta -= _linear_form_vector(space, lambda v, q: sigma * InnerProduct(rotation_target(steady), v))
     d_hdot = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["hdot"]), v))
     d_thetadot = _linear_form_vector(
         space,
@@ -210,10 +248,10 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
     grid_velocity = CF(wall_velocity(fluid.theta0))
     form = BilinearForm(space)
     value = shift if is_complex else shift.real
-    form += (
-        momentum_linearisation(u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds)
-        + value * InnerProduct(u, v)
-    ) * dx
+    linearisation = momentum_linearisation(
+        u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds
+    )
+    form += _with_sponge(steady, linearisation + value * InnerProduct(u, v), u, v) * dx
     form.Assemble()
     return form, space.FreeDofs()
 
@@ -223,7 +261,9 @@ class FluidResidual:
 
     For finite-difference checks of every block of :func:`fluid_operators`: the wall dofs are set
     from the solid state by the nonlinear lifting, the grid velocity is
-    ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` and the rotation term ``θ' e_z∧U`` is included.
+    ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` and the rotation term ``θ' e_z∧U`` is included; with a
+    sponge, ``σ (U − U⁰ − (θ − θ0) u_θ)`` (its target, the steady field turned with the body to first
+    order, :func:`rotation_target`; zero at the steady state).
     """
 
     def __init__(self, steady: SteadyState):
@@ -236,11 +276,17 @@ class FluidResidual:
         ct, st = cos(self.theta), sin(self.theta)
         grid_velocity = CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
         form = BilinearForm(space)
-        form += (
-            momentum_form(u, p, v, q, grid_velocity, 1.0 / steady.flow.reynolds)
-            + self.thetadot * InnerProduct(CF((-u[1], u[0])), v)
-        ) * dx
+        residual = momentum_form(u, p, v, q, grid_velocity, 1.0 / steady.flow.reynolds)
+        form += _with_sponge(steady, residual + self.thetadot * InnerProduct(CF((-u[1], u[0])), v), u, v) * dx
         self.form = form
+        sigma = sponge_coefficient(steady)
+        # the sponge's target as load vectors: ∫ σ U⁰·v and ∫ σ u_θ·v (zero without a sponge)
+        self._target = [
+            np.zeros(space.ndof)
+            if sigma is None
+            else _linear_form_vector(space, lambda v, q, f=field: sigma * InnerProduct(f, v))
+            for field in (steady.velocity, rotation_target(steady))
+        ]
         self.lifting = wall_lifting_matrix(steady)
         self.index = free_dof_indices(space)
         self._vector = steady.state.vec.CreateVector()
@@ -258,7 +304,11 @@ class FluidResidual:
         self.thetadot.Set(q_solid[3])
         self._vector.FV().NumPy()[:] = self.full_state(q_solid, q_fluid)
         self.form.Apply(self._vector, self._residual)
-        r = self._residual.FV().NumPy()
+        r = (
+            self._residual.FV().NumPy()
+            - self._target[0]
+            - (q_solid[1] - self.steady.flow.theta0) * self._target[1]
+        )
         return r[self.index].copy(), -(self.lifting.T @ r)
 
     def steady_point(self) -> tuple[np.ndarray, np.ndarray]:

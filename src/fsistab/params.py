@@ -155,6 +155,70 @@ class Domain:
             object.__setattr__(self, name, value)
 
 
+@dataclass(frozen=True)
+class Sponge:
+    """An absorbing layer at the outlet, in the **linearised** momentum equation only (MODEL.md §7):
+
+        ``∫ σ(X) (u − θ u_θ)·v``,   ``σ(X) = σ_max S((X − X_s)/(X_out − X_s))``,   ``S(t) = 3t² − 2t³``
+        on ``[0, 1]`` (0 before, 1 after),   ``X_s = (1 − zone) X_out``,
+
+    uniform in ``Y``, with ``X_out`` the domain's downstream extent and
+    ``u_θ = (∇U⁰)(−Y, X) − e_z∧U⁰`` (:func:`fsistab.operators.rotation_target`): the steady field
+    turned with the pitch, which the sponge leaves alone (it damps the shed perturbation, not the
+    kinematics of a turning wake). The steady state is not changed (``σ (U⁰ − U⁰) = 0``). A
+    perturbation advected at ``U∞`` through the layer loses ``exp(−σ_max zone X_out / 2)`` per pass.
+    ``sigma_max`` in units ``U∞/L``; ``zone`` the fraction of ``[0, X_out]`` it covers.
+
+    It removes the truncated domain's weakly damped convective modes (perturbations carried to the
+    outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves.
+    Measured on the plate at Re 2900 (docs/discretisation.md, "A sponge layer"): the default
+    (σ_max = 0.2, the last quarter of a 160-chord domain, ``e⁻⁴`` per pass) moves U*_F, ω_F and U*_D
+    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium``; it must start more than one wake
+    wavelength of the flutter mode (``2π/ω_F ≈ 35`` chords) behind the body.
+    """
+
+    sigma_max: float = 0.2
+    zone: float = 0.25
+
+    def __post_init__(self):
+        object.__setattr__(self, "sigma_max", _positive("sponge sigma_max", self.sigma_max))
+        zone = _positive("sponge zone", self.zone)
+        if zone > 0.5:
+            raise InputError(
+                f"the sponge zone is a fraction of the downstream extent in (0, 0.5], got {zone}"
+            )
+        object.__setattr__(self, "zone", zone)
+
+    def start(self, domain: Domain) -> float:
+        """``X_s``: where ``σ`` starts to rise (body lengths behind the body's centre)."""
+        return (1 - self.zone) * domain.downstream
+
+
+def parse_sponge(text: str) -> Sponge | None | Literal["preset"]:
+    """``preset`` (the mesh preset's own), ``none``, or ``SIGMA_MAX,ZONE`` (e.g. ``0.2,0.25``)."""
+    value = text.strip().lower()
+    if value in ("preset", "none"):
+        return None if value == "none" else "preset"
+    parts = value.split(",")
+    if len(parts) != 2:
+        raise InputError(f"--sponge must be 'preset', 'none' or SIGMA_MAX,ZONE (e.g. 0.2,0.25), got {text!r}")
+    return Sponge(_finite("sponge sigma_max", parts[0]), _finite("sponge zone", parts[1]))
+
+
+# The presets' sponges (issue 14): on the plate's converged presets, whose 4-chord outer elements
+# and 160-chord domain carry weakly damped convective modes; not on `coarse`, whose spurious modes
+# come from its far-field elements, which no outlet layer removes (docs/discretisation.md).
+PRESET_SPONGES = {
+    ("plate", "medium"): Sponge(),
+    ("plate", "fine"): Sponge(),
+}
+
+
+def default_sponge(kind: str, preset: str) -> Sponge | None:
+    """The sponge of a mesh preset when none is chosen: :data:`PRESET_SPONGES`, else none."""
+    return PRESET_SPONGES.get((kind, preset))
+
+
 DEFAULT_DOMAINS = {
     "plate": Domain(upstream=20.0, downstream=40.0, lateral=20.0),
     # blockage: [-25, 50] x [-25, 25] raises the wake-mode frequency by 1.2 %, this one by 0.13 %
@@ -304,14 +368,19 @@ def parse_complex(name: str, text: str, high: float = MAX_FREQUENCY) -> complex:
 @dataclass(frozen=True)
 class Case:
     """One body in one steady flow on one mesh preset: what a steady state (and everything
-    linearised about it) depends on. ``domain`` None is the preset's default (:func:`default_domain`)."""
+    linearised about it) depends on. ``domain`` None is the preset's default (:func:`default_domain`);
+    ``sponge`` ``"preset"`` is the preset's outlet layer (:func:`default_sponge`), None none: it
+    changes the linear operators only, not the mesh or the steady state."""
 
     body: Body
     flow: Flow
     preset: str = "medium"
     domain: Domain | None = None
+    sponge: Sponge | None | Literal["preset"] = "preset"
 
     def __post_init__(self):
+        if not (self.sponge is None or self.sponge == "preset" or isinstance(self.sponge, Sponge)):
+            raise InputError(f"sponge must be a Sponge, None or 'preset', got {self.sponge!r}")
         if self.preset not in MESH_PRESETS:
             raise InputError(f"unknown mesh preset {self.preset!r}: choose one of {', '.join(MESH_PRESETS)}")
         if self.flow.reynolds > MAX_REYNOLDS:
@@ -327,6 +396,7 @@ class Case:
         aspect_ratio: float = 20.0,
         corner_radius: float = 0.1,
         domain: tuple[float, float, float] | None = None,
+        sponge: str = "preset",
     ) -> Case:
         """From the command-line options. The plate's shape is checked for every body: a value
         that makes no sense is refused even where it is not used."""
@@ -338,6 +408,7 @@ class Case:
             flow=Flow(reynolds, alpha0_deg),
             preset=preset,
             domain=Domain(*domain) if domain is not None else None,
+            sponge=parse_sponge(sponge),
         )
 
     @property

@@ -768,11 +768,13 @@ def base_flow_gradient(system: CoupledSystem, mode: AdjointMode) -> np.ndarray:
     (``((∇u)δ + (∇δ)u, v)``, linear in ``δ = ∂U⁰``), the shape terms of ``J_fs``
     (``-((∇δ)ŵ, v) + θ̂'(e_z∧δ, v)``) and, on the solid rows, the loads ``-ℓᵀ`` of those terms
     and the steady force ``F⁰ = -ℓᵀ R(q⁰)`` rotated with the body (``∂C_L/∂θ``; its derivative
-    is ``-ℓᵀ J_all δ``). Four real assemblies of one linear form (the real and imaginary parts of
-    ``u`` and ``v``) and one for the steady force."""
-    from ngsolve import CF, Grad, LinearForm, dx
+    is ``-ℓᵀ J_all δ``). With an outlet sponge, its target ``θ̂ u_θ`` depends on the steady state
+    too: ``-θ̂ σ ((∇δ)(-Y, X) - e_z∧δ, v)`` (:func:`fsistab.operators.rotation_target`). Four real
+    assemblies of one linear form (the real and imaginary parts of ``u`` and ``v``) and one for the
+    steady force."""
+    from ngsolve import CF, Grad, LinearForm, dx, x, y
 
-    from fsistab.operators import wall_lifting_matrix
+    from fsistab.operators import sponge_coefficient, wall_lifting_matrix
     from fsistab.steady import momentum_linearisation, wall_velocity
 
     fluid = system.fluid
@@ -781,23 +783,31 @@ def base_flow_gradient(system: CoupledSystem, mode: AdjointMode) -> np.ndarray:
     fields = _mode_fields(system, mode)
     w_parts = _grid_velocity_perturbation(fluid.theta0, fields["q_s"])
     t_parts = (fields["q_s"][3].real, fields["q_s"][3].imag)
+    pitch_parts = (fields["q_s"][1].real, fields["q_s"][1].imag)
+    sigma = sponge_coefficient(steady)
     (phi, _) = space.TestFunction()
 
-    def assemble(u_values, w, t, v_values) -> np.ndarray:
+    def assemble(u_values, w, t, pitch, v_values) -> np.ndarray:
         u = _real_field(space, u_values).components[0]
         v = _real_field(space, v_values).components[0]
-        form = LinearForm(space)
-        form += (
+        integrand = (
             _dot(Grad(u) * phi, v)
             + _dot(Grad(phi) * u, v)
             - _dot(Grad(phi) * w, v)
             + t * _dot(CF((-phi[1], phi[0])), v)
-        ) * dx
+        )
+        if sigma is not None and pitch != 0:  # the sponge's target, -θ̂ σ u_θ(δ)
+            integrand = integrand - pitch * sigma * _dot(Grad(phi) * CF((-y, x)) - CF((-phi[1], phi[0])), v)
+        form = LinearForm(space)
+        form += integrand * dx
         form.Assemble()
         return form.vec.FV().NumPy().copy()
 
     u, v = fields["u"], fields["v"]
-    parts = [(u.real, w_parts[0], t_parts[0]), (u.imag, w_parts[1], t_parts[1])]
+    parts = [
+        (u.real, w_parts[0], t_parts[0], pitch_parts[0]),
+        (u.imag, w_parts[1], t_parts[1], pitch_parts[1]),
+    ]
     g = assemble(*parts[0], v.real) - assemble(*parts[1], v.imag)
     g = g + 1j * (assemble(*parts[0], v.imag) + assemble(*parts[1], v.real))
     weight = fields["a_s"][2] * fields["q_s"][1] * 2 / system.solid.mass_ratio if system.n_solid else 0.0

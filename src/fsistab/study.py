@@ -444,7 +444,7 @@ def run_point(
         reynolds=case.flow.reynolds,
         alpha0_deg=case.flow.alpha0_deg,
         preset=case.preset,
-        mesh_key=spec.key(),
+        **spec.linear_identity(),
         steady_start=start,
         ndof=fluid.n_fluid,
         factorisations=counter.count,
@@ -604,11 +604,14 @@ def _map(case: Case, settings: StudySettings, cache_dir: Path | None, counter, s
 
 
 def _case_identity(case: Case) -> dict:
+    from fsistab.mesh import spec_for
+
     return {
         "body": asdict(case.body),
         "flow": asdict(case.flow),
         "preset": case.preset,
         "domain": None if case.domain is None else asdict(case.domain),
+        "sponge": spec_for(case).linear_identity()["sponge"],
     }
 
 
@@ -630,7 +633,7 @@ def point_identity(case: Case, settings: StudySettings) -> str:
     return json.dumps(
         {
             "case": _case_identity(case),
-            "mesh_key": spec_for(case).key(),
+            **spec_for(case).linear_identity(),
             "settings": settings.point_identity(),
             "fsistab": __version__,
         },

@@ -355,12 +355,13 @@ COEFFICIENTS = ("lift", "moment")
 
 
 def flow_identity(fluid: FluidOperators) -> dict:
-    """What saved samples of ``G`` depend on (Re, α0, mesh key): checked when they are reused."""
+    """What saved samples of ``G`` depend on (Re, α0, mesh key, sponge): checked when they are
+    reused."""
     steady = fluid.steady
     return {
         "reynolds": steady.flow.reynolds,
         "alpha0_deg": steady.flow.alpha0_deg,
-        "mesh_key": steady.mesh_spec.key(),
+        **steady.mesh_spec.linear_identity(),
     }
 
 

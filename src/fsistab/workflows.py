@@ -294,7 +294,7 @@ def _solid_attrs(case: Case, solid: Solid) -> dict:
     return {
         "reynolds": case.flow.reynolds,
         "alpha0_deg": case.flow.alpha0_deg,
-        "mesh_key": _mesh_spec(case).key(),
+        **_mesh_spec(case).linear_identity(),
         "freq_ratio": solid.freq_ratio,
         "zeta_h": solid.zeta_h,
         "zeta_theta": solid.zeta_theta,
@@ -682,7 +682,7 @@ def transfer_function(
     def count(done: int, total: int) -> None:
         say(f"G(iω): {done}/{total} frequencies ({fluid.n_fluid} fluid unknowns)")
 
-    samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).key()}_{case.tag}.nc"
+    samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).linear_key()}_{case.tag}.nc"
     ds = viscous_theodorsen_dataset(fluid, omega, progress=count, samples_path=samples_path)
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
     path = write_dataset(ds, Path(out) / f"transfer_{case.tag}_{case.preset}.nc")

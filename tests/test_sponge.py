@@ -1,0 +1,171 @@
+"""The outlet sponge of the linear operators (fsistab.params.Sponge): its terms against finite
+differences of the nonlinear residual that contains it, its target against the turned steady field,
+and the keys that keep results with and without it apart."""
+
+import dataclasses
+import json
+import math
+
+import ngsolve
+import numpy as np
+import pytest
+
+from fsistab.coupled import CoupledResidual, CoupledSystem
+from fsistab.errors import InputError
+from fsistab.mesh import mesh_spec
+from fsistab.operators import fluid_operators, rotation_target, sponge_coefficient
+from fsistab.params import Case, Domain, Plate, Solid, Sponge, parse_sponge
+from fsistab.sensitivity import AdjointMode, base_flow_gradient
+from fsistab.steady import steady_key
+from fsistab.transfer import flow_identity
+
+# strong and long on coarse's 40-chord outlet, so that its terms are not lost among the others
+SPONGE = Sponge(sigma_max=1.0, zone=0.5)
+
+
+def _with_sponge(steady, sponge=SPONGE):
+    return dataclasses.replace(steady, mesh_spec=dataclasses.replace(steady.mesh_spec, sponge=sponge))
+
+
+@pytest.fixture(scope="module")
+def sponged(plate_2900_alpha5):
+    """Plate at Re 2900, α0 = 5 (coarse): the systems without and with the sponge."""
+    solid = Solid(mass_ratio=3.0, reduced_velocity=2.0)
+    plain = CoupledSystem(fluid_operators(plate_2900_alpha5), solid)
+    return plain, CoupledSystem(fluid_operators(_with_sponge(plate_2900_alpha5)), solid)
+
+
+def test_sponge_terms_match_finite_differences(sponged):
+    """``J`` with the sponge minus ``J`` without it against central differences of the residuals
+    with and without ``σ (U − U⁰ − (θ − θ0) u_θ)``: every block, the θ column included."""
+    plain, with_sponge = sponged
+    residuals = CoupledResidual(plain), CoupledResidual(with_sponge)
+    q0 = residuals[1].point()
+    assert np.abs(residuals[1](q0)).max() < 1e-10  # the steady state stays an equilibrium
+    difference = (with_sponge.jacobian - plain.jacobian).tocsr()
+    rng = np.random.default_rng(3)
+    ns = plain.n_solid
+    for part in (slice(0, ns), slice(ns, None), slice(None)):  # solid, fluid, both
+        direction = np.zeros(plain.size)
+        direction[part] = rng.standard_normal(direction[part].shape)
+        direction /= np.linalg.norm(direction)
+        eps = 1e-5
+
+        def delta(q, direction=direction, eps=eps):
+            return residuals[1](q) - residuals[0](q)
+
+        fd = (delta(q0 + eps * direction) - delta(q0 - eps * direction)) / (2 * eps)
+        exact = difference @ direction
+        assert np.linalg.norm(exact) > 1e-3 * np.linalg.norm(plain.jacobian @ direction)
+        assert np.linalg.norm(fd - exact) < 1e-6 * np.linalg.norm(exact)
+    # the θ column's sponge part is the rotation target, nothing else
+    theta = np.zeros(plain.size)
+    theta[1] = 1.0
+    assert np.linalg.norm(difference @ theta) > 0
+
+
+def test_rotation_target_is_the_turned_steady_field(plate_2900_alpha5):
+    """``u_θ = d/dδ [R(δ)ᵀ U⁰(R(δ) X)]`` at δ = 0, by central differences at points of the wake."""
+    steady = plate_2900_alpha5
+    mesh, base, target = steady.mesh, steady.velocity, rotation_target(steady)
+    delta = 1e-4
+    checked = 0
+    for x, y in [(2.0, 0.3), (6.0, -0.2), (12.0, 0.5), (25.0, 0.8), (3.0, 2.0)]:
+        turned = []
+        for d in (delta, -delta):
+            c, s = math.cos(d), math.sin(d)
+            value = np.array(base(mesh(c * x - s * y, s * x + c * y)))
+            turned.append(np.array([c * value[0] + s * value[1], -s * value[0] + c * value[1]]))
+        fd = (turned[0] - turned[1]) / (2 * delta)
+        exact = np.array(target(mesh(x, y)))
+        assert np.linalg.norm(fd - exact) < 1e-3 * max(np.linalg.norm(exact), 1e-3), (x, y, fd, exact)
+        checked += np.linalg.norm(exact) > 1e-3
+    assert checked >= 3
+
+
+def test_sponge_profile(plate_2900):
+    """``σ = 0`` before ``X_s = (1 − zone) X_out``, ``σ_max`` at the outlet, ``σ_max/2`` midway,
+    uniform in ``Y``."""
+    steady = _with_sponge(plate_2900, Sponge(0.3, 0.25))
+    sigma, mesh = sponge_coefficient(steady), steady.mesh
+    assert sponge_coefficient(plate_2900) is None
+    assert sigma(mesh(29.0, 0.0)) == 0.0
+    assert sigma(mesh(40.0, 5.0)) == pytest.approx(0.3, rel=1e-12)
+    assert sigma(mesh(35.0, 0.0)) == pytest.approx(0.15, rel=1e-12)
+    assert sigma(mesh(35.0, 10.0)) == pytest.approx(0.15, rel=1e-12)
+    assert 0 < sigma(mesh(32.0, 0.0)) < 0.15
+
+
+def test_base_flow_gradient_with_a_sponge_matches_finite_differences(sponged):
+    """``∂(q†ᴴ J q)/∂q⁰`` for any pair of vectors (the formula is bilinear in them) against central
+    differences of operators re-assembled about a perturbed steady state, the sponge's target
+    ``θ̂ u_θ(U⁰)`` included."""
+    plain, system = sponged
+    steady = system.fluid.steady
+    rng = np.random.default_rng(4)
+    q = rng.standard_normal(system.size) + 1j * rng.standard_normal(system.size)
+    adjoint = rng.standard_normal(system.size) + 1j * rng.standard_normal(system.size)
+    mode = AdjointMode(0j, q, adjoint, 0.0, 0.0, 0j, 0.0, 0, 0j)
+    gradient = base_flow_gradient(system, mode)
+    index = system.fluid.free_dofs
+    # a smooth perturbation of the base velocity, inside the sponge (X > 20) only
+    field = ngsolve.GridFunction(steady.space)
+    x, y = ngsolve.x, ngsolve.y
+    ramp = ngsolve.IfPos(x - 20, (x - 20) / 20, 0)
+    field.components[0].Set(ngsolve.CF((ramp * ngsolve.sin(y), 0.5 * ramp * ngsolve.cos(y))))
+    direction = np.zeros(steady.space.ndof)
+    direction[index] = 1e-2 * field.vec.FV().NumPy()[index]
+    eps = 1e-3
+
+    def bilinear(sign):
+        state = ngsolve.GridFunction(steady.space)
+        state.vec.data = steady.state.vec
+        state.vec.FV().NumPy()[:] += sign * eps * direction
+        fluid = fluid_operators(dataclasses.replace(steady, state=state))
+        return np.conj(adjoint) @ (CoupledSystem(fluid, system.solid).jacobian @ q)
+
+    fd = (bilinear(1) - bilinear(-1)) / (2 * eps)
+    exact = gradient @ direction[index]
+    assert abs(fd - exact) < 1e-6 * abs(exact)
+    # the sponge's own part is not negligible: without it the gradient is different
+    without = base_flow_gradient(CoupledSystem(plain.fluid, system.solid), mode) @ direction[index]
+    assert abs(without - exact) > 1e-2 * abs(exact)
+
+
+def test_sponge_keys_linear_results_apart(plate_2900):
+    plain, sponged = plate_2900, _with_sponge(plate_2900)
+    assert sponged.mesh_spec.key() == plain.mesh_spec.key()  # the mesh is the same
+    assert steady_key(sponged.mesh_spec, sponged.flow) == steady_key(plain.mesh_spec, plain.flow)
+    assert sponged.mesh_spec.linear_identity() != plain.mesh_spec.linear_identity()
+    assert sponged.mesh_spec.linear_key() != plain.mesh_spec.linear_key()
+    assert json.loads(sponged.mesh_spec.linear_identity()["sponge"]) == {"sigma_max": 1.0, "zone": 0.5}
+    identities = [flow_identity(fluid_operators(s)) for s in (plain, sponged)]
+    assert identities[0] != identities[1]
+
+
+def test_preset_sponges():
+    """The converged plate presets carry a sponge on their own domain, none on another domain;
+    ``coarse`` and the cylinder carry none."""
+    medium = mesh_spec(Plate(), "medium", 2900)
+    assert medium.sponge == Sponge(0.2, 0.25)
+    assert medium.sponge.start(medium.domain) == 120.0
+    assert mesh_spec(Plate(), "medium", 2900, Domain(40, 80, 40)).sponge is None
+    assert mesh_spec(Plate(), "medium", 2900, Domain(40, 80, 40), sponge=Sponge(0.2, 0.5)).sponge.zone == 0.5
+    assert mesh_spec(Plate(), "medium", 2900, sponge=None).sponge is None
+    assert mesh_spec(Plate(), "coarse", 2900).sponge is None
+    case = Case.create("plate", 2900, preset="medium", sponge="none")
+    assert case.sponge is None
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("preset", "preset"), ("none", None), (" 0.1,0.3 ", Sponge(0.1, 0.3)), ("NONE", None)],
+)
+def test_parse_sponge(text, expected):
+    assert parse_sponge(text) == expected
+
+
+@pytest.mark.parametrize("text", ["0.2", "0.2,0.25,1", "-1,0.25", "0.2,0.8", "abc,0.2", "0,0.25"])
+def test_parse_sponge_refuses_bad_input(text):
+    with pytest.raises(InputError):
+        parse_sponge(text)
