@@ -177,6 +177,32 @@ def test_middle_box_grades_the_far_field():
     assert nested.ne < 0.35 * uniform.ne
 
 
+def test_middle_band_refines_the_wake_to_the_outlet():
+    """``middle_band = (end, half-width)``: middle-sized elements also in ``[0, end] × [-w, w]``
+    behind the body, the far-field size beside it; a spec without a band keeps the key it had
+    before the band existed (its sizes' key inputs have no ``middle_band``)."""
+    from fsistab.mesh import element_sizes
+    from fsistab.params import Domain
+
+    domain = Domain(20, 80, 30)
+    sizes = {"far": 8.0, "middle": 1.0, "middle_box": (10, 20, 10)}
+    plain = mesh_spec(Plate(), "coarse", 100, domain, **sizes)
+    banded = mesh_spec(Plate(), "coarse", 100, domain, **sizes, middle_band=(80, 5))
+    assert "middle_band" not in plain.sizes.key_inputs() and plain.key() != banded.key()
+    mesh = build_mesh(banded)
+    coords = mesh.ngmesh.Coordinates()
+    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
+    centres, h = coords[nodes].mean(axis=1), element_sizes(mesh)
+    band = (centres[:, 0] > 25) & (centres[:, 0] < 78) & (np.abs(centres[:, 1]) < 4)
+    beside = (centres[:, 0] > 25) & (np.abs(centres[:, 1]) > 12)
+    assert band.sum() > 100 and h[band].max() < 1.6
+    assert h[beside].max() > 5
+    with pytest.raises(InputError, match="middle band"):
+        mesh_spec(Plate(), "coarse", 100, middle_band=(80, 5))
+    with pytest.raises(InputError, match="middle band"):
+        mesh_spec(Plate(), "coarse", 100, domain, **sizes, middle_band=(80, -5))
+
+
 def test_middle_size_needs_its_box():
     with pytest.raises(InputError, match="middle"):
         mesh_spec(Plate(), "coarse", 100, middle=1.0)
@@ -186,15 +212,16 @@ def test_middle_size_needs_its_box():
 
 def test_converged_presets_take_their_own_domain_and_graded_far_field():
     """The plate's medium and fine presets are the discretisation study's converged choice
-    (docs/discretisation.md): domain [-80, 160] x [-80, 80], 1-chord elements in [-40, 80] x [-40, 40],
-    4-chord ones beyond, a 20-chord wake box; coarse and the cylinder keep the body's default domain,
-    and a domain given explicitly wins."""
+    (docs/discretisation.md): domain [-80, 160] x [-80, 80], 1-chord elements in [-40, 80] x [-40, 40]
+    and in the band [0, 160] x [-20, 20], 4-chord ones beyond, a 20-chord wake box; coarse and the
+    cylinder keep the body's default domain, and a domain given explicitly wins."""
     from fsistab.params import DEFAULT_DOMAINS, Domain
 
     for preset in ("medium", "fine"):
         spec = mesh_spec(Plate(), preset, 2900)
         assert (spec.domain.upstream, spec.domain.downstream, spec.domain.lateral) == (80, 160, 80)
         assert spec.sizes.middle == 1.0 and spec.sizes.middle_box == (40, 80, 40)
+        assert spec.sizes.middle_band == (160, 20)
         assert spec.sizes.far == 4.0 and spec.sizes.wake_length == 20.0
         assert mesh_spec(Plate(), preset, 2900, Domain(20, 40, 20)).domain == Domain(20, 40, 20)
     assert mesh_spec(Plate(), "coarse", 2900).domain == DEFAULT_DOMAINS["plate"]

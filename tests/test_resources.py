@@ -47,6 +47,19 @@ def test_estimate_is_within_the_stated_factor_of_the_real_mesh(measured_meshes, 
     assert 1 / FACTOR < found.triangles / measured["triangles"] < FACTOR
 
 
+def test_estimate_counts_the_middle_box_and_band(cache_dir):
+    """A graded far field with a band behind the body (the converged presets' layout, scaled down):
+    the estimate stays within the stated factor, and the band adds what it adds to the real mesh."""
+    sizes = {"far": 4.0, "middle": 1.0, "middle_box": (10, 20, 10)}
+    domain = Domain(20, 60, 20)
+    plain = mesh_spec(Plate(), "coarse", 2900.0, domain, **sizes)
+    banded = mesh_spec(Plate(), "coarse", 2900.0, domain, **sizes, middle_band=(60, 5))
+    counts = [mesh_statistics(build_mesh(spec, cache_dir))["ndof"] for spec in (plain, banded)]
+    found = [estimate(spec).unknowns for spec in (plain, banded)]
+    assert all(1 / FACTOR < f / c < FACTOR for f, c in zip(found, counts, strict=True))
+    assert 0.5 < (found[1] - found[0]) / (counts[1] - counts[0]) < 2
+
+
 @pytest.mark.parametrize("name", list(MESHES))
 def test_taylor_hood_unknowns_follow_from_euler_formula(measured_meshes, name):
     """The estimator's ``ndof = 4.5 T + 2.5 B``: with ``V - E + T = 0`` (one hole) and
@@ -127,7 +140,7 @@ def test_absurd_meshes_are_refused_from_a_lower_bound(spec):
 
 
 def test_check_fits_refuses_beyond_the_memory_available():
-    spec = mesh_spec(Plate(), "medium", 2900.0)  # about 110 000 unknowns, 1.5 GB
+    spec = mesh_spec(Plate(), "medium", 2900.0)  # about 370 000 unknowns, 4.8 GB
     with pytest.raises(InputError, match=r"0\.5 GB available") as error:
         check_fits(spec, memory_available=500_000_000)
     assert "\n" not in str(error.value)

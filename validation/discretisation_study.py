@@ -97,10 +97,56 @@ VARIANTS = {
         {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
         (80, 160, 80),
     ),
-    # the default `medium` since issue 14's sponge: d1-dom80 with the outlet sponge (fsistab.params.Sponge)
+    # d1-dom80 with the outlet sponge (fsistab.params.Sponge) but no band
     "d1-dom80-sponge": (
         "medium",
         {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
+        (80, 160, 80),
+    ),
+    # the default `medium` since issue 14's low-mass-ratio study: d1-dom80 with a 1-chord band
+    # |Y| < 20 to the outlet, without and with the outlet sponge
+    "band20": (
+        "medium",
+        {
+            "wake_length": 20.0,
+            "far": 4.0,
+            "middle": 1.0,
+            "middle_box": (40, 80, 40),
+            "middle_band": (160, 20),
+        },
+        (80, 160, 80),
+    ),
+    "band20-sponge": (
+        "medium",
+        {
+            "wake_length": 20.0,
+            "far": 4.0,
+            "middle": 1.0,
+            "middle_box": (40, 80, 40),
+            "middle_band": (160, 20),
+        },
+        (80, 160, 80),
+    ),
+    "band20-wake40-sponge": (
+        "medium",
+        {
+            "wake_length": 40.0,
+            "far": 4.0,
+            "middle": 1.0,
+            "middle_box": (40, 80, 40),
+            "middle_band": (160, 20),
+        },
+        (80, 160, 80),
+    ),
+    "band20-half-sponge": (
+        "medium",
+        {
+            "wake_length": 20.0,
+            "far": 2.0,
+            "middle": 0.5,
+            "middle_box": (40, 80, 40),
+            "middle_band": (160, 20),
+        },
         (80, 160, 80),
     ),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),

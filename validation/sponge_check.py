@@ -25,14 +25,16 @@ Usage:
     python validation/sponge_check.py [coarse|medium] [--regions all|downstream upstream lateral]
         [--sigma 1.0 ...] [--zone 0.25 ...] [--upstream-zone 0.25] [--lateral-zone 0.3]
         [--mass-ratios 1000 10 30] [--velocity-range LOW HIGH] [--domain UP DOWN LAT] [--far SIZE]
-        [--middle SIZE UP DOWN LAT] [--slip] [--no-baseline | --no-sponge] [--out records.jsonl]
+        [--middle SIZE UP DOWN LAT] [--band END HALF] [--slip] [--no-baseline | --no-sponge]
+        [--out records.jsonl]
 
 ``--zone`` is ``z_d`` (and ``z_u`` unless ``--upstream-zone`` is given); ``--domain`` overrides the
 preset's domain, ``--far`` its far-field element size, ``--middle`` adds (or replaces) the graded
-far field's middle box (``fsistab.mesh.MeshSizes``); ``--velocity-range`` replaces the default U*
-range of every sweep (``[2, 10]`` for m ≥ 100, ``[1.5, 6]`` below). ``--slip`` imposes only
-``U·N = 0`` on the inlet and lateral sides for the perturbation (tried once on ``coarse``: the sweeps
-then need more than 200 samples). Examples (docs/discretisation.md, "A sponge layer"):
+far field's middle box (``fsistab.mesh.MeshSizes``), ``--band`` its band behind the body;
+``--velocity-range`` replaces the default U* range of every sweep (``[2, 10]`` for m ≥ 100,
+``[1.5, 6]`` below). ``--slip`` imposes only ``U·N = 0`` on the inlet and lateral sides for the
+perturbation (tried once on ``coarse``: the sweeps then need more than 200 samples). Examples
+(docs/discretisation.md, "A sponge layer"):
 
     python validation/sponge_check.py coarse --regions upstream --no-baseline
     python validation/sponge_check.py coarse --far 1 --domain 20 160 20 --no-sponge --mass-ratios 1000 10
@@ -229,6 +231,8 @@ def build_spec(args) -> MeshSpec:
         sizes["far"] = args.far
     if args.middle is not None:
         sizes["middle"], sizes["middle_box"] = args.middle[0], tuple(args.middle[1:])
+    if args.band is not None:
+        sizes["middle_band"] = tuple(args.band)
     domain = Domain(*args.domain) if args.domain else None
     return mesh_spec(Plate(), args.preset, REYNOLDS, domain, sponge=None, **sizes)  # its own sponges only
 
@@ -248,6 +252,9 @@ def main() -> None:
     parser.add_argument("--domain", type=float, nargs=3, metavar=("UP", "DOWN", "LAT"))
     parser.add_argument("--far", type=float, help="far-field element size (chords)")
     parser.add_argument("--middle", type=float, nargs=4, metavar=("SIZE", "UP", "DOWN", "LAT"))
+    parser.add_argument(
+        "--band", type=float, nargs=2, metavar=("END", "HALF"), help="middle-sized band behind the body"
+    )
     parser.add_argument(
         "--rotation-target",
         action="store_true",

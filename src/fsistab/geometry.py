@@ -75,6 +75,13 @@ def middle_box_extent(domain: Domain, sizes) -> tuple[float, float, float]:
     )
 
 
+def middle_band_extent(domain: Domain, sizes) -> tuple[float, float]:
+    """``(downstream end, half-width)`` of the middle band behind the body: to the outlet at most,
+    one body length inside the lateral sides."""
+    end, half_width = sizes.middle_band
+    return min(end, domain.downstream), min(half_width, domain.lateral - 1.0)
+
+
 def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box, a wake box and, if
     ``sizes.middle`` is set, a middle box grading the far field.
@@ -107,6 +114,9 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     if sizes.middle is not None:
         up, down, lateral = middle_box_extent(domain, sizes)
         middle = _box(-up, down, lateral)
+        if sizes.middle_band is not None:  # the wake's band of middle-sized elements, to the outlet
+            end, half_width = middle_band_extent(domain, sizes)
+            middle = middle + _box(0.0, end, half_width)
         middle_region = middle - wake
         middle_region.maxh = sizes.middle
         regions.insert(0, middle_region)

@@ -37,11 +37,14 @@ class MeshSizes:
     ``wall`` on the body, ``corner`` on the rounded corners and short sides of the plate, ``near``
     in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
     ``wake_length`` downstream with half-width ``wake_half_width``, ``middle`` (if given) in the box
-    ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)``, ``far`` elsewhere. The middle box grades the
+    ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)`` and, if ``middle_band = (e, w)`` is given,
+    also in the band ``[0, e] × [-w, w]`` behind the body, ``far`` elsewhere. The middle box grades the
     far field, so that a larger domain costs little; measured on the plate (docs/discretisation.md),
     4-chord elements beyond a 1-chord box on ``[-40, 80] × [-40, 40]`` reproduce the uniform 1-chord
-    mesh, while 8-chord elements, or 4-chord ones out to 80 chords, bring weakly damped free-stream
-    modes next to the flutter mode.
+    mesh's flutter point, while 8-chord elements, or 4-chord ones out to 80 chords, bring weakly
+    damped free-stream modes next to the flutter mode. 4-chord elements across the wake, even beyond
+    80 chords, fold the low-mass-ratio neutral curves (the perturbation carried down the wake is
+    partly reflected where the elements grow); the band keeps the wake's elements small to the outlet.
     """
 
     wall: float
@@ -56,6 +59,7 @@ class MeshSizes:
     curve_order: int = 3
     middle: float | None = None
     middle_box: tuple[float, float, float] | None = None
+    middle_band: tuple[float, float] | None = None
 
     def __post_init__(self):
         for name in (
@@ -81,6 +85,21 @@ class MeshSizes:
             if len(box) != 3:
                 raise InputError(f"the middle box is (upstream, downstream, lateral), got {self.middle_box}")
             object.__setattr__(self, "middle_box", box)
+        if self.middle_band is not None:
+            if self.middle is None:
+                raise InputError("mesh sizes: a middle band needs the middle size and box")
+            band = tuple(float(_positive("middle band extent", v)) for v in self.middle_band)
+            if len(band) != 2:
+                raise InputError(f"the middle band is (downstream end, half-width), got {self.middle_band}")
+            object.__setattr__(self, "middle_band", band)
+
+    def key_inputs(self) -> dict:
+        """The sizes as the mesh key sees them: without ``middle_band`` when there is none, so that
+        the meshes made before the band existed keep their keys (and their cached steady states)."""
+        inputs = asdict(self)
+        if inputs["middle_band"] is None:
+            del inputs["middle_band"]
+        return inputs
 
 
 # (wall floor, wall coefficient k in min(floor, k/sqrt(Re)), corner, near, wake, far, margin, wake
@@ -95,14 +114,17 @@ _PRESET_TABLE = {
     ("cylinder", "fine"): (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
 }
 
-# Graded far field (middle size, middle box (upstream, downstream, lateral)): 1-chord elements up to
-# 40 chords from the body (80 downstream), the table's 4-chord far size beyond, to the preset's
-# domain. Measured on the plate at Re 2900 (docs/discretisation.md): 4-chord elements from 20 chords
-# on move the flutter speed by 1.5-2 % (weakly damped free-stream modes next to the flutter mode);
-# from 40 chords on, on a domain twice as large, they agree with the uniform 1-chord mesh.
+# Graded far field (middle size, middle box (upstream, downstream, lateral), middle band (downstream
+# end, half-width)): 1-chord elements up to 40 chords from the body (80 downstream) and in the wake's
+# band |Y| < 20 to the outlet, the table's 4-chord far size beyond, to the preset's domain. Measured
+# on the plate at Re 2900 (docs/discretisation.md): 4-chord elements from 20 chords on move the
+# flutter speed by 1.5-2 % (weakly damped free-stream modes next to the flutter mode); from 40
+# chords on, on a domain twice as large, they agree with the uniform 1-chord mesh at m = 1000, but
+# 4-chord elements across the wake beyond 80 chords fold the neutral curves at low mass ratio
+# (spurious pairs of crossings at m = 10 and 100-450); the band removes them.
 _PRESET_MIDDLE = {
-    ("plate", "medium"): (1.0, (40.0, 80.0, 40.0)),
-    ("plate", "fine"): (1.0, (40.0, 80.0, 40.0)),
+    ("plate", "medium"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
+    ("plate", "fine"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
 }
 
 
@@ -131,7 +153,7 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
     if isinstance(body, Plate):
         corner = min(corner, wall, body.corner_radius * body.thickness if body.corner_radius else wall)
         corner = max(corner, wall / 8)
-    middle, middle_box = _PRESET_MIDDLE.get((body.kind, preset), (None, None))
+    middle, middle_box, middle_band = _PRESET_MIDDLE.get((body.kind, preset), (None, None, None))
     return MeshSizes(
         wall=wall,
         corner=min(corner, wall),
@@ -143,6 +165,7 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
         wake_half_width=wake_half,
         middle=middle,
         middle_box=middle_box,
+        middle_band=middle_band,
     )
 
 
@@ -160,7 +183,7 @@ class MeshSpec:
     sponge: Sponge | None = None
 
     def key(self) -> str:
-        inputs = {"body": asdict(self.body), "domain": asdict(self.domain), "sizes": asdict(self.sizes)}
+        inputs = {"body": asdict(self.body), "domain": asdict(self.domain), "sizes": self.sizes.key_inputs()}
         return store.cache_key("mesh", inputs)
 
     def linear_identity(self) -> dict:

@@ -80,7 +80,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsistab.errors import InputError
-from fsistab.geometry import middle_box_extent
+from fsistab.geometry import middle_band_extent, middle_box_extent
 from fsistab.mesh import MeshSpec
 from fsistab.params import Plate
 
@@ -155,9 +155,13 @@ class _SizeField:
             min(sizes.wake_half_width, 0.9 * domain.lateral),
         )
         self.middle = None
+        self.band = None
         if sizes.middle is not None:
             up, down, lateral = middle_box_extent(domain, sizes)
             self.middle = (-up, down, 0.0, lateral)
+            if sizes.middle_band is not None:
+                end, half_width = middle_band_extent(domain, sizes)
+                self.band = (0.0, end, 0.0, half_width)
 
     def body_distance(self, x, y):
         if self.is_plate:
@@ -169,6 +173,8 @@ class _SizeField:
         h = np.full_like(x, sizes.far)
         if self.middle is not None:
             h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.middle))
+        if self.band is not None:
+            h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.band))
         h = np.minimum(h, sizes.wake + s * _rectangle_distance(x, y, *self.wake))
         h = np.minimum(h, sizes.near + s * _rectangle_distance(x, y, *self.near))
         h = np.minimum(h, sizes.wall + s * self.body_distance(x, y))
