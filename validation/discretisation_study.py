@@ -53,13 +53,19 @@ REYNOLDS = 2900.0
 MASS_RATIO = 1000.0
 
 # The variants are built on the sizes of fsistab 0.3's presets, which this study measured (medium
-# was then far 2.5, wake box 8 chords, no middle box; the presets since take their values from it).
-BASE = {"medium": {"far": 2.5, "wake_length": 8.0, "middle": None, "middle_box": None}}
+# was then far 2.5, wake box 8 chords, no middle box nor band; the presets since take their values
+# from it).
+BASE = {"medium": {"far": 2.5, "wake_length": 8.0, "middle": None, "middle_box": None, "middle_band": None}}
 
 CANDIDATE = {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}
 FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 
 # name: (preset, size overrides, domain (upstream, downstream, lateral))
+# the far field of `d1-dom80` (the `medium` preset from the study until 30 November 2026), and the
+# same with a 1-chord band across the wake to the outlet (`medium` since)
+D1_DOM80 = {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)}
+BAND20 = {**D1_DOM80, "middle_band": (160, 20)}
+
 VARIANTS = {
     "medium": ("medium", {}, (20, 40, 20)),
     "far1": ("medium", {"far": 1.0}, (20, 40, 20)),
@@ -98,57 +104,13 @@ VARIANTS = {
         (80, 160, 80),
     ),
     # d1-dom80 with the outlet sponge (fsistab.params.Sponge) but no band
-    "d1-dom80-sponge": (
-        "medium",
-        {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)},
-        (80, 160, 80),
-    ),
+    "d1-dom80-sponge": ("medium", D1_DOM80, (80, 160, 80)),
     # the default `medium` since issue 14's low-mass-ratio study: d1-dom80 with a 1-chord band
-    # |Y| < 20 to the outlet, without and with the outlet sponge
-    "band20": (
-        "medium",
-        {
-            "wake_length": 20.0,
-            "far": 4.0,
-            "middle": 1.0,
-            "middle_box": (40, 80, 40),
-            "middle_band": (160, 20),
-        },
-        (80, 160, 80),
-    ),
-    "band20-sponge": (
-        "medium",
-        {
-            "wake_length": 20.0,
-            "far": 4.0,
-            "middle": 1.0,
-            "middle_box": (40, 80, 40),
-            "middle_band": (160, 20),
-        },
-        (80, 160, 80),
-    ),
-    "band20-wake40-sponge": (
-        "medium",
-        {
-            "wake_length": 40.0,
-            "far": 4.0,
-            "middle": 1.0,
-            "middle_box": (40, 80, 40),
-            "middle_band": (160, 20),
-        },
-        (80, 160, 80),
-    ),
-    "band20-half-sponge": (
-        "medium",
-        {
-            "wake_length": 20.0,
-            "far": 2.0,
-            "middle": 0.5,
-            "middle_box": (40, 80, 40),
-            "middle_band": (160, 20),
-        },
-        (80, 160, 80),
-    ),
+    # |Y| < 20 to the outlet, without and with the outlet sponge, and its refinements
+    "band20": ("medium", BAND20, (80, 160, 80)),
+    "band20-sponge": ("medium", BAND20, (80, 160, 80)),
+    "band20-wake40-sponge": ("medium", {**BAND20, "wake_length": 40.0}, (80, 160, 80)),
+    "band20-half-sponge": ("medium", {**BAND20, "far": 2.0, "middle": 0.5}, (80, 160, 80)),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
     "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
     "d1-dom80-wake40": (

@@ -173,8 +173,10 @@ class Sponge:
     outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves.
     Measured on the plate at Re 2900 (docs/discretisation.md, "A sponge layer"): the default
     (σ_max = 0.2, the last quarter of a 160-chord domain, ``e⁻⁴`` per pass) moves U*_F, ω_F and U*_D
-    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium``; it must start more than one wake
-    wavelength of the flutter mode (``2π/ω_F ≈ 35`` chords) behind the body.
+    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium`` without its wake band; with the band
+    it halves the samples of a sweep at m = 10. It must start more than one wake wavelength of the
+    flutter mode (``2π/ω_F ≈ 35`` chords) behind the body, and lie in elements that resolve the wake
+    (the reflection where elements grow is not absorbed by a layer behind it).
     """
 
     sigma_max: float = 0.2
