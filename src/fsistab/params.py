@@ -173,7 +173,8 @@ class Sponge:
     outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves.
     Measured on the plate at Re 2900 (docs/discretisation.md, "A sponge layer"): the default
     (σ_max = 0.2, the last quarter of a 160-chord domain, ``e⁻⁴`` per pass) moves U*_F, ω_F and U*_D
-    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium`` without its wake band; with the band
+    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium`` without its wake band, and by
+    +0.001 %, +0.003 % and −0.02 % with it (the static slopes by 0.04 %, the wake mode not at all);
     it halves the samples of a sweep at m = 10. It must start more than one wake wavelength of the
     flutter mode (``2π/ω_F ≈ 35`` chords) behind the body, and lie in elements that resolve the wake
     (the reflection where elements grow is not absorbed by a layer behind it).
