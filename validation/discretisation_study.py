@@ -110,7 +110,6 @@ VARIANTS = {
     "band20": ("medium", BAND20, (80, 160, 80)),
     "band20-sponge": ("medium", BAND20, (80, 160, 80)),
     "band20-wake40-sponge": ("medium", {**BAND20, "wake_length": 40.0}, (80, 160, 80)),
-    "band20-half-sponge": ("medium", {**BAND20, "far": 2.0, "middle": 0.5}, (80, 160, 80)),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
     "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
     "d1-dom80-wake40": (

@@ -159,12 +159,11 @@ def rotation_target(steady: SteadyState):
     return Grad(base) * CF((-y, x)) - CF((-base[1], base[0]))
 
 
-def _with_sponge(steady: SteadyState, integrand, u, v):
+def _with_sponge(sigma, integrand, u, v):
     """``integrand + σ u·v``, the sponge's part of the linearised momentum equation added (the
-    integrand itself without a sponge)."""
+    integrand itself without a sponge, ``sigma`` None)."""
     from ngsolve import InnerProduct
 
-    sigma = sponge_coefficient(steady)
     return integrand if sigma is None else integrand + sigma * InnerProduct(u, v)
 
 
@@ -182,7 +181,7 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
 
     jacobian = BilinearForm(space)
     linearisation = momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds)
-    jacobian += _with_sponge(steady, linearisation, u, v) * dx
+    jacobian += _with_sponge(sigma, linearisation, u, v) * dx
     jacobian.Assemble()
     mass = BilinearForm(space)
     mass += InnerProduct(u, v) * dx
@@ -194,9 +193,14 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
 
     # shape derivatives: the residual's explicit dependence on (θ, ḣ, θ') through W and θ' e_z∧U
     dw = grid_velocity_derivatives(theta0)
-    d_theta = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["theta"]), v))
-    if sigma is not None:  # the sponge's target turns with the body: -σ u_θ in the θ column
-        d_theta -= _linear_form_vector(space, lambda v, q: sigma * InnerProduct(rotation_target(steady), v))
+
+    def theta_column(v, q):
+        term = -InnerProduct(Grad(base) * CF(dw["theta"]), v)
+        if sigma is not None:  # the sponge's target turns with the body: -σ u_θ
+            term = term - sigma * InnerProduct(rotation_target(steady), v)
+        return term
+
+    d_theta = _linear_form_vector(space, theta_column)
     d_hdot = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["hdot"]), v))
     d_thetadot = _linear_form_vector(
         space,
@@ -251,7 +255,7 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
     linearisation = momentum_linearisation(
         u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds
     )
-    form += _with_sponge(steady, linearisation + value * InnerProduct(u, v), u, v) * dx
+    form += _with_sponge(sponge_coefficient(steady), linearisation + value * InnerProduct(u, v), u, v) * dx
     form.Assemble()
     return form, space.FreeDofs()
 
@@ -277,16 +281,18 @@ class FluidResidual:
         grid_velocity = CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
         form = BilinearForm(space)
         residual = momentum_form(u, p, v, q, grid_velocity, 1.0 / steady.flow.reynolds)
-        form += _with_sponge(steady, residual + self.thetadot * InnerProduct(CF((-u[1], u[0])), v), u, v) * dx
-        self.form = form
         sigma = sponge_coefficient(steady)
-        # the sponge's target as load vectors: ∫ σ U⁰·v and ∫ σ u_θ·v (zero without a sponge)
-        self._target = [
-            np.zeros(space.ndof)
+        form += _with_sponge(sigma, residual + self.thetadot * InnerProduct(CF((-u[1], u[0])), v), u, v) * dx
+        self.form = form
+        # the sponge's target as load vectors ∫ σ U⁰·v and ∫ σ u_θ·v (None without a sponge)
+        self._target = (
+            None
             if sigma is None
-            else _linear_form_vector(space, lambda v, q, f=field: sigma * InnerProduct(f, v))
-            for field in (steady.velocity, rotation_target(steady))
-        ]
+            else [
+                _linear_form_vector(space, lambda v, q, f=field: sigma * InnerProduct(f, v))
+                for field in (steady.velocity, rotation_target(steady))
+            ]
+        )
         self.lifting = wall_lifting_matrix(steady)
         self.index = free_dof_indices(space)
         self._vector = steady.state.vec.CreateVector()
@@ -304,11 +310,9 @@ class FluidResidual:
         self.thetadot.Set(q_solid[3])
         self._vector.FV().NumPy()[:] = self.full_state(q_solid, q_fluid)
         self.form.Apply(self._vector, self._residual)
-        r = (
-            self._residual.FV().NumPy()
-            - self._target[0]
-            - (q_solid[1] - self.steady.flow.theta0) * self._target[1]
-        )
+        r = self._residual.FV().NumPy()
+        if self._target is not None:
+            r = r - self._target[0] - (q_solid[1] - self.steady.flow.theta0) * self._target[1]
         return r[self.index].copy(), -(self.lifting.T @ r)
 
     def steady_point(self) -> tuple[np.ndarray, np.ndarray]:

@@ -633,7 +633,7 @@ def point_identity(case: Case, settings: StudySettings) -> str:
     return json.dumps(
         {
             "case": _case_identity(case),
-            **spec_for(case).linear_identity(),
+            "mesh_key": spec_for(case).key(),  # the sponge is in the case's identity
             "settings": settings.point_identity(),
             "fsistab": __version__,
         },
