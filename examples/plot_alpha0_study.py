@@ -3,8 +3,10 @@
 Shows, against the steady angle of attack α0 (degrees, nose-up positive), the steady C_L, C_M
 (about G) and recirculation length, and every threshold along U* in [2, 10] at m = 1000 with its
 critical mode classified (coupled-mode, pitch or heave single-mode flutter, divergence, VIV, from
-the mode's energies; docs/how-to/studies.md), and with ``--map`` the (m, U*) maps of every α0
-overlaid. Each α0 is one point of ``fsistab.study.run_study``, saved in ``OUT/points/`` as it
+the mode's energies; docs/how-to/studies.md), the pressure of each α0's first dynamic critical mode
+at m = 1000 with the body's motion drawn (from the transfer function's null vector at the
+threshold: one factorisation each, ``--no-modes`` to skip), and with ``--map`` the (m, U*) maps of
+every α0 overlaid. Each α0 is one point of ``fsistab.study.run_study``, saved in ``OUT/points/`` as it
 finishes (a rerun computes only what is missing); ``--workers N`` runs the points on a local dask
 cluster. A point whose steady state is not cached starts from its nearest finished neighbour.
 
@@ -40,6 +42,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--alpha0", type=float, nargs="+", default=[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
     parser.add_argument("--map", action="store_true", help="also the whole (m, U*) map at each α0 (slow)")
     parser.add_argument("--workers", type=int, default=None, help="dask LocalCluster of N worker processes")
+    parser.add_argument(
+        "--no-modes", dest="modes", action="store_false", help="skip the critical-mode figures"
+    )
     return parser.parse_args(argv)
 
 
@@ -80,10 +85,64 @@ def run(args: argparse.Namespace) -> None:
     ]
     if args.map:
         figures.append(plot_study_maps(ds, Path(f"{stem}_maps.png"), title=title))
+    if args.modes:
+        figures += critical_mode_figures(ds, settings, base, args.cache or default_cache_dir(), stem)
     print(
         f"{ds.attrs['computed']} points computed, {ds.attrs['seconds']:.0f} s; "
         f"figures: {', '.join(map(str, figures))}"
     )
+
+
+def critical_mode_figures(ds, settings, base, cache: Path, stem: Path) -> list[Path]:
+    """At each α0, the first dynamic onset at m = 1000 (flutter or VIV, the lowest U*): its critical
+    mode ``σ = iω_c`` from one factorisation of ``K_ff(iω_c)`` (the null vector of the
+    characteristic matrix, MODEL.md §7), its pressure at phase 0 with the body's displacement."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import neutral_eigenpair
+    from fsistab.mesh import spec_for
+    from fsistab.operators import fluid_operators
+    from fsistab.params import Flow
+    from fsistab.plots import plot_mode_snapshot
+    from fsistab.steady import solve_steady
+    from fsistab.transfer import transfer_sample
+
+    figures = []
+    for alpha0 in ds.alpha0.values:
+        point = ds.sel(reynolds=base.flow.reynolds, alpha0=alpha0, mass_ratio=1000.0)
+        onsets = [
+            (u, w, label)
+            for u, w, label, boundary in zip(
+                point.threshold_reduced_velocity.values,
+                point.threshold_frequency.values,
+                point.threshold_class.values,
+                point.threshold_boundary.values,
+                strict=True,
+            )  # fmt: skip
+            if boundary == "onset" and label and label != "divergence" and w > 0
+        ]
+        if point.status.item() != "done" or not onsets:
+            continue
+        velocity, frequency, label = min(onsets)
+        case = replace(base, flow=Flow(base.flow.reynolds, float(alpha0)))
+        steady = solve_steady(spec_for(case), case.flow, cache_dir=cache)  # the study's, from the cache
+        fluid = fluid_operators(steady)
+        solid = settings.solid("plate", 1000.0, float(velocity))
+        system = CoupledSystem(fluid, solid)
+        sample = transfer_sample(fluid, 1j * float(frequency))
+        pair = neutral_eigenpair(system, float(frequency), sample.mode(solid, fluid.theta0, fluid.loads0))
+        shares = pair.solid_energy_fraction
+        print(
+            f"α0 = {alpha0:g}°: critical mode of the {label} onset at U* = {velocity:.5f}, "
+            f"ω = {frequency:.5f}: residual {pair.residual:.1e}, solid share {shares:.2f}, "
+            f"|ĥ| = {np.abs(pair.solid[0]):.3g}, |θ̂| = {np.abs(pair.solid[1]):.3g}"
+        )
+        path = Path(f"{stem}_mode_alpha{alpha0:g}.png")
+        figures.append(plot_mode_snapshot(steady, fluid.free_dofs, pair, system, path))
+    return figures
 
 
 def main(argv=None) -> None:

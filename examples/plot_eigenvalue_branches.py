@@ -117,19 +117,12 @@ def critical_mode_figure(steady, fluid, solid, threshold, path: Path) -> Path:
     """Pressure of a threshold's critical mode (σ = iω_c) with the body's displacement drawn."""
     from dataclasses import replace
 
-    import numpy as np
-
     from fsistab.coupled import CoupledSystem
-    from fsistab.eigen import Eigenpair, label_mode
+    from fsistab.eigen import neutral_eigenpair
     from fsistab.plots import plot_mode_snapshot
 
     system = CoupledSystem(fluid, replace(solid, reduced_velocity=threshold.reduced_velocity))
-    mode = threshold.point.mode
-    solid_part, fluid_part = system.split(mode)
-    energy = 0.5 * float(np.vdot(fluid_part, system.fluid.mff_near @ fluid_part).real)
-    label, share = label_mode(solid_part, system.solid, energy)
-    sigma = 1j * threshold.frequency
-    pair = Eigenpair(sigma, mode, 0.0, label, solid_part, share, sigma)
+    pair = neutral_eigenpair(system, threshold.frequency, threshold.point.mode)
     return plot_mode_snapshot(steady, fluid.free_dofs, pair, system, path)
 
 

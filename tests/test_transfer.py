@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from fsistab.cli import app
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import flutter_point
-from fsistab.eigen import eigenpairs_near
+from fsistab.eigen import eigenpairs_near, neutral_eigenpair
 from fsistab.errors import InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import fluid_operators
@@ -54,6 +54,40 @@ def test_zero_frequency_loads_are_the_static_slopes(fixture, request):
     assert loads[0, 1] == pytest.approx(slopes.lift, rel=1e-10)
     assert loads[1, 1] == pytest.approx(slopes.moment, rel=1e-10)
     assert np.abs(loads[:, 0]).max() < 1e-12  # translation invariance: a steady heave changes nothing
+
+
+def test_neutral_mode_from_the_transfer_function_is_the_arnoldi_eigenvector(plate_operators):
+    """At the flutter onset (coarse plate, m = 1000), the critical mode built from the null vector
+    of the characteristic matrix (no Arnoldi) is the eigenvector that shift-invert Arnoldi finds
+    at σ = iω_c: same eigenvalue, label, energy share and normalised vector."""
+    fluid = plate_operators
+    point = transfer_flutter_point(fluid, Solid(1000.0, 4.4), 0.187)
+    solid = Solid(1000.0, point.reduced_velocity)
+    system = CoupledSystem(fluid, solid)
+    vector = point.sample.mode(solid, fluid.theta0, fluid.loads0)
+    pair = neutral_eigenpair(system, point.frequency, vector)
+    arnoldi = min(eigenpairs_near(system, [1j * point.frequency], 2), key=lambda p: abs(p.value - pair.value))
+    assert abs(arnoldi.value - 1j * point.frequency) < 1e-7
+    assert pair.residual < 1e-8 and pair.label == arnoldi.label == "heave"
+    assert pair.solid_energy_fraction == pytest.approx(arnoldi.solid_energy_fraction, rel=1e-6)
+    assert np.linalg.norm(pair.vector - arnoldi.vector) < 1e-6 * np.linalg.norm(arnoldi.vector)
+
+
+def test_block_solve_in_threads_is_the_column_by_column_solve(plate_operators):
+    """The columns of a block solved two at a time (the Krylov blocks of the reduced models) give
+    the same vectors as one at a time, each solving ``K_ff(s) x = b`` to round-off."""
+    fluid = plate_operators
+    factor = FluidFactor(fluid, 0.3 + 0.6j)
+    rng = np.random.default_rng(7)
+    block = rng.standard_normal((fluid.n_fluid, 5)) + 1j * rng.standard_normal((fluid.n_fluid, 5))
+    threaded = factor.solve(block, threads=2)
+    serial = factor.solve(block, threads=1)
+    assert np.array_equal(threaded, serial)
+    matrix = fluid.jff + (0.3 + 0.6j) * fluid.mff
+    residual = np.linalg.norm(matrix @ threaded - block, axis=0) / np.linalg.norm(block, axis=0)
+    assert residual.max() < 1e-12
+    with pytest.raises(InputError, match="threads"):
+        factor.solve(block, threads=0)
 
 
 @pytest.mark.parametrize(

@@ -125,11 +125,7 @@ def eigenpairs_near(
             residual = residual_norm(system, sigma, vector)
             if residual > max_residual:
                 continue
-            vector = _normalise(system, vector)
-            solid, fluid = system.split(vector)
-            fluid_energy = 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
-            label, fraction = label_mode(solid, system.solid, fluid_energy)
-            found.append(Eigenpair(complex(sigma), vector, residual, label, solid, fraction, shift))
+            found.append(_labelled(system, complex(sigma), vector, residual, shift))
             kept += 1
         if kept == 0:
             raise ConvergenceError(
@@ -137,6 +133,26 @@ def eigenpairs_near(
                 f"try another shift"
             )
     return _unique(found)
+
+
+def _labelled(system: CoupledSystem, sigma: complex, vector: np.ndarray, residual: float, shift: complex):
+    """The normalised, labelled :class:`Eigenpair` of ``(σ, q)``."""
+    vector = _normalise(system, vector)
+    solid, fluid = system.split(vector)
+    fluid_energy = 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
+    label, fraction = label_mode(solid, system.solid, fluid_energy)
+    return Eigenpair(sigma, vector, residual, label, solid, fraction, shift)
+
+
+def neutral_eigenpair(system: CoupledSystem, frequency: float, vector: np.ndarray) -> Eigenpair:
+    """The :class:`Eigenpair` of a neutral mode ``σ = iω`` found without Arnoldi: a threshold's
+    critical mode, e.g. the null vector of the transfer function's characteristic matrix
+    (:meth:`fsistab.transfer.TransferSample.mode`, MODEL.md §7) at a converged neutral point of
+    ``system``'s solid. Normalised and labelled as :func:`eigenpairs_near`'s; its residual
+    ``‖J q + iω M q‖/‖q‖`` is computed, not assumed (it is as small as the point is converged)."""
+    sigma = complex(0.0, frequency)
+    vector = np.asarray(vector, dtype=complex)
+    return _labelled(system, sigma, vector, residual_norm(system, sigma, vector), sigma)
 
 
 def _start_vector(size: int, dtype) -> np.ndarray:

@@ -119,7 +119,8 @@ def _orthonormal_block(block: np.ndarray, basis: np.ndarray, scale: float) -> np
     among themselves (pivoted QR); directions below ``DEFLATION · scale`` are dropped."""
     for _ in range(2):
         if basis.shape[1]:
-            block = block - basis @ (basis.conj().T @ block)
+            # Vᴴb as (bᴴV)ᴴ: conjugates the thin block, not a copy of the whole basis
+            block = block - basis @ (block.conj().T @ basis).conj().T
     q, r, _ = sla.qr(block, mode="economic", pivoting=True)
     rank = int(np.sum(np.abs(np.diag(r)) > DEFLATION * scale))
     return q[:, :rank]
@@ -136,27 +137,33 @@ def krylov_model(
     factor = FluidFactor(fluid, shift, counter)
     inputs = np.column_stack([fluid.jfs, fluid.mfs])
     inputs = inputs[:, np.linalg.norm(inputs, axis=0) > 0]
-    basis = np.zeros((fluid.n_fluid, 0), dtype=factor.dtype)
-    ends = []
+    # the whole basis allocated once (columns filled block by block, no copy per block)
+    store = np.empty((fluid.n_fluid, (blocks + 1) * inputs.shape[1]), dtype=factor.dtype, order="F")
+    size, ends = 0, []
     # refined solves: unrefined ones (relative residual ~1e-7) leave a model error near 1e-11 that
     # the nested-model estimate does not see, and the certificate must bound the true error
     block = factor.solve(inputs)
     for j in range(blocks + 1):
         scale = float(np.linalg.norm(block, axis=0).max())
-        new = _orthonormal_block(block, basis, scale)
+        new = _orthonormal_block(block, store[:, :size], scale)
         if not new.shape[1]:
             break  # the Krylov space is invariant: the model is exact
-        basis = np.hstack([basis, new])
-        ends.append(basis.shape[1])
+        store[:, size : size + new.shape[1]] = new
+        size += new.shape[1]
+        ends.append(size)
         if j < blocks:
             block = factor.solve(fluid.mff @ new)
-    adjoint = basis.conj().T
+    basis = store[:, :size]
+
+    def project(matrix) -> np.ndarray:  # Vᴴ A V without a conjugated copy of V
+        return ((matrix @ basis).conj().T @ basis).conj().T
+
     return KrylovModel(
         shift=complex(shift),
-        jr=adjoint @ (fluid.jff @ basis),
-        mr=adjoint @ (fluid.mff @ basis),
-        br0=adjoint @ fluid.jfs,
-        br1=adjoint @ fluid.mfs,
+        jr=project(fluid.jff),
+        mr=project(fluid.mff),
+        br0=(fluid.jfs.conj().T @ basis).conj().T,
+        br1=(fluid.mfs.conj().T @ basis).conj().T,
         lf=np.asarray(fluid.load_f @ basis),
         lm=np.asarray(fluid.load_mass_f @ basis),
         load_s=fluid.load_s,

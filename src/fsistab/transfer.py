@@ -30,7 +30,6 @@ exactly by :func:`transfer_flutter_point` (the transfer-determinant formulation 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -49,7 +48,7 @@ from fsistab.coupled import (
     stiffness_derivative,
 )
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import FactorCounter, FluidFactor, shared_analysis
+from fsistab.linalg import FactorCounter, FluidFactor, sample_threads, shared_analysis
 from fsistab.neutral_point import DeterminantProblem
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
@@ -112,15 +111,6 @@ def _load_rows(fluid: FluidOperators, s: complex, x: np.ndarray) -> np.ndarray:
 def _transfer_value(fluid: FluidOperators, s: complex, response: np.ndarray) -> np.ndarray:
     """``G(s) = load_s + s load_mass_s − (load_f + s load_mass_f) X`` from the response ``X``."""
     return fluid.load_s + s * fluid.load_mass_s - _load_rows(fluid, s, response)
-
-
-def sample_threads(threads: int | None = None) -> int:
-    """Samples factorised at once: ``threads``, or the CPU count but at most 2 (each holds a
-    factorisation in memory: 1.4 GB for the medium plate). A one-line InputError below 1."""
-    threads = min(2, os.cpu_count() or 1) if threads is None else int(threads)
-    if threads < 1:
-        raise InputError(f"threads must be at least 1, got {threads}")
-    return threads
 
 
 def transfer_samples(
