@@ -113,15 +113,11 @@ def critical_mode_figures(ds, settings, base, cache: Path, stem: Path) -> list[P
     figures = []
     for alpha0 in ds.alpha0.values:
         point = ds.sel(reynolds=base.flow.reynolds, alpha0=alpha0, mass_ratio=1000.0)
+        columns = ("reduced_velocity", "frequency", "class", "boundary")
+        rows = zip(*(point[f"threshold_{name}"].values for name in columns), strict=True)
         onsets = [
             (u, w, label)
-            for u, w, label, boundary in zip(
-                point.threshold_reduced_velocity.values,
-                point.threshold_frequency.values,
-                point.threshold_class.values,
-                point.threshold_boundary.values,
-                strict=True,
-            )  # fmt: skip
+            for u, w, label, boundary in rows
             if boundary == "onset" and label and label != "divergence" and w > 0
         ]
         if point.status.item() != "done" or not onsets:

@@ -1,7 +1,8 @@
 """Reynolds-number study of the plate at α0 = 0: steady coefficients, static slopes, classified thresholds.
 
 Shows, against Re, the steady drag and recirculation length with the static slopes dC_L/dα and
-d(-C_M)/dα (MODEL.md §9), and every threshold along U* in [2, 10] at m = 1000, classified
+d(-C_M)/dα (MODEL.md §9), and every threshold along U* in [2, 10] at m = 1000 (``--thresholds``
+and ``--reduced-velocity-range`` for others), classified
 (coupled-mode, pitch or heave single-mode flutter, divergence, VIV; docs/how-to/studies.md), and
 with ``--map`` the (m, U*) maps of every Re overlaid. Each Re is one point of
 ``fsistab.study.run_study``, saved in ``OUT/points/`` as it finishes: a rerun computes only what is
@@ -18,8 +19,13 @@ Mesh: ``--mesh`` preset (default coarse; one mesh per Re, fitted to it). Referen
 thin-airfoil limits of the slopes are dC_L/dα = 2π and d(-C_M)/dα = π/2 about mid-chord
 (REFERENCE.md §E); the reference gives no values at other Re.
 
+The gallery's default-mesh study::
+
+    python examples/plot_reynolds_study.py --mesh medium --Re 10 110 500 2900 --thresholds 100 1000
+        --reduced-velocity-range 1 16
+
 Usage: python examples/plot_reynolds_study.py [--mesh coarse] [--out DIR] [--Re 100 300 1000 2900]
-       [--map] [--workers N]
+       [--thresholds 1000] [--reduced-velocity-range 2 10] [--map] [--workers N]
 """
 
 import argparse
@@ -39,6 +45,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument(
         "--Re", dest="reynolds", type=float, nargs="+", default=[100.0, 300.0, 1000.0, 2900.0]
     )
+    parser.add_argument("--thresholds", type=float, nargs="+", default=[1000.0], help="mass ratios")
+    parser.add_argument(
+        "--reduced-velocity-range", type=float, nargs=2, default=[2.0, 10.0], help="U* range of the sweeps"
+    )
     parser.add_argument("--map", action="store_true", help="also the whole (m, U*) map at each Re (slow)")
     parser.add_argument("--workers", type=int, default=None, help="dask LocalCluster of N worker processes")
     return parser.parse_args(argv)
@@ -50,7 +60,13 @@ def run(args: argparse.Namespace) -> None:
     from fsistab.store import default_cache_dir
     from fsistab.study import StudySettings, run_study, study_client
 
-    settings = StudySettings(reynolds=tuple(args.reynolds), slopes=True, thresholds=(1000.0,), map=args.map)
+    settings = StudySettings(
+        reynolds=tuple(args.reynolds),
+        slopes=True,
+        thresholds=tuple(args.thresholds),
+        velocity_range=tuple(args.reduced_velocity_range),
+        map=args.map,
+    )
     base = Case.create("plate", settings.reynolds[0], 0.0, args.mesh)
     with study_client(workers=args.workers) as client:
         ds = run_study(
@@ -63,16 +79,18 @@ def run(args: argparse.Namespace) -> None:
             f"dC_L/dα = {point.lift_slope_alpha.item():.3f}, "
             f"d(-C_M)/dα = {point.moment_slope_alpha.item():.3f}"
         )
-        sub = point.sel(mass_ratio=1000.0)
-        for label, u, w in zip(sub.threshold_class.values, sub.threshold_reduced_velocity.values,
-                               sub.threshold_frequency.values, strict=True):  # fmt: skip
-            if label:
-                print(f"    m = 1000: {label} at U* = {u:.4f}, ω = {w:.4f}")
+        for mass in ds.mass_ratio.values:
+            sub = point.sel(mass_ratio=mass)
+            for label, boundary, u, w in zip(sub.threshold_class.values, sub.threshold_boundary.values,
+                                             sub.threshold_reduced_velocity.values,
+                                             sub.threshold_frequency.values, strict=True):  # fmt: skip
+                if label:
+                    print(f"    m = {mass:g}: {label} {boundary} at U* = {u:.5f}, ω = {w:.5f}")
     stem = Path(ds.attrs["data"]).with_suffix("")
     title = f"plate, α0 = 0°, {args.mesh} mesh"
     figures = [
         draw_coefficients(ds, Path(f"{stem}_slopes.png"), title=title),
-        plot_study_thresholds(ds, Path(f"{stem}_thresholds.png"), title=f"{title}, m = 1000"),
+        plot_study_thresholds(ds, Path(f"{stem}_thresholds.png"), title=title),
     ]
     if args.map:
         figures.append(plot_study_maps(ds, Path(f"{stem}_maps.png"), title=title))
