@@ -1,0 +1,93 @@
+"""Where the fixed plate's weakly damped low-frequency fluid modes live, and what a lateral sponge
+does to them (issue 14: the low-mass-ratio folds of the map).
+
+Plate at Re 2900 on a mesh preset (default ``medium``, its steady state cached): the eigenvalues
+nearest each ``--shift`` of the fixed body (shift-invert Arnoldi, :func:`fsistab.eigen.eigenpairs_near`),
+and for each mode the fraction of its kinetic energy ``½∫|û|²`` in regions of the domain: the band
+``|Y| < 20``, ``20 < |Y| < 40`` and ``|Y| > 40``, each split along X. With ``--lateral-sponge SIGMA
+START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff`` first (test only; MODEL.md §7), ``σ`` rising
+from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral boundary by the smooth step ``3t² − 2t³`` in
+``t = (Y² − START²)/(l² − START²)``.
+
+Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j] [--count 8]
+           [--lateral-sponge 0.2 40] [--cache DIR]
+"""
+
+import argparse
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--preset", default="medium")
+    parser.add_argument("--shift", nargs="+", type=complex, default=[0.2j, 0.6j])
+    parser.add_argument("--count", type=int, default=8, help="eigenvalues per shift")
+    parser.add_argument("--lateral-sponge", type=float, nargs=2, metavar=("SIGMA", "START"))
+    parser.add_argument("--cache", type=Path, default=None)
+    args = parser.parse_args()
+
+    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
+
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near
+    from fsistab.mesh import mesh_spec
+    from fsistab.operators import _to_scipy, fluid_operators
+    from fsistab.params import Flow, Plate, Solid
+    from fsistab.steady import solve_steady
+    from fsistab.store import default_cache_dir
+
+    steady = solve_steady(
+        mesh_spec(Plate(), args.preset, 2900.0), Flow(2900.0), cache_dir=args.cache or default_cache_dir()
+    )
+    fluid = fluid_operators(steady)
+    space, index = steady.space, fluid.free_dofs
+    lateral = steady.mesh_spec.domain.lateral
+    (u, _), (v, _) = space.TnT()
+
+    def velocity_mass(weight):
+        form = BilinearForm(space)
+        form += weight * InnerProduct(u, v) * dx
+        form.Assemble()
+        return _to_scipy(form.mat, space.ndof)[index][:, index].tocsr()
+
+    def inside(low, high, coordinate):
+        return IfPos(coordinate - low, 1.0, 0.0) * IfPos(high - coordinate, 1.0, 0.0)
+
+    far = 1e4
+    strips = {"|Y|<20": (0.0, 20.0), "20<|Y|<40": (20.0, 40.0), "|Y|>40": (40.0, far)}
+    stretches = {"X<0": (-far, 0.0), "0<X<80": (0.0, 80.0), "80<X<120": (80.0, 120.0), "X>120": (120.0, far)}
+    masses = {
+        f"{strip}, {stretch}": velocity_mass(inside(*band, IfPos(y, y, -y)) * inside(*span, x))
+        for strip, band in strips.items()
+        for stretch, span in stretches.items()
+    }
+    if args.lateral_sponge:
+        sigma, start = args.lateral_sponge
+        t = (y * y - start**2) / (lateral**2 - start**2)
+        step = IfPos(t, IfPos(1 - t, 3 * t * t - 2 * t * t * t, 1.0), 0.0)
+        fluid = replace(fluid, jff=(fluid.jff + velocity_mass(sigma * step)).tocsr(), analyses={})
+        print(f"lateral sponge: sigma_max {sigma} from |Y| = {start} to {lateral}")
+    t0 = time.perf_counter()
+    pairs = eigenpairs_near(CoupledSystem(fluid, Solid(dofs=())), args.shift, args.count)
+    print(f"{fluid.n_fluid} unknowns, {len(pairs)} modes in {time.perf_counter() - t0:.0f} s")
+    for pair in sorted(pairs, key=lambda p: p.value.imag):
+        q = pair.vector
+        total = float(np.vdot(q, fluid.mff @ q).real)
+        shares = {name: float(np.vdot(q, m @ q).real) / total for name, m in masses.items()}
+        strip_shares = {s: sum(v for k, v in shares.items() if k.startswith(s + ",")) for s in strips}
+        print(
+            f"{pair.value.real:+.5f}{pair.value.imag:+.5f}i  "
+            + "  ".join(f"{s} {v:.2f}" for s, v in strip_shares.items())
+            + "  |  "
+            + "  ".join(f"{k} {v:.2f}" for k, v in shares.items() if v >= 0.05)
+        )
+
+
+if __name__ == "__main__":
+    main()
