@@ -84,10 +84,17 @@ def freefem(mesh_vol: Path, work: Path, nev: int, ramp_start: float, ramp_steps:
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     log = done.stdout + done.stderr
-    if done.returncode:
-        raise SystemExit(f"FreeFEM failed:\n{log[-2000:]}")
     eigenvalues = [[float(a), float(b)] for a, b in re.findall(r"^EIG (\S+) (\S+)$", log, re.M)]
     newton = re.search(r"TIME newton_total (\S+) iterations (\d+)", log)
+    if done.returncode or not eigenvalues or newton is None:
+        # e.g. FreeFEM's 32-bit UMFPACK out of memory on a large complex factorisation: report how
+        # far it got and still time our side
+        errors = sorted({line.strip() for line in log.splitlines() if "rror" in line})
+        print(f"FreeFEM failed (exit {done.returncode}) after {wall:.1f} s: {'; '.join(errors)[:600]}")
+        if newton:
+            seconds, iterations = float(newton.group(1)), newton.group(2)
+            print(f"FreeFEM's steady Newton had finished: {seconds:.1f} s, {iterations} iterations")
+        return None
     return {
         "unknowns": int(re.search(r"^ndof (\d+)", log, re.M).group(1)),
         "wall_s": wall,
@@ -139,13 +146,17 @@ def main() -> None:
             raise SystemExit(f"fsistab failed:\n{child.stderr[-2000:]}")
         us = json.loads(child.stdout.strip().splitlines()[-1])
     for name, r in (("FreeFEM", peer), ("fsistab", us)):
+        if r is None:
+            continue
         leading = complex(*r["eigenvalues"][0])
         print(
             f"{name:8s} {r['unknowns']} unknowns: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, "
             f"{r['factorisations']} factorisations, peak RSS {r['peak_rss_gb']:.2f} GB, "
             f"leading eigenvalue {leading.real:+.6f} {leading.imag:+.6f}i"
         )
-    print(f"fsistab process wall time including start-up: {wall:.1f} s")
+    print(f"fsistab process wall time including start-up: {wall:.1f} s (steady state {us['steady_s']:.1f} s)")
+    if peer is None:
+        return
     theirs = [complex(*z) for z in peer["eigenvalues"]]
     mine = [complex(*z) for z in us["eigenvalues"]]
     print("eigenvalues (FreeFEM | nearest of fsistab | relative difference):")
