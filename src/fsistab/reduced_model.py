@@ -154,16 +154,13 @@ def krylov_model(
         if j < blocks:
             block = factor.solve(fluid.mff @ new)
     basis = store[:, :size]
-
-    def project(matrix) -> np.ndarray:  # Vᴴ A V without a conjugated copy of V
-        return ((matrix @ basis).conj().T @ basis).conj().T
-
+    adjoint = basis.conj().T  # one copy, for the four projections
     return KrylovModel(
         shift=complex(shift),
-        jr=project(fluid.jff),
-        mr=project(fluid.mff),
-        br0=(fluid.jfs.conj().T @ basis).conj().T,
-        br1=(fluid.mfs.conj().T @ basis).conj().T,
+        jr=adjoint @ (fluid.jff @ basis),
+        mr=adjoint @ (fluid.mff @ basis),
+        br0=adjoint @ fluid.jfs,
+        br1=adjoint @ fluid.mfs,
         lf=np.asarray(fluid.load_f @ basis),
         lm=np.asarray(fluid.load_mass_f @ basis),
         load_s=fluid.load_s,
