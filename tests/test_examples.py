@@ -19,6 +19,7 @@ EXPECTED = {
     "plot_heaving_cylinder.py",
     "plot_reynolds_study.py",
     "plot_alpha0_study.py",
+    "plot_wake_onset.py",
 }
 
 

@@ -4,6 +4,7 @@ critical Reynolds number on the coarse mesh against REFERENCE.md §A, rerun from
 
 import json
 import math
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -13,6 +14,7 @@ from fsistab.cli import app
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.onset import (
     OnsetIterate,
+    bracket,
     check_onset,
     fitted_case,
     flow_at,
@@ -69,6 +71,38 @@ def test_secant_on_alpha0_finds_the_mirror_root_from_a_negative_guess():
     assert down.critical_value == pytest.approx(-3.0, abs=1e-9)
 
 
+def _flat_then_steep(a):
+    """Like the plate's wake mode at Re 500 on the medium mesh (-0.0745 at 8°, -0.0734 at 8.5°,
+    then steep): the plain secant from 8° and 8.5° would step to 45.5°, out of the range."""
+    return complex(-0.075 + 0.002 * (a - 8) + 0.08 * max(0.0, a - 9) ** 2, 3.9 - 0.1 * (a - 8))
+
+
+def test_safeguarded_secant_limits_its_steps_until_the_root_is_bracketed():
+    # the root beyond 9: with t = a - 9, 0.08 t² + 0.002 t - 0.073 = 0
+    root = 9 + (-0.002 + math.sqrt(0.002**2 + 4 * 0.08 * 0.073)) / (2 * 0.08)
+    assert abs(_flat_then_steep(root).real) < 1e-12 and 9.9 < root < 10.0
+    evaluate, calls = _analytic(_flat_then_steep)
+    result = secant_onset(evaluate, "alpha0", 8.0, 0.5, 3.9j, tol=1e-12, max_iterations=20)
+    assert result.critical_value == pytest.approx(root, abs=1e-8)
+    values = [p for p, _ in calls]
+    # the third point is 4 steps of 0.5 beyond the second, and no iterate leaves [8, 10.5]
+    assert values[2] == pytest.approx(10.5) and all(8.0 <= v <= 10.5 for v in values)
+    # once bracketed, every iterate lies inside the bracket of the iterates before it
+    for k in range(3, len(calls)):
+        before = [SimpleNamespace(value=v, growth_rate=_flat_then_steep(v).real) for v in values[:k]]
+        low, high = bracket(before)
+        assert low < values[k] < high
+    # without the safeguard (an unbounded expansion) the same start leaves the range
+    with pytest.raises(ConvergenceError, match="left the range"):
+        secant_onset(_analytic(_flat_then_steep)[0], "alpha0", 8.0, 0.5, 3.9j, max_expansion=math.inf)
+
+
+def test_bracket_is_the_narrowest_sign_change_at_the_last_iterate():
+    its = [SimpleNamespace(value=v, growth_rate=g) for v, g in [(8, -1), (10.5, 2), (9, -0.5), (9.5, -0.1)]]
+    assert bracket(its) == (9.5, 10.5)
+    assert bracket(its[:1] + its[2:]) is None
+
+
 def test_secant_iterates_are_rounded_for_reruns():
     evaluate, calls = _analytic(_wake)
     result = secant_onset(evaluate, "reynolds", 46.0, 2.0, 0.75j, tol=1e-12, step_tol=1e-9)
@@ -93,12 +127,14 @@ def test_secant_failures_are_reported(sigma, parameter, guess, step, message):
         secant_onset(evaluate, parameter, guess, step, 0.7j, max_iterations=6)
 
 
-def test_leading_mode_then_the_followed_one():
+def test_the_leading_mode_is_the_least_stable_one_near_the_shift():
+    """Not the nearest to the prediction: the coarse plate at Re 500 between α0 = 9.5° and 10°,
+    where the mode followed by proximity stays damped while its neighbour turns unstable."""
     pairs = [
-        SimpleNamespace(value=complex(g, w), growth_rate=g) for g, w in [(-0.2, 0.1), (0.01, 0.7), (0.0, 0.8)]
+        SimpleNamespace(value=complex(g, w), growth_rate=g)
+        for g, w in [(-0.145, 4.057), (0.069, 3.877), (-0.197, 3.947)]
     ]
-    assert leading_eigenpair(pairs, 0.1j, first=True).value == 0.01 + 0.7j
-    assert leading_eigenpair(pairs, 0.79j, first=False).value == 0.8j
+    assert leading_eigenpair(pairs).value == 0.069 + 3.877j
 
 
 @pytest.mark.parametrize(
@@ -146,8 +182,10 @@ def test_cylinder_critical_reynolds_coarse(coarse_onset):
         "iterations",
         "factorisations",
         "data",
+        "figure",
     }
     assert payload["parameter"] == "reynolds"
+    assert Path(payload["figure"]).is_file() and Path(payload["figure"]).suffix == ".png"
     assert 46.6 <= payload["critical_value"] <= 46.8
     assert 0.733 <= payload["frequency"] <= 0.744
     ds = read_dataset(payload["data"])  # checksummed NetCDF

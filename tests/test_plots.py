@@ -278,6 +278,22 @@ def test_flow_neutral_figure_draws_the_half_curves(tmp_path, figures):
     assert _has_line(ax, [2400.0], [4.19]) and ax.get_xscale() == "log"
 
 
+def test_onset_figure_draws_the_iterates_in_order_and_the_critical_point(tmp_path, figures):
+    """``fsistab onset``'s figure: λ and ω of the iterates sorted by α0 (the secant visits them out
+    of order), the critical α0 at λ = 0 and ω_c marked."""
+    from fsistab.onset import OnsetIterate, OnsetResult, onset_dataset
+
+    rows = [(9.5, -0.0623 + 4.128j), (10.0, 0.0690 + 3.877j), (9.737, -0.0126 + 3.957j)]
+    iterates = tuple(OnsetIterate(a, s, 1e-12, s, 1.0, 2.0, 1, True, 100) for a, s in rows)
+    ds = onset_dataset(OnsetResult("alpha0", 9.769, 3.947, iterates))
+    assert _is_png(plots.plot_onset(ds, tmp_path / "onset.png", title="t"))
+    rate, freq = figures[-1].axes[:2]
+    assert _has_line(rate, [9.5, 9.737, 10.0], [-0.0623, -0.0126, 0.0690])
+    assert _has_line(freq, [9.5, 9.737, 10.0], [4.128, 3.957, 3.877])
+    assert _has_line(rate, [9.769], [0.0]) and _has_line(freq, [9.769], [3.947])
+    assert rate.get_xscale() == "linear" and "α0" in rate.get_xlabel()
+
+
 def test_theodorsen_figure_draws_curves_viscous_map_and_errors(tmp_path, figures):
     from fsistab import workflows
     from fsistab.params import Case, TheodorsenSettings, solid_for

@@ -926,10 +926,14 @@ def onset(
     value = None if shift is None else params.parse_complex("shift", shift)
     guess, value = check_onset(case.kind, parameter, guess, value)
     out, cache = _prepare(opts, [fitted_case(case, parameter, guess)])
-    from fsistab import workflows
+    from fsistab import plots, workflows
 
     with _running() as progress:
         ds = workflows.fixed_body_onset(case, parameter, guess, value, cache, out, progress)
+    data = Path(ds.attrs["data"])
+    at = f"α0 = {case.flow.alpha0_deg:g}°" if parameter == "reynolds" else f"Re = {case.flow.reynolds:g}"
+    title = f"onset: fixed {case.kind}, {at}, mesh {case.preset}"
+    ds.attrs["figure"] = str(plots.plot_onset(ds, data.with_suffix(".png"), title=title))
     p = workflows.payload("onset", ds)
     if opts.as_json:
         return _emit(p)
@@ -955,7 +959,7 @@ def onset(
         _table(title, columns, rows),
         f"critical {name} = {p['critical_value']:.6f}, ω_c = {p['frequency']:.5f} "
         f"(Strouhal {ds.attrs['strouhal']:.5f}); {p['iterations']} iterates, "
-        f"{p['factorisations']} factorisations; data {p['data']}",
+        f"{p['factorisations']} factorisations; data {p['data']}; figure {p['figure']}",
     )
 
 

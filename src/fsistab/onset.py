@@ -15,11 +15,12 @@ need ``dλ/dp``, a finite difference costing a second steady state and eigenvalu
 its order 2 per two evaluations (√2 ≈ 1.41 per evaluation) loses to the secant's order 1.62 per
 evaluation. At each iterate the steady state is continued from the previous one
 (:func:`fsistab.steady.solve_steady` with ``initial``, cached, so a rerun reuses them) and the
-eigenvalue is followed: shift-invert Arnoldi (:func:`fsistab.eigen.eigenpairs_near`, one
-factorisation) at the eigenvalue predicted by linear extrapolation of the last two, keeping the
-eigenvalue nearest the prediction. At the first iterate, from the user's shift (a guess of the
-eigenvalue, e.g. ``0.75i`` for the cylinder's wake), the least stable of the eigenvalues nearest
-the shift is taken: the leading mode, as in :func:`fsistab.critical.wake_mode_near`.
+leading mode is followed: shift-invert Arnoldi (:func:`fsistab.eigen.eigenpairs_near`, one
+factorisation) near the user's shift at the first iterate (a guess of the eigenvalue, e.g.
+``0.75i`` for the cylinder's wake), then near the eigenvalue predicted by linear extrapolation of
+the last two, keeping the least stable of the eigenvalues found there (:func:`leading_eigenpair`,
+as :func:`fsistab.critical.wake_mode_near`). Before two iterates bracket the root, steps are
+limited (:func:`safeguarded_step`).
 
 The iteration stops when ``|λ_k| < tol`` or when the next secant step falls below ``step_tol``
 (relative to ``max(1, |p|)``); the critical value is the secant root of the last two iterates and
@@ -50,7 +51,7 @@ _SHIFT_OFFSET = 0.0013 + 0.0017j
 @dataclass(frozen=True)
 class OnsetIterate:
     """One evaluation of the growth rate: the parameter ``value`` (Re, or α0 in degrees), the
-    followed ``eigenvalue`` σ with its relative ``residual``, the ``shift`` used, and the cost
+    leading ``eigenvalue`` σ with its relative ``residual``, the ``shift`` used, and the cost
     (seconds of the steady state and of the eigenvalue solve, factorisations of both; a steady
     state read from the cache costs none)."""
 
@@ -210,6 +211,7 @@ def secant_onset(
     tol: float = 1e-7,
     step_tol: float = 1e-6,
     max_iterations: int = 12,
+    max_expansion: float = 4.0,
 ) -> OnsetResult:
     """The root of ``λ(p) = Re σ(p)`` by the secant method from ``guess`` and ``guess + step``.
 
@@ -217,7 +219,14 @@ def secant_onset(
     expected there (``eigenvalue_guess`` at the first point, then the last eigenvalue, then the
     linear extrapolation of the last two), for the caller to follow its mode. Converged when
     ``|λ_k| < tol`` or when the next step ``|p_{k+1} - p_k| < step_tol · max(1, |p_k|)``; the
-    values evaluated are :func:`rounded`. Raises
+    values evaluated are :func:`rounded`.
+
+    Safeguards (:func:`safeguarded_step`): until two iterates bracket the root (growth rates of
+    opposite signs) a step is at most ``max_expansion`` times the previous one, because a growth
+    rate that is flat below the onset and steep near it (the plate's wake mode against α0 at Re 500
+    on the default mesh: λ = -0.0745 at 8°, -0.0734 at 8.5°, whose secant step is 42°) would throw
+    the plain secant out of the range; once bracketed, a secant step that leaves the bracket is replaced
+    by its midpoint. Near a simple root the secant steps stay inside, so its order 1.62 is kept. Raises
     :class:`~fsistab.errors.ConvergenceError` when the growth rate does not change between two
     iterates (no secant), when a step leaves the parameter's range, or after ``max_iterations``
     evaluations.
@@ -251,21 +260,50 @@ def secant_onset(
             rate = (last.frequency - previous.frequency) / (last.value - previous.value)
             frequency = last.frequency + rate * (root - last.value)
             return OnsetResult(parameter, float(root), float(frequency), tuple(iterates))
-        ratio = (root - last.value) / (last.value - previous.value)
-        value = rounded(parameter, root)
+        step_to = safeguarded_step(iterates, root, max_expansion)
+        ratio = (step_to - last.value) / (last.value - previous.value)
+        value = rounded(parameter, step_to)
         predicted = last.eigenvalue + ratio * (last.eigenvalue - previous.eigenvalue)
+
+
+def bracket(iterates) -> tuple[float, float] | None:
+    """The narrowest interval between the last iterate and an earlier one of opposite growth-rate
+    sign (the root lies inside), or None while every growth rate has the same sign."""
+    last = iterates[-1]
+    others = [i.value for i in iterates[:-1] if (i.growth_rate > 0) != (last.growth_rate > 0)]
+    if not others:
+        return None
+    nearest = min(others, key=lambda v: abs(v - last.value))
+    return (min(nearest, last.value), max(nearest, last.value))
+
+
+def safeguarded_step(iterates, root: float, max_expansion: float) -> float:
+    """The next parameter value from the secant ``root`` of the last two ``iterates``: inside the
+    :func:`bracket` when there is one (its midpoint if the secant leaves it), else at most
+    ``max_expansion`` times the last step away from the last iterate."""
+    last, previous = iterates[-1], iterates[-2]
+    interval = bracket(iterates)
+    if interval is not None:
+        low, high = interval
+        return root if low < root < high else 0.5 * (low + high)
+    limit = max_expansion * abs(last.value - previous.value)
+    return last.value + max(-limit, min(limit, root - last.value))
 
 
 def _describe(iterates) -> str:
     return ", ".join(f"λ({i.value:.6g}) = {i.growth_rate:.3e}" for i in iterates)
 
 
-def leading_eigenpair(pairs, predicted: complex, first: bool):
-    """The followed mode among ``pairs``: the least stable one at the first iterate (the shift is
-    only a guess of it), then the one nearest the predicted eigenvalue."""
-    if first:
-        return max(pairs, key=lambda p: p.growth_rate)
-    return min(pairs, key=lambda p: abs(p.value - predicted))
+def leading_eigenpair(pairs):
+    """The leading mode among ``pairs`` (the eigenpairs nearest the shift): the least stable one.
+
+    Not the one nearest the predicted eigenvalue: where two modes of nearby frequencies exchange
+    the lead (the plate's wake at Re 500 between α0 = 9.5° and 10° on the coarse mesh: the mode
+    followed by proximity, -0.062 + 4.128i, goes on to -0.145 + 4.057i while the other turns
+    unstable, +0.069 + 3.877i), following one branch misses the onset. The growth rate of the
+    least stable mode is continuous in the parameter, with a kink where the lead changes hands
+    (which the bracketing of :func:`safeguarded_step` copes with)."""
+    return max(pairs, key=lambda p: p.growth_rate)
 
 
 def fixed_body_evaluator(
@@ -274,13 +312,13 @@ def fixed_body_evaluator(
     parameter: str,
     *,
     cache_dir: Path | None = None,
-    n_eigenvalues: int = 3,
+    n_eigenvalues: int = 6,
     progress: Callable[[str], None] | None = None,
 ) -> Callable[[float, complex], OnsetIterate]:
     """``evaluate(p, predicted)`` for :func:`secant_onset` on the mesh of ``spec``: the steady
     state at ``p`` continued from the previous evaluation's (cached in ``cache_dir``), the fixed
     body's ``n_eigenvalues`` eigenpairs nearest the predicted eigenvalue (one factorisation), and
-    the followed one (:func:`leading_eigenpair`)."""
+    the least stable of them (:func:`leading_eigenpair`)."""
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
     from fsistab.linalg import FactorCounter
@@ -305,7 +343,7 @@ def fixed_body_evaluator(
         system = CoupledSystem(fluid_operators(steady), Solid(dofs=()))
         say(f"eigenvalues near {shift.real:.4g}{shift.imag:+.4g}i ({system.size} unknowns)")
         pairs = eigenpairs_near(system, [shift], n_eigenvalues, counter=counter)
-        pair = leading_eigenpair(pairs, predicted, first)
+        pair = leading_eigenpair(pairs)
         steady_factorisations = 0 if steady.from_cache else steady.factorisations
         say(f"{parameter} = {value:.8g}: σ = {pair.growth_rate:+.4e} {pair.frequency:+.6f}i")
         return OnsetIterate(

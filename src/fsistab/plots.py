@@ -869,6 +869,38 @@ def plot_flow_neutral(curves, parameter: str, path: Path, title: str = "") -> Pa
 
 
 @_styled
+def plot_onset(ds, path: Path, title: str = "") -> Path:
+    """The growth rate ``λ`` and frequency ``ω`` of the fixed body's leading mode at the secant's
+    iterates (:func:`fsistab.onset.onset_dataset`) against the flow parameter (Re, on a log axis when
+    the iterates span more than a factor 3; or α0 in degrees), the critical value where ``λ = 0``
+    marked with its ``ω_c``."""
+    parameter = ds.attrs["parameter"]
+    order = np.argsort(ds.value.values)
+    values = ds.value.values[order]
+    critical, frequency = float(ds.attrs["critical_value"]), float(ds.attrs["frequency"])
+    label = "Re" if parameter == "reynolds" else "α0 [deg]"
+    fig, (ax_rate, ax_freq) = plt.subplots(1, 2, figsize=(10.0, 3.8))
+    fig.subplots_adjust(wspace=0.3)
+    ax_rate.plot(values, ds.growth_rate.values[order], "o-", ms=4, label="iterates")
+    ax_rate.axhline(0.0, color="k", lw=0.8)
+    ax_rate.set_ylabel("growth rate λ (fixed body)")
+    ax_freq.plot(values, ds.frequency.values[order], "o-", ms=4, label="iterates")
+    ax_freq.set_ylabel("frequency ω [U∞/L]")
+    ax_rate.plot(
+        [critical], [0.0], "*", color="tab:red", ms=12, label=f"critical {label.split()[0]} = {critical:.5g}"
+    )
+    ax_freq.plot([critical], [frequency], "*", color="tab:red", ms=12, label=f"ω_c = {frequency:.5g}")
+    for ax in (ax_rate, ax_freq):
+        ax.set_xlabel(label)
+        if parameter == "reynolds" and values.max() > 3 * values.min():  # a narrow range reads better linear
+            ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small")
+    fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+@_styled
 def plot_theodorsen_map(ds, path: Path, viscous=None, comparison=None, title: str = "") -> Path:
     """Theodorsen neutral curves (:func:`fsistab.theodorsen.neutral_curves`) in log–log ``(m, U*)``.
 

@@ -967,7 +967,7 @@ def _transfer_payload(ds):
 
 
 def _onset_payload(ds):
-    keys = ("parameter", "critical_value", "frequency", "iterations", "factorisations", "data")
+    keys = ("parameter", "critical_value", "frequency", "iterations", "factorisations", "data", "figure")
     return {k: _plain(ds.attrs[k]) for k in keys}
 
 
