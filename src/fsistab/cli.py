@@ -930,10 +930,10 @@ def onset(
 
     with _running() as progress:
         ds = workflows.fixed_body_onset(case, parameter, guess, value, cache, out, progress)
-    data = Path(ds.attrs["data"])
-    at = f"α0 = {case.flow.alpha0_deg:g}°" if parameter == "reynolds" else f"Re = {case.flow.reynolds:g}"
-    title = f"onset: fixed {case.kind}, {at}, mesh {case.preset}"
-    ds.attrs["figure"] = str(plots.plot_onset(ds, data.with_suffix(".png"), title=title))
+    flow = case.flow
+    at = f"alpha0 = {flow.alpha0_deg:g} deg" if parameter == "reynolds" else f"Re = {flow.reynolds:g}"
+    title = f"onset: fixed {case.kind}, {at}, mesh {case.preset} ({ds.attrs['ndof']} unknowns)"
+    ds.attrs["figure"] = str(plots.plot_onset(ds, Path(ds.attrs["data"]).with_suffix(".png"), title=title))
     p = workflows.payload("onset", ds)
     if opts.as_json:
         return _emit(p)
@@ -951,9 +951,6 @@ def onset(
             strict=True,
         )
     ]
-    flow = case.flow
-    at = f"alpha0 = {flow.alpha0_deg:g} deg" if parameter == "reynolds" else f"Re = {flow.reynolds:g}"
-    title = f"onset: fixed {case.kind}, {at}, mesh {case.preset} ({ds.attrs['ndof']} unknowns)"
     columns = ("iterate", name, "growth rate λ", "frequency ω", "residual", "steady [s]", "eigen [s]")
     _print(
         _table(title, columns, rows),
