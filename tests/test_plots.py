@@ -381,10 +381,54 @@ def test_map_figure_lists_the_unresolved_intervals_and_shades_the_counts(tmp_pat
     assert note.startswith(f"{len(unresolved)} unresolved frequency intervals")
     for low, high, reason in listed:
         assert f"ω ∈ [{low:.4g}, {high:.4g}]: {reason}" in note
-    assert "reason 6" not in note and f"and {len(unresolved) - len(listed)} more" in note
+    assert "reason 6" not in note and f"and {len(unresolved) - len(listed)} more in 2 places" in note
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert {"1 unstable mode", "2 unstable modes", "≥ 3 unstable modes"} <= set(labels)
     assert "static divergence" not in labels  # the counts include it
+
+
+def test_study_thresholds_mark_onsets_filled_and_restabilisations_open(tmp_path, figures):
+    """The stored Re study on the default mesh (docs/data) has onsets and restabilisations: each
+    is drawn at its (Re, U*) with a filled or an open marker, and the log axis reads in numbers."""
+    import xarray as xr
+
+    data = xr.load_dataset(Path(__file__).parents[1] / "docs" / "data" / "reynolds_study_medium.nc")
+    plots.plot_study_thresholds(data, tmp_path / "t.png")
+    ax = figures[-1].axes[-1]
+    drawn = {"filled": set(), "open": set()}
+    for collection in ax.collections:
+        faces = collection.get_facecolors()
+        for x, y in collection.get_offsets():
+            drawn["open" if len(faces) == 0 else "filled"].add((round(float(x)), round(float(y), 4)))
+    boundary = data.threshold_boundary.values
+    for name, kind in (("filled", "onset"), ("open", "restabilisation")):
+        velocity = data.threshold_reduced_velocity.values
+        expected = {
+            (round(float(data.reynolds[i])), round(float(velocity[i, j, k, n]), 4))
+            for i, j, k, n in np.argwhere(boundary == kind)
+        }
+        assert expected and expected == drawn[name]
+    assert "open: restabilisation" in [t.get_text() for t in ax.get_legend().get_texts()]
+    assert ax.yaxis.get_major_formatter().__class__.__name__ == "LogFormatter"
+
+
+def test_adjacent_unresolved_intervals_are_one_place():
+    """A refinement stalled near one frequency leaves hundreds of adjacent intervals: one line for
+    them (with their count), apart from an interval elsewhere and from another reason's."""
+    edges = 0.016293 + 1e-7 * np.arange(501)
+    stalled = [(lo, hi, "sweep") for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+    stalled = stalled[::2] + stalled[1::2]  # in any order
+    other = [(0.5, 0.6, "sweep"), (0.01630, 0.01631, "tangency")]
+    clusters = plots.unresolved_clusters(stalled + other)
+    assert [(c[2], c[3]) for c in clusters] == [("sweep", 500), ("tangency", 1), ("sweep", 1)]
+    assert clusters[0][:2] == pytest.approx((edges[0], edges[-1]))
+    note = plots._unresolved_note(stalled + other)
+    assert note.startswith("502 unresolved frequency intervals")
+    assert "ω ∈ [0.01629, 0.01634] (500 intervals): sweep" in note
+    assert len(note.splitlines()) == 4  # the header and three places
+    assert plots._unresolved_note([(1.7, 1.7001, "fold")]).startswith("1 unresolved frequency interval (")
+    # apart by more than the gap (1 %): two places
+    assert len(plots.unresolved_clusters([(1.0, 1.1, "sweep"), (1.12, 1.2, "sweep")])) == 2
 
 
 # --- fields on subdivided triangles, the body, the zero line ----------------------------------------

@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 from dataclasses import replace
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -53,20 +54,78 @@ def _classify(frequency=0.2, heave=1.0, pitch=1.0, fluid=0.1, wake=math.nan, bra
 
 
 def test_classes_by_mechanism_when_the_one_dof_rates_are_known():
-    """Rule 3: the one-dof growth rates decide, whatever the energy shares say."""
-    both = {"heave": 9.0, "pitch": 1.0}  # single-mode by energy
-    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, -0.003, -0.014) == (
+    """Rules 3 and 5: the one-dof growth rates decide, whatever the solid energy shares say: the
+    mode's own dof (the larger solid energy) alone unstable makes it that dof's single-mode
+    flutter; the other dof alone unstable does not."""
+    heave_led = {"heave": 9.0, "pitch": 1.0}  # single-mode by energy alone
+    assert classify(0.2, *heave_led.values(), 0.1, 0.16, 0.2, math.nan, False, -0.003, -0.014) == (
         "coupled-mode flutter"
     )
-    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, 0.0, -0.014) == (
+    assert classify(0.2, *heave_led.values(), 0.1, 0.16, 0.2, math.nan, False, 0.0, -0.014) == (
         "heave single-mode flutter"
     )
-    assert classify(0.2, *both.values(), 0.1, 0.16, 0.2, math.nan, False, 0.001, 0.002) == (
+    assert classify(0.2, *heave_led.values(), 0.1, 0.16, 0.2, math.nan, False, 0.001, 0.002) == (
+        "heave single-mode flutter"
+    )
+    # heave-led, only pitch alone unstable (its own mode, elsewhere): the coupling destabilises
+    assert classify(0.16, *heave_led.values(), 0.1, 0.16, 0.2, math.nan, False, -0.001, 0.002) == (
+        "coupled-mode flutter"
+    )
+    assert classify(0.2, 1.0, 9.0, 0.1, 0.16, 0.2, math.nan, False, 0.002, 0.001) == (
         "pitch single-mode flutter"
     )
     # VIV and divergence are decided before
     assert classify(0.0, 1.0, 1.0, 0.1, 0.16, 0.2, math.nan, False, 0.1, 0.1) == "divergence"
-    assert classify(0.2, 1.0, 1.0, 5.0, 0.16, 0.2, math.nan, False, 0.1, 0.1) == "viv"
+    assert classify(0.2, 1.0, 1.0, 5.0, 0.16, 0.2, math.nan, True, 0.1, 0.1) == "viv"
+    assert classify(0.9, 1.0, 1.0, 5.0, 0.16, 0.2, 1.0, False, 0.1, 0.1) == "viv"
+
+
+def test_fluid_dominated_onsets_at_a_solid_frequency():
+    """Rule 3 before rule 4: near stall the separated flow holds most of the energy near the body
+    of a pitch single-mode flutter. The onsets of the Re 500 α0 study on the default mesh
+    (docs/gallery): at α0 = 8°, U* 5.01856, ω 0.19084, energy shares heave / pitch / fluid
+    0.083 / 0.110 / 0.807, pitch alone +7.5e-5, heave alone -9e-4."""
+    u = 5.01856
+    assert classify(0.19084, 0.083, 0.110, 0.807, 0.8 / u, 1 / u, math.nan, False, -9e-4, 7.5e-5) == (
+        "pitch single-mode flutter"
+    )
+    # the same energies without the pitch alone unstable: a wake mode carrying the body
+    assert classify(0.19084, 0.083, 0.110, 0.807, 0.8 / u, 1 / u, math.nan, False, -9e-4, -1e-4) == "viv"
+    # pitch alone unstable but the onset far (> 30 %) from the pitch frequency: not its flutter
+    assert classify(0.27, 0.083, 0.110, 0.807, 0.8 / u, 1 / u, math.nan, False, -9e-4, 7.5e-5) == "viv"
+    # solid-dominated, pitch alone unstable: no frequency condition (aerodynamic stiffness moves it)
+    assert classify(0.27, 0.1, 0.8, 0.1, 0.8 / u, 1 / u, math.nan, False, -9e-4, 7.5e-5) == (
+        "pitch single-mode flutter"
+    )
+    # at the wake frequency (nearer it than the pitch frequency), rule 2 comes first: lock-in
+    assert classify(0.19084, 0.083, 0.110, 0.807, 0.8 / u, 1 / u, 0.19, False, -9e-4, 7.5e-5) == "viv"
+
+
+def test_classes_of_the_stored_alpha0_study():
+    """classify_thresholds redraws the classes of a stored study from its shares, frequencies and
+    one-dof rates: the Re 500 α0 study on the default mesh (docs/data; its points at 0°–12° were
+    computed when the energy rule came first and stored `viv` for the pitch-led onsets). The
+    expected classes are the physics of each critical mode: coupled-mode flutter at 0–6° (heave-led,
+    both dofs alone stable), divergence at 0–4°; pitch single-mode flutter at 8°–16° (pitch-led,
+    at ω/ω_θ = 0.96–1.01, pitch alone unstable); at 10° and 12° the heave-led onsets at the heave
+    frequency with heave alone stable are coupled-mode flutter."""
+    import xarray as xr
+
+    data = xr.load_dataset(Path(__file__).parents[1] / "docs" / "data" / "alpha0_study_Re500_medium.nc")
+    classes = study.classify_thresholds(data).sel(reynolds=500.0, mass_ratio=1000.0)
+    coupled, pitch = "coupled-mode flutter", "pitch single-mode flutter"
+    expected = {
+        0.0: [coupled, "divergence"],
+        2.0: [coupled, "divergence"],
+        4.0: [coupled, "divergence"],
+        6.0: [coupled, ""],
+        8.0: [pitch, ""],
+        10.0: [pitch, coupled],
+        12.0: [coupled, pitch],
+        14.0: [pitch, ""],
+        16.0: [pitch, ""],
+    }
+    assert {a: classes.sel(alpha0=a).values.tolist() for a in expected} == expected
 
 
 def test_plate_flutter_at_re_2900_is_coupled_mode(plate_operators):
@@ -439,7 +498,8 @@ def test_thresholds_at_one_point(base_case, serial):
     settings = StudySettings(
         reynolds=(100.0,), slopes=True, thresholds=(1000.0,), velocity_range=(4.0, 10.0), points=6
     )
-    ds = study.run_point(base_case, settings, root / "cache").sel(mass_ratio=1000.0)
+    point = study.run_point(base_case, settings, root / "cache")
+    ds = point.sel(mass_ratio=1000.0)
     kinds = ds.threshold_kind.values.tolist()
     assert "divergence" in kinds and "flutter" in kinds
     assert int(ds.threshold_unresolved_intervals) == 0
@@ -459,6 +519,14 @@ def test_thresholds_at_one_point(base_case, serial):
     pairs = eigenpairs_near(CoupledSystem(fluid_operators(steady), solid), [1j * frequency], 2)
     nearest = min(pairs, key=lambda p: abs(p.value - 1j * frequency))
     assert abs(nearest.growth_rate) < 1e-7 and nearest.frequency == pytest.approx(frequency, rel=1e-6)
+    # a point stored under other rules is classified anew, from its stored shares, frequency
+    # ratios and one-dof rates, when the study is assembled
+    stale = point.assign(threshold_class=point.threshold_class.where(point.threshold_kind == "", "viv"))
+    outcome = study.PointOutcome(base_case.flow, stale)
+    assembled = study.assemble(base_case, settings, {base_case.flow: outcome})
+    refreshed = assembled.threshold_class.sel(reynolds=100.0, alpha0=0.0)
+    assert refreshed.values.tolist() == point.threshold_class.values.tolist()
+    assert "viv" not in refreshed.values.tolist()
 
 
 def test_figures_of_a_study(serial, tmp_path):

@@ -24,15 +24,19 @@ from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
     SAMPLE_FIELDS,
     AxisSample,
+    _real_resultant,
     _swept,
     characteristic_function,
     neutral_roots,
     read_samples,
+    resultant_tracks,
     roots_from_loads,
     sample_record,
     samples_table,
+    scaled_polynomials,
     second_order_loads,
     transfer_neutral_map,
+    undamped_resonances,
     unstable_counts,
 )
 
@@ -229,6 +233,51 @@ def test_a_curve_crossing_the_whole_mass_range_between_two_frequencies_is_flagge
     assert not _swept(np.array([[1.5, -3.0]]), np.array([[1.51, -1e3]]), band)
     assert not _swept(np.array([[1.5, 10.0]]), np.array([[1.51, 1e6]]), band)
     assert not _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 1e6]]), band)  # not the same root
+
+
+def test_at_the_finest_step_a_pole_or_a_birth_outside_the_band_is_not_a_sweep():
+    """Two frequencies SWEEP_STEP apart (``settled``): a root that changes sign with |m| beyond the
+    band at both (through m = ∞: e.g. the heave curve's m ≈ -2e9 → +4e8 of the coarse plate at
+    Re 500, α0 = 10°), or below it at both (through 0), or a pair born on one side outside the band,
+    is no sweep; anything that could have crossed the band still is."""
+    band = (0.25, 4e4)
+    through_infinity = (np.array([[1.25, -2.35e9]]), np.array([[1.25, 3.59e8]]))
+    through_zero = (np.array([[1.5, 0.01]]), np.array([[1.5, -0.02]]))
+    born_negative = (np.array([[1.5, -3.0]]), np.array([[1.5, -3.1], [1.24, -56.0], [1.241, -62.7]]))
+    for left, right in (through_infinity, through_zero, born_negative):
+        assert _swept(left, right, band)  # before the finest step: bisected
+        assert not _swept(left, right, band, settled=True)
+        assert not _swept(right, left, band, settled=True)  # dying, or the other way round
+    ambiguous = [
+        (np.array([[1.5, -3.0]]), np.array([[1.52, 1e6]])),  # from small |m| to beyond the band
+        (np.array([[1.5, -3.0]]), np.array([[1.5, -3.1], [1.24, -56.0], [1.241, 1e6]])),  # straddling
+        (np.array([[1.5, -3.0]]), np.array([[0.4, -1.0], [1.5, -2.0], [2.0, 5.0]])),  # one born in band
+    ]
+    for left, right in ambiguous:
+        assert _swept(left, right, band, settled=True)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_the_undamped_resonance_is_divided_out_of_the_tracks(seed):
+    """With ζ_h = 0 the resultant vanishes at v = 1/Ω at every frequency (S_h = 0 there: m = ∞); its
+    root carries no curve and, found numerically ~1e-9 off with m of either sign, looked like a
+    sweep at every sample. The tracks keep every other real root of the resultant (compared with
+    the roots of the undivided resultant) and none at 1/Ω."""
+    rng = np.random.default_rng(seed)
+    loads = (rng.uniform(-30, 30, 4) + 1j * rng.uniform(-30, 30, 4)).reshape(2, 2)
+    omega, solid = rng.uniform(0.05, 5.0), Solid()
+    assert undamped_resonances(solid) == [1 / solid.freq_ratio]
+    assert undamped_resonances(replace(solid, zeta_h=0.01)) == []
+    assert undamped_resonances(replace(solid, zeta_theta=0.0)) == [1 / solid.freq_ratio, 1.0]
+    assert undamped_resonances(replace(solid, dofs=("pitch",))) == []
+    resultant = _real_resultant(scaled_polynomials(loads, solid))
+    v0 = 1 / solid.freq_ratio
+    assert abs(np.polynomial.polynomial.polyval(v0, resultant)) < 1e-12 * np.abs(resultant).max()
+    roots = np.polynomial.polynomial.polyroots(resultant)
+    real = sorted(v.real for v in roots if abs(v.imag) < 1e-6 * abs(v) and v.real > 0 and abs(v - v0) > 1e-6)
+    tracks = resultant_tracks(loads, omega, solid)
+    assert np.all(np.abs(tracks[:, 0] - v0) > 1e-6)
+    np.testing.assert_allclose(sorted(tracks[:, 0]), real, rtol=1e-7)
 
 
 def test_the_two_branches_of_a_fold_in_frequency_are_joined():

@@ -20,6 +20,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import matplotlib.tri as mtri  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -688,7 +689,8 @@ _KIND_COLOURS = {"flutter": "tab:red", "viv": "tab:blue"}
 # 1, 2, ≥ 3 unstable modes, light to dark: purples, apart from the red and blue of the curves
 _UNSTABLE_COLOURS = ("#ebe5f2", "#cbbde0", "#a38cc6")
 SIDE_BAND = 1.08  # the unstable-side band of a curve spans U* to U* · 1.08^side (log axis: constant width)
-UNRESOLVED_LISTED = 4  # unresolved intervals named on a map (the others counted)
+UNRESOLVED_LISTED = 4  # places of unresolved intervals named on a map (the others counted)
+UNRESOLVED_GAP = 0.01  # relative gap below which unresolved intervals are one place on a map
 
 
 def _side_bands(masses, velocities, side) -> list[np.ndarray]:
@@ -716,15 +718,38 @@ def _side_bands(masses, velocities, side) -> list[np.ndarray]:
     return quads
 
 
+def unresolved_clusters(unresolved, gap: float = UNRESOLVED_GAP) -> list[tuple[float, float, str, int]]:
+    """``(low, high, reason, count)``: the unresolved intervals ``(low, high, reason)`` of one
+    reason merged where they touch or lie within ``gap`` (relative) of each other, in increasing
+    frequency. A refinement that stalls near one frequency leaves hundreds of adjacent intervals
+    (e.g. 587 within ω ∈ [0.01629, 0.01631] on the coarse plate at Re 500, α0 = 10°): one line."""
+    clusters: list[list] = []
+    for low, high, reason in sorted(unresolved, key=lambda r: (str(r[2]), float(r[0]))):
+        low, high = float(low), float(high)
+        last = clusters[-1] if clusters else None
+        if last is not None and last[2] == reason and low <= last[1] * (1.0 + gap):
+            last[1], last[3] = max(last[1], high), last[3] + 1
+        else:
+            clusters.append([low, high, reason, 1])
+    return sorted((tuple(c) for c in clusters), key=lambda c: c[0])
+
+
 def _unresolved_note(unresolved) -> str:
-    """The unresolved frequency intervals of the transfer method, one line each (the first few)."""
+    """The unresolved frequency intervals of the transfer method, merged into clusters
+    (:func:`unresolved_clusters`), one line each (the first few)."""
     unresolved = list(unresolved)
     if not unresolved:
         return ""
-    lines = [f"ω ∈ [{low:.4g}, {high:.4g}]: {reason}" for low, high, reason in unresolved[:UNRESOLVED_LISTED]]
-    if len(unresolved) > UNRESOLVED_LISTED:
-        lines.append(f"and {len(unresolved) - UNRESOLVED_LISTED} more")
-    header = f"{len(unresolved)} unresolved frequency intervals (curves may be missing there):"
+    clusters = unresolved_clusters(unresolved)
+    lines = [
+        f"ω ∈ [{low:.4g}, {high:.4g}]" + (f" ({count} intervals)" if count > 1 else "") + f": {reason}"
+        for low, high, reason, count in clusters[:UNRESOLVED_LISTED]
+    ]
+    if len(clusters) > UNRESOLVED_LISTED:
+        rest = clusters[UNRESOLVED_LISTED:]
+        lines.append(f"and {sum(c[3] for c in rest)} more in {len(rest)} places")
+    count = len(unresolved)
+    header = f"{count} unresolved frequency interval{'s' if count > 1 else ''} (curves may be missing there):"
     return "\n".join([header, *lines])
 
 
@@ -823,7 +848,8 @@ def plot_stability_map(
     ax.set_ylabel("reduced velocity U*")
     secondary = ax.secondary_yaxis("right", functions=(_reciprocal, _reciprocal))
     secondary.set_ylabel("ω_θ = 1/U*")
-    ax.grid(alpha=0.3, which="both")
+    ax.grid(alpha=0.3, which="major")
+    ax.grid(alpha=0.1, which="minor")  # light: over the shading, many minor lines hide the curves
     lines, names = ax.get_legend_handles_labels()
     legend = ax.legend(
         lines + shading,
@@ -1150,16 +1176,26 @@ def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
                     sub = ds.sel({line_dim: value, "mass_ratio": mass})
                     colour = colours[k % len(colours)]
                     k += 1
+                    restabilising = sub.threshold_boundary.values == "restabilisation"
                     for kind, marker in _STUDY_MARKERS.items():
-                        mask = sub.threshold_class.values == kind
-                        xs = np.broadcast_to(x[:, None], mask.shape)[mask]
-                        velocities = sub.threshold_reduced_velocity.values[mask]
-                        ax.scatter(xs, velocities, marker=marker, color=colour)
+                        for open_marker in (False, True):
+                            mask = (sub.threshold_class.values == kind) & (restabilising == open_marker)
+                            xs = np.broadcast_to(x[:, None], mask.shape)[mask]
+                            velocities = sub.threshold_reduced_velocity.values[mask]
+                            # onsets filled, restabilisations open: which side is unstable
+                            face = "none" if open_marker else colour
+                            ax.scatter(xs, velocities, marker=marker, facecolors=face, edgecolors=colour)
                     ax.plot([], [], "-", color=colour, label=f"{_study_label(line_dim, value)}, m = {mass:g}")
             for kind, marker in _STUDY_MARKERS.items():
                 ax.scatter([], [], marker=marker, color="grey", label=kind)
+            if (ds.threshold_boundary.values == "restabilisation").any():
+                open_marker = {"facecolors": "none", "edgecolors": "grey"}
+                ax.scatter([], [], marker="o", label="open: restabilisation", **open_marker)
             ax.set_ylabel("critical U*")
             ax.set_yscale("log")
+            # plain numbers on the log axis (5, 6, 8 rather than 5×10⁰)
+            ax.yaxis.set_major_formatter(matplotlib.ticker.LogFormatter())
+            ax.yaxis.set_minor_formatter(matplotlib.ticker.LogFormatter(minor_thresholds=(2, 0.5)))
             # one entry per (flow point, mass ratio): beside the axes, where it hides no marker
             ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
         ax.set_xlabel("α0 [deg]" if x_dim == "alpha0" else "Re")

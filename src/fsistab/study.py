@@ -25,21 +25,32 @@ units, MODEL.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, MODEL.md 
 frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, when given). In order:
 
 1. ``divergence``: a static threshold, ``ω_c = 0`` (:func:`fsistab.critical.divergence_point`);
-2. ``viv``: the threshold lies on the tracked wake branch, or the fluid holds at least half the
-   energy (``e_f ≥ 1/2``: a wake mode carrying the body), or ``ω_c`` is within 30 % of ``ω_w``
-   and nearer to it than to both ``ω_h`` and ``ω_θ``;
+2. ``viv`` by the wake: the threshold lies on the tracked wake branch, or ``ω_c`` is within 30 %
+   of ``ω_w`` and nearer to it than to both ``ω_h`` and ``ω_θ``;
 3. for a body with heave and pitch, by mechanism (:func:`single_dof_growth`): the growth rates
    ``λ_h``, ``λ_θ`` of the structural modes of the body with only heave (pitch clamped) and with
-   only pitch, at the same ``m`` and ``U*_c``. ``heave single-mode flutter`` if ``λ_h ≥ 0`` (heave
-   alone is unstable there), ``pitch single-mode flutter`` if ``λ_θ ≥ 0`` (the larger one if
-   both), else ``coupled-mode flutter``: neither dof alone is unstable, the coupling of the two
-   makes the instability (the textbook definition of coupled-mode flutter);
-4. otherwise (one dof, or the one-dof rates not computed), by energy: ``heave single-mode
-   flutter`` when ``s_h ≥ 3/4``, ``pitch single-mode flutter`` when ``s_h ≤ 1/4``, else
-   ``coupled-mode flutter``. Energy alone misleads for the plate: its coupled-mode flutter at
-   Re 2900, m = 1000 holds 94 % of the kinetic energy in heave (``r_θ² = 0.084`` weighs pitch
-   down), yet heave alone and pitch alone are both stable there (growth rates −0.003 and −0.014 on
-   the coarse mesh), as REFERENCE.md §E says.
+   only pitch, at the same ``m`` and ``U*_c``. The critical mode's own dof is the one holding
+   more of its solid energy (heave if ``E_h ≥ E_θ``). ``heave`` (``pitch``) ``single-mode
+   flutter`` if that dof alone is unstable there (``λ ≥ 0``) and, when the fluid holds at least
+   half the energy, ``ω_c`` lies within 30 % of that dof's in-vacuo frequency: one dof, at its own
+   frequency, extracts energy from the flow by itself (near stall the separated flow responds
+   strongly to the pitching and holds most of the energy near the body, yet the mechanism is the
+   pitch's). A mode led by one dof whose other dof alone is unstable is not that other dof's
+   single-mode flutter: it is rule 5's;
+4. ``viv`` by energy: the fluid holds at least half the energy (``e_f ≥ 1/2``): a wake mode
+   carrying the body;
+5. with the one-dof rates of rule 3: ``coupled-mode flutter``, neither dof alone explaining the
+   instability of this mode (the textbook definition: the coupling of the two makes it);
+   without them (one dof, or the rates not computed), by energy: ``heave single-mode flutter``
+   when ``s_h ≥ 3/4``, ``pitch single-mode flutter`` when ``s_h ≤ 1/4``, else ``coupled-mode
+   flutter``. Energy alone misleads for the plate: its coupled-mode flutter at Re 2900,
+   m = 1000 holds 94 % of the kinetic energy in heave (``r_θ² = 0.084`` weighs pitch down), yet
+   heave alone and pitch alone are both stable there (growth rates −0.003 and −0.014 on the
+   coarse mesh), as REFERENCE.md §E says.
+
+Without ``ω_w`` (no ``wake_shift``) rule 2 cannot recognise a lock-in on the wake: a
+fluid-dominated onset at a solid frequency whose dof alone is unstable is then classed
+single-mode flutter by rule 3. Give ``wake_shift`` where the wake frequency may meet a solid one.
 
 The shares and the ratios ``ω_c/ω_h``, ``ω_c/ω_θ``, ``ω_c/ω_w`` are kept in the study's data, so
 that the class can be checked or redrawn with other thresholds.
@@ -110,7 +121,8 @@ CLASSES = (
 MAX_GRID_VALUES = 200  # values of Re or α0 in one study
 MAX_MASS_RATIOS = 20
 MAX_ALPHA0 = 45.0  # degrees, as fsistab.params.Flow
-VIV_FREQUENCY_BAND = 0.3  # |ω_c/ω_w - 1| below which a threshold may be VIV (as find_thresholds)
+# |ω_c/ω_ref - 1| below which ω_c is at ω_ref: the wake's (VIV, as find_thresholds) or a dof's
+FREQUENCY_BAND = 0.3
 SINGLE_MODE_SHARE = 0.75  # share of the solid energy in one dof beyond which flutter is single-mode
 
 
@@ -278,13 +290,14 @@ def classify(
     heave_alone_growth: float = math.nan,
     pitch_alone_growth: float = math.nan,
 ) -> str:
-    """The class of a threshold (one of :data:`CLASSES`) by the criteria of the module docstring:
-    divergence if ``ω_c = 0``; VIV on the wake branch, when ``E_f ≥ (E_h + E_θ + E_f)/2``, or
-    when ``|ω_c/ω_w - 1| < 0.3`` and ``ω_c`` is nearer ``ω_w`` than ``ω_h`` and ``ω_θ``; else, when
-    both one-dof growth rates are given (:func:`single_dof_growth`), heave (pitch) single-mode
-    flutter if that dof alone is unstable (rate ≥ 0), coupled-mode flutter if neither is; without
-    them, heave (pitch) single-mode flutter when heave (pitch) holds at least 3/4 of the solid
-    energy, coupled-mode flutter otherwise. ``*_frequency`` in the same units (``U∞/L``)."""
+    """The class of a threshold (one of :data:`CLASSES`) by the five rules of the module
+    docstring: divergence if ``ω_c = 0``; VIV on the wake branch or within 30 % of ``ω_w`` (and
+    nearer it than ``ω_h`` and ``ω_θ``); with both one-dof growth rates (:func:`single_dof_growth`),
+    heave (pitch) single-mode flutter if the mode's own dof (the larger of ``E_h``, ``E_θ``) alone
+    is unstable, at its own frequency (within 30 %) when the fluid holds half the energy; VIV when
+    the fluid holds half the energy; then coupled-mode flutter with the rates, or, without them,
+    by the solid energy shares (3/4 in one dof: single-mode). ``*_frequency`` in the same units
+    (``U∞/L``)."""
     values = (frequency, heave_energy, pitch_energy, fluid_energy, heave_frequency, pitch_frequency)
     if not all(math.isfinite(v) for v in values):
         raise InputError(f"classification needs finite frequencies and energies, got {values}")
@@ -293,29 +306,87 @@ def classify(
     omega = abs(frequency)
     if omega <= STATIC_FREQUENCY:
         return "divergence"
-    solid_energy = heave_energy + pitch_energy
-    if wake_branch or fluid_energy >= solid_energy:
+    if wake_branch:
         return "viv"
     if math.isfinite(wake_frequency) and wake_frequency > 0:
         to_wake = abs(omega - wake_frequency)
-        if to_wake < VIV_FREQUENCY_BAND * wake_frequency and to_wake < min(
+        if to_wake < FREQUENCY_BAND * wake_frequency and to_wake < min(
             abs(omega - heave_frequency), abs(omega - pitch_frequency)
         ):
             return "viv"
-    if math.isfinite(heave_alone_growth) and math.isfinite(pitch_alone_growth):
-        if max(heave_alone_growth, pitch_alone_growth) < 0:
-            return "coupled-mode flutter"
-        return (
-            "heave single-mode flutter"
-            if heave_alone_growth >= pitch_alone_growth
-            else "pitch single-mode flutter"
+    solid_energy = heave_energy + pitch_energy
+    fluid_dominated = fluid_energy >= solid_energy
+    rates_known = math.isfinite(heave_alone_growth) and math.isfinite(pitch_alone_growth)
+    if rates_known:
+        own, rate, natural = (
+            ("heave", heave_alone_growth, heave_frequency)
+            if heave_energy >= pitch_energy
+            else ("pitch", pitch_alone_growth, pitch_frequency)
         )
+        at_own_frequency = abs(omega - natural) < FREQUENCY_BAND * natural
+        if rate >= 0 and (at_own_frequency or not fluid_dominated):
+            return f"{own} single-mode flutter"
+    if fluid_dominated:
+        return "viv"
+    if rates_known:
+        return "coupled-mode flutter"
     heave_share = heave_energy / solid_energy
     if heave_share >= SINGLE_MODE_SHARE:
         return "heave single-mode flutter"
     if heave_share <= 1 - SINGLE_MODE_SHARE:
         return "pitch single-mode flutter"
     return "coupled-mode flutter"
+
+
+def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
+    """The class of every threshold of a study's Dataset (:func:`run_study`) by :func:`classify`,
+    from what the Dataset keeps: the energy shares, the frequency, the one-dof growth rates, the
+    wake frequency and branch, and ``ω_h = Ω/U*``, ``ω_θ = 1/U*`` from ``U*_c`` and the settings'
+    ``freq_ratio`` (attribute ``settings``; the body's U* convention from attribute ``body``).
+    ``""`` where there is no threshold. :func:`assemble` applies it, so that a study's classes
+    always follow the present rules, points read back from files included."""
+    kind = data["threshold_kind"]
+    body, given = data.attrs["body"], json.loads(data.attrs["settings"])
+    dofs = tuple(given["dofs"]) if given["dofs"] else None
+    names = ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
+    # Ω in the generic form of the solid as run_point built it (1 for the cylinder, MODEL.md §10)
+    freq_ratio = solid_for(body, None, None, *(given[n] for n in names), dofs).freq_ratio
+    scale = body_velocity_scale(body)
+    wake = (
+        data["wake_frequency"].broadcast_like(kind)
+        if "wake_frequency" in data
+        else xr.full_like(kind, math.nan, dtype=float)
+    )
+    columns = [
+        kind, data["threshold_frequency"], data["threshold_reduced_velocity"],
+        data["threshold_heave_share"], data["threshold_pitch_share"], data["threshold_fluid_share"],
+        data["threshold_branch"], wake,
+        data["threshold_heave_alone_growth"], data["threshold_pitch_alone_growth"],
+    ]  # fmt: skip
+    flat = [np.asarray(c.transpose(*kind.dims).values).ravel() for c in columns]
+    labels = []
+    for k, w, u, e_h, e_t, e_f, branch, w_w, r_h, r_t in zip(*flat, strict=True):
+        if k == "":
+            labels.append("")
+        elif k == "divergence":
+            labels.append("divergence")
+        else:
+            velocity = u / scale
+            labels.append(
+                classify(
+                    abs(w),
+                    e_h,
+                    e_t,
+                    e_f,
+                    freq_ratio / velocity,
+                    1.0 / velocity,
+                    w_w,
+                    branch == "wake",
+                    r_h,
+                    r_t,
+                )
+            )
+    return xr.DataArray(np.array(labels, dtype=str).reshape(kind.shape), dims=kind.dims, coords=kind.coords)
 
 
 STRUCTURAL_SHARE = 0.05  # solid share of the near-body energy above which a mode is structural
@@ -796,7 +867,8 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
     """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
     to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
     ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
-    and where its steady state started (``steady_start``)."""
+    and where its steady state started (``steady_start``); the thresholds classified anew
+    (:func:`classify_thresholds`)."""
     reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
     shape = (len(reynolds), len(alpha0))
     results = {
@@ -847,7 +919,7 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
     for dim, n in sizes.items():
         if dim not in coords:
             coords[dim] = np.arange(n)
-    return xr.Dataset(
+    assembled = xr.Dataset(
         data,
         coords=coords,
         attrs={
@@ -861,6 +933,10 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             ),
         },
     )
+    if "threshold_kind" in assembled:
+        # the present rules, also for points computed before a change of them
+        assembled["threshold_class"] = classify_thresholds(assembled)
+    return assembled
 
 
 @contextlib.contextmanager

@@ -38,7 +38,11 @@ parametrisation by ``ω`` turns). A curve can also cross the whole mass range in
 (near the wake frequency a lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root
 at either end; the real roots of the resultant are tracked with their ``m`` of any sign, and an
 interval where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across
-the range, is bisected down to ``SWEEP_STEP`` until the curve shows up.
+the range, is bisected down to ``SWEEP_STEP`` until the curve shows up; at that step a root that
+changes sign beyond the range (through ``m = ∞``, a pole of the neutral mass) or below it (through
+0), or roots born outside the range on one side, settle the interval without a curve
+(:func:`_swept`). With an undamped dof the resultant vanishes at its in-vacuo resonance at every
+frequency (:func:`undamped_resonances`, ``m = ∞``); that root is divided out.
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 ``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
@@ -255,6 +259,11 @@ def resultant_tracks(loads: np.ndarray, omega: float, solid: Solid) -> np.ndarra
     frequency) without a root in range at either; its track still changes sign or side there."""
     polys = scaled_polynomials(loads, solid)
     resultant = npoly.polytrim(_real_resultant(polys), tol=0.0)
+    for v0 in undamped_resonances(solid):
+        # divided out exactly: found numerically, this root lies ~1e-9 off v0 with m ≈ ±1e9 of
+        # either sign from one ω to the next, and every such flip looked like a curve sweeping
+        # the mass range (587 unresolved intervals on the coarse plate at Re 500, α0 = 10°)
+        resultant = npoly.polydiv(resultant, np.array([-v0, 1.0]))[0]
     rows = []
     for v in npoly.polyroots(resultant) if len(resultant) > 1 else []:
         if abs(v.imag) > 1e-6 * max(1.0, abs(v)) or v.real <= 0:
@@ -272,16 +281,42 @@ def resultant_tracks(loads: np.ndarray, omega: float, solid: Solid) -> np.ndarra
     return np.array(rows).reshape(-1, 2)
 
 
-def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+def undamped_resonances(solid: Solid) -> list[float]:
+    """The ``v = u/ω`` where the highest power of ``m̂`` in ``Σ P_k(v) m̂^k`` vanishes for every
+    ``ω``: the in-vacuo resonance of an undamped dof (``S_h = 0`` at ``v = 1/Ω`` when ``ζ_h = 0``,
+    ``S_θ = 0`` at ``v = 1`` when ``ζ_θ = 0``), where the neutral mass is infinite. Each is a
+    root of the resultant at every frequency and carries no curve."""
+    dofs = _dof_indices(solid)
+    roots = []
+    if 0 in dofs and solid.zeta_h == 0:
+        roots.append(1.0 / solid.freq_ratio)
+    if 1 in dofs and solid.zeta_theta == 0:
+        roots.append(1.0)
+    return roots
+
+
+def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settled: bool = False) -> bool:
     """Whether a pair of real resultant roots is born or dies between two frequencies, or a root
     (matched by nearest ``v``) passes from one side of ``band`` to the other, or through
-    ``m = 0``/``∞``, without being in the band at either frequency."""
+    ``m = 0``/``∞``, without being in the band at either frequency. ``settled``: the two
+    frequencies are ``SWEEP_STEP`` apart, too close for a root to go round through the band, so a
+    root that changes sign beyond the band at both (``|m| > band[1]``) passes through ``m = ∞``,
+    one below it at both (``|m| < band[0]``) through ``m = 0``, and roots born or dying all on one
+    side of the band (outside it) were born or died there: none of these is a sweep."""
 
     def side(m: float) -> int:
         return -1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2
 
-    if len(left) != len(right):  # a pair of real roots is born or dies in between
-        return True
+    if len(left) != len(right):  # real roots born or dying in between
+        if not settled:
+            return True
+        longer, shorter = (left, right) if len(left) > len(right) else (right, left)
+        free = list(range(len(longer)))
+        for v, _ in shorter:  # the nearest in v are the same roots; the others are born or die
+            free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+        sides = {side(m) for m in longer[free, 1]}
+        if len(sides) > 1 or 1 in sides:
+            return True
     for v, m in left:
         if not len(right):
             return False
@@ -290,6 +325,9 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bo
             continue
         a, b = side(m), side(right[k, 1])
         if a != b and 1 not in (a, b):
+            low, high = sorted((abs(m), abs(right[k, 1])))
+            if settled and (low > band[1] or high < band[0]):
+                continue  # through ∞ or 0 next to where it was: a pole of the neutral mass
             return True
     return False
 
@@ -731,6 +769,8 @@ def transfer_neutral_map(
             elif _swept(tracks[w0], tracks[w1], wide):
                 # a curve may cross the whole range in between: find it
                 smallest, reason = SWEEP_STEP, "sweep"
+                if w1 - w0 < smallest * w1 and not _swept(tracks[w0], tracks[w1], wide, settled=True):
+                    continue  # at the finest step: a pole of m, or roots born outside the range
             else:
                 continue
             if w1 - w0 < smallest * w1:
