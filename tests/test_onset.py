@@ -137,6 +137,33 @@ def test_the_leading_mode_is_the_least_stable_one_near_the_shift():
     assert leading_eigenpair(pairs).value == 0.069 + 3.877j
 
 
+def test_the_evaluator_looks_right_of_the_predicted_eigenvalue(monkeypatch):
+    """In a dense cluster of damped modes near the frequency, the six eigenvalues nearest an
+    on-axis prediction miss an unstable mode a little further off (the medium plate at Re 500,
+    α0 = 16°: +0.0648 + 2.4896i, missed from 0.0013 + 2.523i). The evaluator's Arnoldi target lies
+    LOOKAHEAD to the right, where the unstable mode is among the nearest. The solver is replaced
+    by the exact nearest-n selection of shift-invert Arnoldi on a known spectrum."""
+    from fsistab import coupled, eigen, onset, operators, steady
+
+    cluster = [complex(-0.03 + 0.004 * k, 2.523 + 0.011 * (k - 6)) for k in range(13)]
+    unstable = 0.0648 + 2.4896j
+    spectrum = [*cluster, unstable]
+
+    def nearest(system, shifts, n, counter=None):
+        chosen = sorted(spectrum, key=lambda z: abs(z - shifts[0]))[:n]
+        return [SimpleNamespace(value=z, growth_rate=z.real, frequency=z.imag, residual=0.0) for z in chosen]
+
+    monkeypatch.setattr(eigen, "eigenpairs_near", nearest)
+    monkeypatch.setattr(steady, "solve_steady", lambda *a, **k: SimpleNamespace(from_cache=True))
+    monkeypatch.setattr(operators, "fluid_operators", lambda state: None)
+    monkeypatch.setattr(coupled, "CoupledSystem", lambda fluid, solid: SimpleNamespace(size=10))
+    on_axis = 0.0013 + 2.523j
+    assert unstable not in [p.value for p in nearest(None, [on_axis], 6)]  # the miss
+    evaluate = onset.fixed_body_evaluator(None, Flow(500.0, 16.0), "alpha0")
+    found = evaluate(16.0, on_axis)
+    assert found.eigenvalue == unstable and found.shift.real == pytest.approx(on_axis.real + onset.LOOKAHEAD)
+
+
 @pytest.mark.parametrize(
     ("kind", "parameter", "guess", "shift", "message"),
     [
