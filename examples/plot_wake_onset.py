@@ -17,9 +17,10 @@ finds it (about 3.9i at α0 = 10°). The mode followed from ``--shift 0+1.8j``, 
 coarse mesh puts at 0 near 17°, is not a wake mode: with the coarse mesh's wake box widened to
 5 chords it is damped (λ = -0.08 at 15°; docs/gallery/index.md).
 
-Mesh: ``--mesh`` preset (default coarse), fitted to Re = 500. The coarse mesh gives α0_c = 9.769°,
-ω_c = 3.947; the default mesh (``--mesh medium``) does not confirm it: there the same mode stays
-damped (λ ≈ -0.06 to -0.07 from 8° to 12°) and the search finds no root (docs/gallery/index.md).
+Mesh: ``--mesh`` preset (default coarse), fitted to Re = 500. The coarse mesh gives α0_c = 9.77°,
+ω_c = 3.947, an artefact of its near-body sizes: on the default mesh (``--mesh medium``) that mode
+stays damped (λ ≈ -0.06 to -0.07 from 8° to 12°), and the wake turns unstable at
+α0_c = 14.766°, ω_c = 2.597, in another mode (``--guess 14 --shift 0+2.5j``; docs/gallery/index.md).
 Reference: REFERENCE.md §E gives the plate's flutter and divergence at α0 = 0 only, nothing on the
 fixed plate's onset in α0.
 
@@ -33,7 +34,7 @@ from pathlib import Path
 REYNOLDS = 500.0
 # the wake leaves the trailing edge upwards in the body frame (α0 > 0)
 MODE_WINDOW = ((-1.0, 6.0), (-1.0, 2.0))
-SHIFT_OFFSET = 0.0013 + 0.0017j  # as fsistab.onset's
+SHIFT_OFFSET = 0.0013 + 0.0017j  # the critical mode's shift, just off its neutral eigenvalue
 
 
 def parse_args(argv=None) -> argparse.Namespace:

@@ -18,9 +18,10 @@ evaluation. At each iterate the steady state is continued from the previous one
 leading mode is followed: shift-invert Arnoldi (:func:`fsistab.eigen.eigenpairs_near`, one
 factorisation) near the user's shift at the first iterate (a guess of the eigenvalue, e.g.
 ``0.75i`` for the cylinder's wake), then near the eigenvalue predicted by linear extrapolation of
-the last two, keeping the least stable of the eigenvalues found there (:func:`leading_eigenpair`,
-as :func:`fsistab.critical.wake_mode_near`). Before two iterates bracket the root, steps are
-limited (:func:`safeguarded_step`).
+the last two, each time at a target :data:`LOOKAHEAD` to the right, keeping the least stable of
+the eigenvalues found there (:func:`leading_eigenpair`, as
+:func:`fsistab.critical.wake_mode_near`). Before two iterates bracket the root, steps are limited
+(:func:`safeguarded_step`).
 
 The iteration stops when ``|λ_k| < tol`` or when the next secant step falls below ``step_tol``
 (relative to ``max(1, |p|)``); the critical value is the secant root of the last two iterates and
@@ -44,12 +45,11 @@ from fsistab.params import MAX_REYNOLDS, Flow
 
 PARAMETERS = ("reynolds", "alpha0")
 MAX_ALPHA0 = 45.0  # degrees, as fsistab.params.Flow
-# the shift is moved off the predicted eigenvalue: a shift on an eigenvalue makes J + sM singular
-_SHIFT_OFFSET = 0.0013 + 0.0017j
 # the Arnoldi target lies this far right of the predicted eigenvalue (U∞/L): in a dense cluster
 # of modes near the frequency, the eigenvalues nearest it are the least stable ones rather than
 # those on either side (on the medium plate at Re 500, α0 = 16°, the six nearest the on-axis
-# prediction missed the unstable +0.0648 + 2.4896i and the search wandered)
+# prediction missed the unstable +0.0648 + 2.4896i and the search wandered); it also keeps the
+# shift off the eigenvalue (a shift on an eigenvalue makes J + sM singular)
 LOOKAHEAD = 0.1
 
 
@@ -337,7 +337,6 @@ def fixed_body_evaluator(
 
     def evaluate(value: float, predicted: complex) -> OnsetIterate:
         flow = flow_at(base, parameter, value)
-        first = not previous
         t0 = time.perf_counter()
         say(f"steady state at {parameter} = {value:.8g}")
         steady = solve_steady(spec, flow, cache_dir=cache_dir, initial=previous[-1] if previous else None)
@@ -345,7 +344,7 @@ def fixed_body_evaluator(
         previous[:] = [steady]
         t0 = time.perf_counter()
         counter = FactorCounter()
-        shift = predicted + LOOKAHEAD + (0.0 if first else _SHIFT_OFFSET)
+        shift = predicted + LOOKAHEAD
         system = CoupledSystem(fluid_operators(steady), Solid(dofs=()))
         say(f"eigenvalues near {shift.real:.4g}{shift.imag:+.4g}i ({system.size} unknowns)")
         pairs = eigenpairs_near(system, [shift], n_eigenvalues, counter=counter)

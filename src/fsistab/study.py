@@ -343,7 +343,8 @@ def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
     from what the Dataset keeps: the energy shares, the frequency, the one-dof growth rates, the
     wake frequency and branch, and ``ω_h = Ω/U*``, ``ω_θ = 1/U*`` from ``U*_c`` and the settings'
     ``freq_ratio`` (attribute ``settings``; the body's U* convention from attribute ``body``).
-    ``""`` where there is no threshold. :func:`assemble` applies it, so that a study's classes
+    ``""`` where there is no threshold. The one place a class is decided: :func:`run_point`
+    applies it to a new point and :func:`assemble` to every point again, so that a study's classes
     always follow the present rules, points read back from files included."""
     kind = data["threshold_kind"]
     body, given = data.attrs["body"], json.loads(data.attrs["settings"])
@@ -510,6 +511,9 @@ def run_point(
     for name in ("threshold", "map_point"):
         if name in ds.dims:
             ds = ds.assign_coords({name: np.arange(ds.sizes[name])})
+    if settings.thresholds:
+        identity = {"body": case.kind, "settings": json.dumps(settings.point_identity())}
+        ds["threshold_class"] = classify_thresholds(ds.assign_attrs(identity))
     return ds.assign_attrs(
         body=case.kind,
         reynolds=case.flow.reynolds,
@@ -556,11 +560,12 @@ THRESHOLD_FLOATS = (
     "heave_alone_growth",
     "pitch_alone_growth",
 )
-THRESHOLD_STRINGS = ("kind", "boundary", "branch", "class")
+THRESHOLD_STRINGS = ("kind", "boundary", "branch")  # the class is added by classify_thresholds
 
 
 def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say) -> tuple[dict, np.ndarray]:
-    """Every threshold at each mass ratio, classified; ``(variables, wake frequency per m)``."""
+    """Every threshold at each mass ratio with what classifies it (:func:`classify_thresholds`);
+    ``(variables, wake frequency per m)``."""
     from fsistab.coupled import CoupledSystem
     from fsistab.critical import find_thresholds
 
@@ -586,7 +591,6 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
             alone = [math.nan, math.nan]  # one-dof growth rates (rule 3), flutter of heave + pitch only
             if t.kind == "divergence":
                 shares = (math.nan, math.nan, math.nan)
-                label = "divergence"
             else:
                 e_h, e_t, e_f = mode_energies(system, t.point.mode)
                 total = e_h + e_t + e_f
@@ -595,7 +599,6 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
                     alone = [
                         single_dof_growth(fluid, solid, u, w, dof, counter) for dof in ("heave", "pitch")
                     ]
-                label = classify(w, e_h, e_t, e_f, heave_f, pitch_f, wake, t.branch == "wake", *alone)
             row.append(
                 {
                     "reduced_velocity": u * scale,
@@ -611,7 +614,6 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
                     "kind": t.kind,
                     "boundary": t.boundary,
                     "branch": t.branch,
-                    "class": label,
                 }
             )
         rows.append(row)
