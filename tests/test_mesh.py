@@ -213,7 +213,7 @@ def test_middle_size_needs_its_box():
 def test_converged_presets_take_their_own_domain_and_graded_far_field():
     """The plate's medium and fine presets are the discretisation study's converged choice
     (docs/discretisation.md): domain [-80, 160] x [-80, 80], 1-chord elements in [-40, 80] x [-40, 40]
-    and in the band [0, 160] x [-20, 20], 4-chord ones beyond, a 20-chord wake box; coarse and the
+    and in the band [0, 160] x [-20, 20], 2-chord ones beyond, a 20-chord wake box; coarse and the
     cylinder keep the body's default domain, and a domain given explicitly wins."""
     from fsistab.params import DEFAULT_DOMAINS, Domain
 
@@ -222,7 +222,7 @@ def test_converged_presets_take_their_own_domain_and_graded_far_field():
         assert (spec.domain.upstream, spec.domain.downstream, spec.domain.lateral) == (80, 160, 80)
         assert spec.sizes.middle == 1.0 and spec.sizes.middle_box == (40, 80, 40)
         assert spec.sizes.middle_band == (160, 20)
-        assert spec.sizes.far == 4.0 and spec.sizes.wake_length == 20.0
+        assert spec.sizes.far == 2.0 and spec.sizes.wake_length == 20.0
         assert mesh_spec(Plate(), preset, 2900, Domain(20, 40, 20)).domain == Domain(20, 40, 20)
     assert mesh_spec(Plate(), "coarse", 2900).domain == DEFAULT_DOMAINS["plate"]
     assert mesh_spec(Plate(), "coarse", 2900).sizes.middle is None

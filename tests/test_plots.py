@@ -388,7 +388,7 @@ def test_map_figure_lists_the_unresolved_intervals_and_shades_the_counts(tmp_pat
 
 
 def test_study_thresholds_mark_onsets_filled_and_restabilisations_open(tmp_path, figures):
-    """The stored Re study on the default mesh (docs/data) has onsets and restabilisations: each
+    """The stored Re study on the previous default mesh (docs/data) has onsets and restabilisations: each
     is drawn at its (Re, U*) with a filled or an open marker, and the log axis reads in numbers."""
     import xarray as xr
 

@@ -140,7 +140,7 @@ def test_absurd_meshes_are_refused_from_a_lower_bound(spec):
 
 
 def test_check_fits_refuses_beyond_the_memory_available():
-    spec = mesh_spec(Plate(), "medium", 2900.0)  # about 370 000 unknowns, 4.8 GB
+    spec = mesh_spec(Plate(), "medium", 2900.0)  # about 417 000 unknowns
     with pytest.raises(InputError, match=r"0\.5 GB available") as error:
         check_fits(spec, memory_available=500_000_000)
     assert "\n" not in str(error.value)

@@ -147,7 +147,7 @@ def test_preset_sponges():
     """The converged plate presets carry a sponge on their own domain, none on another domain;
     ``coarse`` and the cylinder carry none."""
     medium = mesh_spec(Plate(), "medium", 2900)
-    assert medium.sponge == Sponge(0.2, 0.25)
+    assert medium.sponge == Sponge(0.2, 0.25, far_sigma=0.2, far_ramp=10.0)
     assert medium.sponge.start(medium.domain) == 120.0
     assert mesh_spec(Plate(), "medium", 2900, Domain(40, 80, 40)).sponge is None
     assert mesh_spec(Plate(), "medium", 2900, Domain(40, 80, 40), sponge=Sponge(0.2, 0.5)).sponge.zone == 0.5
@@ -169,3 +169,69 @@ def test_parse_sponge(text, expected):
 def test_parse_sponge_refuses_bad_input(text):
     with pytest.raises(InputError):
         parse_sponge(text)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("0.2,0.25,0.3,8", Sponge(0.2, 0.25, far_sigma=0.3, far_ramp=8.0)),
+        ("0.2,0.25,0,10", Sponge(0.2, 0.25)),
+    ],
+)
+def test_parse_sponge_with_far_layer(text, expected):
+    assert parse_sponge(text) == expected
+
+
+@pytest.mark.parametrize("text", ["0.2,0.25,-0.1,10", "0.2,0.25,0.2,0", "0.2,0.25,0.2", "0.2,0.25,0.2,10,1"])
+def test_parse_sponge_refuses_bad_far_layer(text):
+    with pytest.raises(InputError):
+        parse_sponge(text)
+
+
+def test_far_layer_keys_and_meshes():
+    """Without a far-field layer the sponge's key is what it was before the layer existed (cached
+    results keep their keys); with one, the key differs; a mesh without a middle box refuses it."""
+    medium = mesh_spec(Plate(), "medium", 2900, sponge=Sponge(0.2, 0.25))
+    assert json.loads(medium.linear_identity()["sponge"]) == {"sigma_max": 0.2, "zone": 0.25}
+    far = mesh_spec(Plate(), "medium", 2900)
+    assert json.loads(far.linear_identity()["sponge"]) == {
+        "sigma_max": 0.2,
+        "zone": 0.25,
+        "far_sigma": 0.2,
+        "far_ramp": 10.0,
+    }
+    assert far.linear_key() != medium.linear_key()
+    with pytest.raises(InputError, match="middle box"):
+        mesh_spec(Plate(), "coarse", 2900, sponge=Sponge(0.2, 0.25, far_sigma=0.2))
+
+
+def test_far_layer_profile():
+    """``σ_far`` is 0 in the middle box and the band, ``far_sigma`` beyond ``far_ramp`` of them, and
+    the smooth step ``3t² − 2t³`` of the distance to the nearer of the two in between."""
+    from netgen.occ import OCCGeometry, Rectangle
+
+    from fsistab.operators import far_layer
+
+    sizes = mesh_spec(Plate(), "medium", 2900).sizes
+    assert sizes.middle_box == (40.0, 80.0, 40.0) and sizes.middle_band == (160.0, 20.0)
+    face = Rectangle(240, 160).Face().Move((-80, -80, 0))
+    mesh = ngsolve.Mesh(OCCGeometry(face, dim=2).GenerateMesh(maxh=40))
+    sponge = Sponge(0.2, 0.25, far_sigma=0.5, far_ramp=10.0)
+    sigma = far_layer(sponge, sizes)
+
+    def step(d):
+        t = min(d / 10.0, 1.0)
+        return 0.5 * t * t * (3 - 2 * t)
+
+    points = {
+        (0.0, 0.0): 0.0,  # the body
+        (-40.0, 39.0): 0.0,  # the box's corner
+        (150.0, -19.0): 0.0,  # the band near the outlet
+        (-44.0, 0.0): step(4.0),  # upstream of the box
+        (30.0, 47.0): step(7.0),  # beside the box
+        (100.0, 25.0): step(5.0),  # beside the band, nearer to it than to the box
+        (83.0, 30.0): step(3.0),  # behind the box, 3 from it, 10 from the band
+        (-70.0, -70.0): 0.5,  # far corner
+    }
+    for (px, py), expected in points.items():
+        assert sigma(mesh(px, py)) == pytest.approx(expected, abs=1e-12), (px, py)

@@ -103,7 +103,7 @@ def test_fluid_dominated_onsets_at_a_solid_frequency():
 
 def test_classes_of_the_stored_alpha0_study():
     """classify_thresholds redraws the classes of a stored study from its shares, frequencies and
-    one-dof rates: the Re 500 α0 study on the default mesh (docs/data; its points at 0°–12° were
+    one-dof rates: the Re 500 α0 study on the previous default mesh (docs/data; its points at 0°–12° were
     computed when the energy rule came first and stored `viv` for the pitch-led onsets). The
     expected classes are the physics of each critical mode: coupled-mode flutter at 0–6° (heave-led,
     both dofs alone stable), divergence at 0–4°; pitch single-mode flutter at 8°–16° (pitch-led,

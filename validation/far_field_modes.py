@@ -10,7 +10,10 @@ from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral boundary by the smooth ste
 ``t = (Y² − START²)/(l² − START²)``.
 
 Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j] [--count 8]
-           [--lateral-sponge 0.2 40] [--cache DIR]
+           [--lateral-sponge 0.2 40] [--far SIZE] [--sponge SPEC] [--cache DIR]
+
+``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
+modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
 """
 
 import argparse
@@ -29,6 +32,12 @@ def main() -> None:
     parser.add_argument("--shift", nargs="+", type=complex, default=[0.2j, 0.6j])
     parser.add_argument("--count", type=int, default=8, help="eigenvalues per shift")
     parser.add_argument("--lateral-sponge", type=float, nargs=2, metavar=("SIGMA", "START"))
+    parser.add_argument("--far", type=float, help="outer element size (default: the preset's)")
+    parser.add_argument(
+        "--sponge",
+        default="preset",
+        help="the sponge, as fsistab's --sponge: preset, none, SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]",
+    )
     parser.add_argument("--cache", type=Path, default=None)
     args = parser.parse_args()
 
@@ -38,13 +47,14 @@ def main() -> None:
     from fsistab.eigen import eigenpairs_near
     from fsistab.mesh import mesh_spec
     from fsistab.operators import _to_scipy, fluid_operators
-    from fsistab.params import Flow, Plate, Solid
+    from fsistab.params import Flow, Plate, Solid, parse_sponge
     from fsistab.steady import solve_steady
     from fsistab.store import default_cache_dir
 
-    steady = solve_steady(
-        mesh_spec(Plate(), args.preset, 2900.0), Flow(2900.0), cache_dir=args.cache or default_cache_dir()
-    )
+    sizes = {} if args.far is None else {"far": args.far}
+    spec = mesh_spec(Plate(), args.preset, 2900.0, sponge=parse_sponge(args.sponge), **sizes)
+    print(f"far-field size {spec.sizes.far:g}, sponge: {spec.sponge}")
+    steady = solve_steady(spec, Flow(2900.0), cache_dir=args.cache or default_cache_dir())
     fluid = fluid_operators(steady)
     space, index = steady.space, fluid.free_dofs
     lateral = steady.mesh_spec.domain.lateral

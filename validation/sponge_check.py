@@ -26,7 +26,7 @@ Usage:
         [--sigma 1.0 ...] [--zone 0.25 ...] [--upstream-zone 0.25] [--lateral-zone 0.3]
         [--mass-ratios 1000 10 30] [--velocity-range LOW HIGH] [--domain UP DOWN LAT] [--far SIZE]
         [--middle SIZE UP DOWN LAT] [--band END HALF] [--slip] [--no-baseline | --no-sponge]
-        [--out records.jsonl]
+        [--library-sponge SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]] [--out records.jsonl]
 
 ``--zone`` is ``z_d`` (and ``z_u`` unless ``--upstream-zone`` is given); ``--domain`` overrides the
 preset's domain, ``--far`` its far-field element size, ``--middle`` adds (or replaces) the graded
@@ -52,7 +52,7 @@ from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import MeshSpec, mesh_spec
 from fsistab.operators import FluidOperators, _to_scipy, fluid_operators, rotation_target
-from fsistab.params import Domain, Flow, Plate, Solid
+from fsistab.params import Domain, Flow, Plate, Solid, parse_sponge
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
 
@@ -234,7 +234,9 @@ def build_spec(args) -> MeshSpec:
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
     domain = Domain(*args.domain) if args.domain else None
-    return mesh_spec(Plate(), args.preset, REYNOLDS, domain, sponge=None, **sizes)  # its own sponges only
+    # its own sponges only, unless the library's is asked for (then it is the baseline's)
+    sponge = parse_sponge(args.library_sponge) if args.library_sponge else None
+    return mesh_spec(Plate(), args.preset, REYNOLDS, domain, sponge=sponge, **sizes)
 
 
 def main() -> None:
@@ -263,6 +265,12 @@ def main() -> None:
     parser.add_argument(
         "--slip", action="store_true", help="U·N = 0 only on the inlet and lateral sides (free slip)"
     )
+    parser.add_argument(
+        "--library-sponge",
+        metavar="SPEC",
+        help="the library's sponge (fsistab.params.Sponge, as fsistab's --sponge: SIGMA_MAX,ZONE"
+        "[,FAR_SIGMA,FAR_RAMP]) in the baseline's operators; implies --no-sponge",
+    )
     parser.add_argument("--no-baseline", action="store_true", help="skip the sweeps without sponge")
     parser.add_argument("--no-sponge", action="store_true", help="only the sweeps without sponge")
     parser.add_argument("--out", help="append one JSON record per sweep to this file")
@@ -275,6 +283,10 @@ def main() -> None:
             for zone in args.zone
         ]
         spec = build_spec(args)
+        if args.library_sponge:
+            if spec.sponge == "preset":
+                raise InputError("--library-sponge takes SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP] or none")
+            args.no_sponge = True
         if args.no_baseline and args.no_sponge:
             raise InputError("--no-baseline and --no-sponge leave nothing to compute")
         for mass in args.mass_ratios:
@@ -291,7 +303,8 @@ def main() -> None:
         ", slip far field" if args.slip else ""
     )
     print(f"{mesh}: {fluid.jff.shape[0]} fluid unknowns", flush=True)
-    variants = [] if args.no_baseline else [("no sponge", None)]
+    baseline = f"library sponge {args.library_sponge}" if args.library_sponge else "no sponge"
+    variants = [] if args.no_baseline else [(baseline, None)]
     variants += [] if args.no_sponge else [(s.label(), s) for s in sponges]
     for label, sponge in variants:
         operators = fluid if sponge is None else with_sponge(fluid, spec, sponge)

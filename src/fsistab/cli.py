@@ -113,7 +113,8 @@ CASE_OPTIONS = {
             typer.Option(
                 "--sponge",
                 help="outlet sponge of the linear operators: preset (the mesh preset's, on its own "
-                "domain), none, or SIGMA_MAX,ZONE (e.g. 0.2,0.25)",
+                "domain), none, SIGMA_MAX,ZONE (e.g. 0.2,0.25), or SIGMA_MAX,ZONE,FAR_SIGMA,FAR_RAMP "
+                "with a far-field layer outside the middle box and band (e.g. 0.2,0.25,0.2,10)",
             ),
         ],
         "preset",

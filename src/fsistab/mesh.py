@@ -107,8 +107,8 @@ class MeshSizes:
 #  near size is multiplied by f = sqrt(2900/Re), the wall and corner sizes by f**2
 _PRESET_TABLE = {
     ("plate", "coarse"): (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
-    ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 4.0, 0.25, 20.0, 1.0),
-    ("plate", "fine"): (0.008, 0.25, 0.0015, 0.012, 0.04, 4.0, 0.25, 20.0, 1.0),
+    ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
+    ("plate", "fine"): (0.008, 0.25, 0.0015, 0.012, 0.04, 2.0, 0.25, 20.0, 1.0),
     ("cylinder", "coarse"): (0.1, 0.6, 0.1, 0.15, 0.35, 4.0, 0.75, 10.0, 2.0),
     ("cylinder", "medium"): (0.04, 0.3, 0.04, 0.07, 0.15, 3.0, 1.0, 20.0, 3.0),
     ("cylinder", "fine"): (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
@@ -116,12 +116,15 @@ _PRESET_TABLE = {
 
 # Graded far field (middle size, middle box (upstream, downstream, lateral), middle band (downstream
 # end, half-width)): 1-chord elements up to 40 chords from the body (80 downstream) and in the wake's
-# band |Y| < 20 to the outlet, the table's 4-chord far size beyond, to the preset's domain. Measured
-# on the plate at Re 2900 (docs/discretisation.md): 4-chord elements from 20 chords on move the
-# flutter speed by 1.5-2 % (weakly damped free-stream modes next to the flutter mode); from 40
-# chords on, on a domain twice as large, they agree with the uniform 1-chord mesh at m = 1000, but
-# 4-chord elements across the wake beyond 80 chords fold the neutral curves at low mass ratio
-# (spurious pairs of crossings at m = 10 and 100-450); the band removes them.
+# band |Y| < 20 to the outlet, the table's far size beyond (2 chords on the plate's medium and fine),
+# to the preset's domain. Measured on the plate at Re 2900 (docs/discretisation.md): 4-chord
+# elements from 20 chords on move the flutter speed by 1.5-2 % (weakly damped free-stream modes
+# next to the flutter mode); from 40 chords on, on a domain twice as large, they agree with the
+# uniform 1-chord mesh at m = 1000, but 4-chord elements across the wake beyond 80 chords fold the
+# neutral curves at low mass ratio (spurious pairs of crossings at m = 10 and 100-450); the band
+# removes them. Beside the band the 4-chord elements still carried weakly damped modes of the free
+# stream (damping 0.007, folds below m = 80): 2-chord elements there and the far-field layer of the
+# preset's sponge (fsistab.params.PRESET_SPONGES) remove them.
 _PRESET_MIDDLE = {
     ("plate", "medium"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
     ("plate", "fine"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
@@ -182,6 +185,13 @@ class MeshSpec:
     preset: str = "custom"
     sponge: Sponge | None = None
 
+    def __post_init__(self):
+        if self.sponge is not None and self.sponge.far_sigma > 0 and self.sizes.middle_box is None:
+            raise InputError(
+                "a far-field sponge lies outside the mesh's middle box: this mesh has none "
+                "(use a preset with a graded far field, e.g. medium)"
+            )
+
     def key(self) -> str:
         inputs = {"body": asdict(self.body), "domain": asdict(self.domain), "sizes": self.sizes.key_inputs()}
         return store.cache_key("mesh", inputs)
@@ -190,7 +200,7 @@ class MeshSpec:
         """What results of the linear operators depend on besides the flow: the mesh and the sponge
         (flat attributes; saved curves, maps, samples and study points carry them, so that results
         with and without a sponge are never mixed)."""
-        sponge = "none" if self.sponge is None else json.dumps(asdict(self.sponge), sort_keys=True)
+        sponge = "none" if self.sponge is None else json.dumps(self.sponge.key_inputs(), sort_keys=True)
         return {"mesh_key": self.key(), "sponge": sponge}
 
     def linear_key(self) -> str:

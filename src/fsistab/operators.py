@@ -145,7 +145,41 @@ def sponge_coefficient(steady: SteadyState):
         return None
     start, end = spec.sponge.start(spec.domain), spec.domain.downstream
     t = IfPos(x - start, (x - start) / (end - start), 0.0)  # 0 before the layer, 1 at the outlet
-    return spec.sponge.sigma_max * t * t * (3 - 2 * t)
+    sigma = spec.sponge.sigma_max * t * t * (3 - 2 * t)
+    if spec.sponge.far_sigma > 0:
+        sigma = sigma + far_layer(spec.sponge, spec.sizes)
+    return sigma
+
+
+def _positive_part(value):
+    from ngsolve import IfPos
+
+    return IfPos(value, value, 0.0)
+
+
+def _distance_outside(upstream: float, downstream: float, lateral: float):
+    """Distance from ``(X, Y)`` to the box ``[-upstream, downstream] × [-lateral, lateral]`` (0 inside)."""
+    from ngsolve import sqrt, x, y
+
+    dx = _positive_part(-upstream - x) + _positive_part(x - downstream)
+    dy = _positive_part(y - lateral) + _positive_part(-y - lateral)
+    return sqrt(dx * dx + dy * dy)
+
+
+def far_layer(sponge, sizes):
+    """``σ_far(X, Y)`` of the far-field layer (:class:`fsistab.params.Sponge`): 0 in the mesh's
+    middle box and band (``sizes.middle_box``, ``middle_band``), rising by ``3t² − 2t³`` over
+    ``far_ramp`` body lengths of distance from them to ``far_sigma``."""
+    from ngsolve import IfPos
+
+    u, d, l = sizes.middle_box
+    distance = _distance_outside(u, d, l)
+    if sizes.middle_band is not None:
+        end, width = sizes.middle_band
+        band = _distance_outside(0.0, end, width)
+        distance = IfPos(distance - band, band, distance)
+    t = IfPos(sponge.far_ramp - distance, distance / sponge.far_ramp, 1.0)
+    return sponge.far_sigma * t * t * (3 - 2 * t)
 
 
 def rotation_target(steady: SteadyState):
