@@ -35,14 +35,13 @@ def sponged(plate_2900_alpha5):
     return plain, CoupledSystem(fluid_operators(_with_sponge(plate_2900_alpha5)), solid)
 
 
-def test_sponge_terms_match_finite_differences(sponged):
-    """``J`` with the sponge minus ``J`` without it against central differences of the residuals
-    with and without ``σ (U − U⁰ − (θ − θ0) u_θ)``: every block, the θ column included."""
-    plain, with_sponge = sponged
-    residuals = CoupledResidual(plain), CoupledResidual(with_sponge)
+def _difference_matches_finite_differences(plain, other):
+    """``other.jacobian − plain.jacobian`` against central differences of ``other``'s residual minus
+    ``plain``'s, along solid, fluid and mixed directions; the difference is returned."""
+    residuals = CoupledResidual(plain), CoupledResidual(other)
     q0 = residuals[1].point()
     assert np.abs(residuals[1](q0)).max() < 1e-10  # the steady state stays an equilibrium
-    difference = (with_sponge.jacobian - plain.jacobian).tocsr()
+    difference = (other.jacobian - plain.jacobian).tocsr()
     rng = np.random.default_rng(3)
     ns = plain.n_solid
     for part in (slice(0, ns), slice(ns, None), slice(None)):  # solid, fluid, both
@@ -58,10 +57,41 @@ def test_sponge_terms_match_finite_differences(sponged):
         exact = difference @ direction
         assert np.linalg.norm(exact) > 1e-3 * np.linalg.norm(plain.jacobian @ direction)
         assert np.linalg.norm(fd - exact) < 1e-6 * np.linalg.norm(exact)
+    return difference
+
+
+def test_sponge_terms_match_finite_differences(sponged):
+    """``J`` with the sponge minus ``J`` without it against central differences of the residuals
+    with and without ``σ (U − U⁰ − (θ − θ0) u_θ)``: every block, the θ column included."""
+    plain, with_sponge = sponged
+    difference = _difference_matches_finite_differences(plain, with_sponge)
     # the θ column's sponge part is the rotation target, nothing else
     theta = np.zeros(plain.size)
     theta[1] = 1.0
     assert np.linalg.norm(difference @ theta) > 0
+
+
+def test_far_layer_terms_match_finite_differences(plate_2900_alpha5):
+    """The far-field layer's part of ``J`` (the sponge with the layer minus the outlet sponge alone)
+    against central differences of the residuals that contain ``σ_far (U − U⁰ − (θ − θ0) u_θ)``.
+    Coarse mesh (``[-20, 40] × [-20, 20]``) with a middle box ``[-5, 10] × [-5, 5]`` and band
+    ``[0, 40] × [-2, 2]`` given to its sizes (they only place the layer here; the mesh is coarse's),
+    so that the layer covers most of the domain and its terms are not lost among the others."""
+    steady = plate_2900_alpha5
+    spec = steady.mesh_spec
+    sizes = dataclasses.replace(spec.sizes, middle=1.0, middle_box=(5.0, 10.0, 5.0), middle_band=(40.0, 2.0))
+    solid = Solid(mass_ratio=3.0, reduced_velocity=2.0)
+
+    def system(sponge):
+        layered = dataclasses.replace(spec, sizes=sizes, sponge=sponge)
+        return CoupledSystem(fluid_operators(dataclasses.replace(steady, mesh_spec=layered)), solid)
+
+    outlet = system(SPONGE)
+    layer = system(dataclasses.replace(SPONGE, far_sigma=1.0, far_ramp=3.0))
+    difference = _difference_matches_finite_differences(outlet, layer)
+    theta = np.zeros(outlet.size)
+    theta[1] = 1.0
+    assert np.linalg.norm(difference @ theta) > 0  # the layer's target turns with the body too
 
 
 def test_rotation_target_is_the_turned_steady_field(plate_2900_alpha5):

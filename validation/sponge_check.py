@@ -16,7 +16,8 @@ With ``--rotation-target`` the sponge term is ``σ (u - θ u_θ)``, ``u_θ = (�
 when the plate pitches, a perturbation growing like ``X θ`` downstream that is kinematics, not shed
 vorticity. The library's sponge (:class:`fsistab.params.Sponge`, on the ``medium`` and ``fine``
 presets) is this one's downstream part with the rotation target; this script builds its meshes
-without it (``sponge=None``) and adds its own.
+without it (``sponge=None``) and adds its own, unless ``--library-sponge SPEC`` gives the mesh the
+library's sponge (with its far-field layer if SPEC has one), for the baseline's sweeps only.
 The thresholds at each mass ratio come from the frequency sweep
 (``fsistab.frequency_sweep.sweep_thresholds``), without the sponge (unless ``--no-baseline``) and
 with each combination of ``--sigma`` and ``--zone``.
@@ -268,8 +269,8 @@ def main() -> None:
     parser.add_argument(
         "--library-sponge",
         metavar="SPEC",
-        help="the library's sponge (fsistab.params.Sponge, as fsistab's --sponge: SIGMA_MAX,ZONE"
-        "[,FAR_SIGMA,FAR_RAMP]) in the baseline's operators; implies --no-sponge",
+        help="the library's sponge (fsistab.params.Sponge, as fsistab's --sponge: preset, none, "
+        "SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]) in the baseline's operators; implies --no-sponge",
     )
     parser.add_argument("--no-baseline", action="store_true", help="skip the sweeps without sponge")
     parser.add_argument("--no-sponge", action="store_true", help="only the sweeps without sponge")
@@ -284,8 +285,6 @@ def main() -> None:
         ]
         spec = build_spec(args)
         if args.library_sponge:
-            if spec.sponge == "preset":
-                raise InputError("--library-sponge takes SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP] or none")
             args.no_sponge = True
         if args.no_baseline and args.no_sponge:
             raise InputError("--no-baseline and --no-sponge leave nothing to compute")
