@@ -122,6 +122,17 @@ def test_map_settings_seeds_and_template():
         MapSettings(reduced_blocks=2)
 
 
+def test_map_settings_choose_reduced_models_by_mesh_size():
+    """Reduced fluid models on the coarse plate (14 597 unknowns), exact samples on the default
+    mesh (416 871), where they were measured faster (docs/performance.md); a choice given wins."""
+    from fsistab.params import MapSettings
+
+    assert MapSettings().krylov_blocks(14_597) == 60
+    assert MapSettings().krylov_blocks(416_871) == 0
+    assert MapSettings(reduced_blocks=0).krylov_blocks(14_597) == 0
+    assert MapSettings(reduced_blocks=40).krylov_blocks(416_871) == 40
+
+
 @given(st.integers(max_value=1) | st.integers(min_value=501))
 def test_sweep_points_bounded(points):
     from fsistab.params import SweepSettings

@@ -43,7 +43,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import fluid_operators
-from fsistab.params import Domain, Flow, Plate, Solid, Sponge
+from fsistab.params import PRESET_SPONGES, Domain, Flow, Plate, Solid, Sponge
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -110,6 +110,9 @@ VARIANTS = {
     "band20": ("medium", BAND20, (80, 160, 80)),
     "band20-sponge": ("medium", BAND20, (80, 160, 80)),
     "band20-wake40-sponge": ("medium", {**BAND20, "wake_length": 40.0}, (80, 160, 80)),
+    # the default `medium` since the far-field study at low mass ratio (30 November 2026, evening):
+    # band20 with 2-chord outer elements, the outlet sponge and the far-field layer
+    "far2-layer": ("medium", {**BAND20, "far": 2.0}, (80, 160, 80)),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
     "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
     "d1-dom80-wake40": (
@@ -126,9 +129,10 @@ VARIANTS = {
 def variant_spec(name: str, reynolds: float = REYNOLDS):
     """The mesh of a variant, fitted to ``reynolds``: its preset's 0.3 sizes (``BASE``) with the
     variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium` preset's)
-    only on the ``-sponge`` variants."""
+    only on the ``-sponge`` variants, with the far-field layer of today's preset
+    (:data:`fsistab.params.PRESET_SPONGES`) on the ``-layer`` ones."""
     preset, sizes, (up, down, lateral) = VARIANTS[name]
-    sponge = Sponge() if name.endswith("-sponge") else None
+    sponge = {"-sponge": Sponge(), "-layer": PRESET_SPONGES[("plate", "medium")]}.get(name[name.rfind("-") :])
     return mesh_spec(
         Plate(),
         preset,

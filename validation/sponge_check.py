@@ -26,12 +26,14 @@ Usage:
     python validation/sponge_check.py [coarse|medium] [--regions all|downstream upstream lateral]
         [--sigma 1.0 ...] [--zone 0.25 ...] [--upstream-zone 0.25] [--lateral-zone 0.3]
         [--mass-ratios 1000 10 30] [--velocity-range LOW HIGH] [--domain UP DOWN LAT] [--far SIZE]
-        [--middle SIZE UP DOWN LAT] [--band END HALF] [--slip] [--no-baseline | --no-sponge]
+        [--middle SIZE UP DOWN LAT] [--band END HALF] [--size NAME=VALUE ...] [--slip]
+        [--no-baseline | --no-sponge]
         [--library-sponge SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]] [--out records.jsonl]
 
 ``--zone`` is ``z_d`` (and ``z_u`` unless ``--upstream-zone`` is given); ``--domain`` overrides the
 preset's domain, ``--far`` its far-field element size, ``--middle`` adds (or replaces) the graded
-far field's middle box (``fsistab.mesh.MeshSizes``), ``--band`` its band behind the body;
+far field's middle box (``fsistab.mesh.MeshSizes``), ``--band`` its band behind the body,
+``--size NAME=VALUE`` any other of its sizes (``wall``, ``corner``, ``near``, ``wake``, ...);
 ``--velocity-range`` replaces the default U* range of every sweep (``[2, 10]`` for m ≥ 100,
 ``[1.5, 6]`` below). ``--slip`` imposes only ``U·N = 0`` on the inlet and lateral sides for the
 perturbation (tried once on ``coarse``: the sweeps then need more than 200 samples). Examples
@@ -46,12 +48,12 @@ perturbation (tried once on ``coarse``: the sweeps then need more than 200 sampl
 import argparse
 import json
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter
-from fsistab.mesh import MeshSpec, mesh_spec
+from fsistab.mesh import MeshSizes, MeshSpec, mesh_spec
 from fsistab.operators import FluidOperators, _to_scipy, fluid_operators, rotation_target
 from fsistab.params import Domain, Flow, Plate, Solid, parse_sponge
 from fsistab.steady import solve_steady
@@ -234,6 +236,12 @@ def build_spec(args) -> MeshSpec:
         sizes["middle"], sizes["middle_box"] = args.middle[0], tuple(args.middle[1:])
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
+    names = {f.name for f in fields(MeshSizes)}
+    for item in args.size:
+        name, _, value = item.partition("=")
+        if name not in names or not value:
+            raise SystemExit(f"--size {item}: expected NAME=VALUE, NAME one of {', '.join(sorted(names))}")
+        sizes[name] = float(value)
     domain = Domain(*args.domain) if args.domain else None
     # its own sponges only, unless the library's is asked for (then it is the baseline's)
     sponge = parse_sponge(args.library_sponge) if args.library_sponge else None
@@ -255,6 +263,13 @@ def main() -> None:
     parser.add_argument("--domain", type=float, nargs=3, metavar=("UP", "DOWN", "LAT"))
     parser.add_argument("--far", type=float, help="far-field element size (chords)")
     parser.add_argument("--middle", type=float, nargs=4, metavar=("SIZE", "UP", "DOWN", "LAT"))
+    parser.add_argument(
+        "--size",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="another of the preset's sizes (fsistab.mesh.MeshSizes: wall, corner, near, wake, ...)",
+    )
     parser.add_argument(
         "--band", type=float, nargs=2, metavar=("END", "HALF"), help="middle-sized band behind the body"
     )

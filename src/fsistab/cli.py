@@ -590,13 +590,14 @@ MAP_OPTIONS = {
     ),
     "reduced_blocks": (
         Annotated[
-            int,
+            int | None,
             typer.Option(
                 "--reduced-blocks",
-                help="transfer: Krylov blocks of the reduced fluid models (0: exact samples only)",
+                help="transfer: Krylov blocks of the reduced fluid models (0: exact samples only; "
+                "default 60 below 200 000 fluid unknowns, 0 from there)",
             ),
         ],
-        60,
+        None,
     ),
     "reduced_tolerance": (
         Annotated[
@@ -617,8 +618,10 @@ def neutral(opts):
     refined until every neutral curve is resolved to --tolerance; at each ω all neutral (m, U*)
     follow from a polynomial (fsistab.transfer_map). Where the sampling is refined, G comes from
     reduced (rational Krylov) models of the fluid with a certified error, one factorisation each
-    (fsistab.reduced_model; --reduced-blocks 0 samples G exactly instead). Samples and models are
-    saved and reused for other solid parameters.
+    (fsistab.reduced_model; on meshes from 200 000 fluid unknowns, the default one among them, and
+    with --reduced-blocks 0, G is sampled exactly instead: faster there, docs/performance.md).
+    Samples and models are saved and reused for other solid parameters. Without --wake-frequency
+    the VIV curves, narrow in ω, may be missed.
 
     --method continuation: sweeps at --start-mass-ratio over --reduced-velocity-range, at each
     --seed-mass-ratio over that range scaled by √(m/start), and (with --wake-frequency) at the lowest

@@ -579,13 +579,24 @@ MAP_METHODS = ("transfer", "continuation")
 THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 
 
+# The transfer map's reduced fluid models (fsistab.reduced_model) against exact samples, measured
+# (docs/transfer.md, docs/performance.md): on the coarse plate (14 597 unknowns) and fsistab 0.3's
+# medium (110 379) the models took 0.7-1.0x the wall time of exact samples and 10x fewer
+# factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.05 in ω (the
+# band's weakly damped modes) and a model of 305 vectors, costing about 25 exact samples, certifies
+# an interval that exact samples resolve with 20. Exact samples from this size on.
+REDUCED_BLOCKS = 60
+EXACT_SAMPLES_FROM = 200_000
+
+
 @dataclass(frozen=True)
 class MapSettings:
     """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, MODEL.md §8).
 
     Every value is checked whichever ``method`` uses it. ``seed_masses`` None means ``m/10`` and
     ``m/100`` of ``start_mass`` within the range; ``tolerance`` and ``max_frequencies`` None are the
-    transfer method's defaults.
+    transfer method's defaults; ``reduced_blocks`` None chooses by the mesh
+    (:meth:`krylov_blocks`).
     """
 
     mass_range: tuple[float, float] = (1.0, 1e4)
@@ -599,7 +610,7 @@ class MapSettings:
     frequency_range: tuple[float, float] | None = None
     tolerance: float | None = None
     max_frequencies: int | None = None
-    reduced_blocks: int = 60
+    reduced_blocks: int | None = None
     reduced_tolerance: float = 1e-7
 
     def __post_init__(self):
@@ -641,10 +652,11 @@ class MapSettings:
             object.__setattr__(
                 self, "max_frequencies", _count("--max-frequencies", self.max_frequencies, 4, 100_000)
             )
-        blocks = _count("--reduced-blocks", self.reduced_blocks, 0, 10_000)
-        if 0 < blocks < 3:
-            raise InputError(f"--reduced-blocks must be 0 (exact samples) or at least 3, got {blocks}")
-        object.__setattr__(self, "reduced_blocks", blocks)
+        if self.reduced_blocks is not None:
+            blocks = _count("--reduced-blocks", self.reduced_blocks, 0, 10_000)
+            if 0 < blocks < 3:
+                raise InputError(f"--reduced-blocks must be 0 (exact samples) or at least 3, got {blocks}")
+            object.__setattr__(self, "reduced_blocks", blocks)
         reduced_tolerance = _finite("--reduced-tolerance", self.reduced_tolerance)
         if not 0 < reduced_tolerance < 1e-2:
             raise InputError(f"--reduced-tolerance must be in (0, 1e-2), got {reduced_tolerance:g}")
@@ -655,6 +667,14 @@ class MapSettings:
         """The solid template's m: the first sweep's (continuation); for the transfer method any
         value in the range works, so the start is clamped into it."""
         return min(max(self.start_mass, self.mass_range[0]), self.mass_range[1])
+
+    def krylov_blocks(self, unknowns: int) -> int:
+        """The Krylov blocks of the transfer map's reduced fluid models for a fluid of ``unknowns``
+        (0: exact samples only): ``reduced_blocks`` if given, else ``REDUCED_BLOCKS`` below
+        ``EXACT_SAMPLES_FROM`` unknowns and 0 from there (docs/performance.md, "The whole map")."""
+        if self.reduced_blocks is not None:
+            return self.reduced_blocks
+        return REDUCED_BLOCKS if unknowns < EXACT_SAMPLES_FROM else 0
 
     @property
     def seeds(self) -> tuple[float, ...]:
