@@ -582,7 +582,7 @@ THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 # The transfer map's reduced fluid models (fsistab.reduced_model) against exact samples, measured
 # (docs/transfer.md, docs/performance.md): on the coarse plate (14 597 unknowns) and fsistab 0.3's
 # medium (110 379) the models took 0.7-1.0x the wall time of exact samples and 10x fewer
-# factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.05 in ω (the
+# factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.1 in ω (the
 # band's weakly damped modes) and a model of 305 vectors, costing about 25 exact samples, certifies
 # an interval that exact samples resolve with 20. Exact samples from this size on.
 REDUCED_BLOCKS = 60
