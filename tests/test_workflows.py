@@ -160,3 +160,13 @@ def test_flow_curves_stack_the_halves_and_read_back():
     assert [c["direction"] for c in payload["curves"]] == ["decreasing", "increasing"]
     assert payload["curves"][1]["alpha0"] == [0.0, 1.0, 2.0]
     assert payload["curves"][1]["turning_points"] == [{"alpha0": 1.8, "reduced_velocity": 4.6}]
+
+
+def test_map_shading_reaches_the_divergence_line():
+    """The shading grid spans the divergence line as well as the curves: at Re 500 the lowest
+    curve point is U* = 0.856 while divergence reaches U* = 0.257 at m = 1 (docs/stability_map.md);
+    infinite values (no divergence) are left out."""
+    grid = workflows.shading_velocities([0.856, 80.0], [0.2573, 25.7, np.inf])
+    assert grid[0] == pytest.approx(0.2573 / 1.5) and grid[-1] == pytest.approx(80.0 * 1.5)
+    assert np.all(np.diff(grid) > 0) and len(grid) == 150
+    assert workflows.shading_velocities([2.0], [np.inf])[0] == pytest.approx(1.0 / 1.5)

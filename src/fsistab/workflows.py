@@ -420,6 +420,15 @@ def stability_map(
     return ds.assign_attrs(data=str(data_path))
 
 
+def shading_velocities(curve_velocities, divergence_velocities, points: int = 150) -> np.ndarray:
+    """The U* of the map's shading grid: every curve point and the divergence line over the mass
+    range (finite values; without the line, a map with no curve below it left the divergence
+    region at low m unshaded), and U* = 1, with a margin of 1.5 either side."""
+    values = [*curve_velocities, *np.ravel(divergence_velocities), 1.0]
+    values = [u for u in values if np.isfinite(u) and u > 0]
+    return np.geomspace(min(values) / 1.5, max(values) * 1.5, points)
+
+
 def _map_details(ds: xr.Dataset, result, tmap, settings: MapSettings) -> xr.Dataset:
     """What the JSON and the figure need beyond :func:`fsistab.neutral.neutral_map_dataset`."""
     from fsistab.transfer_map import unstable_grid
@@ -436,8 +445,9 @@ def _map_details(ds: xr.Dataset, result, tmap, settings: MapSettings) -> xr.Data
     )
     if tmap is not None:  # exact unstable regions from the signed crossings
         grid_m = np.geomspace(*settings.mass_range, 100)
-        all_u = [p.reduced_velocity for c in curves for p in c.points] + [1.0]
-        grid_u = np.geomspace(min(all_u) / 1.5, max(all_u) * 1.5, 150)
+        grid_u = shading_velocities(
+            [p.reduced_velocity for c in curves for p in c.points], result.divergence_velocities
+        )
         ds = ds.assign(
             unstable_count=(
                 ("grid_reduced_velocity", "grid_mass_ratio"),
