@@ -47,6 +47,7 @@ perturbation (tried once on ``coarse``: the sweeps then need more than 200 sampl
 
 import argparse
 import json
+import math
 import time
 from dataclasses import dataclass, fields, replace
 
@@ -228,6 +229,25 @@ def print_record(record: dict) -> None:
         )
 
 
+# the scalar sizes --size may set (the boxes and band have their own options)
+SCALAR_SIZES = tuple(f.name for f in fields(MeshSizes) if f.type in (float, "float"))
+
+
+def _size_item(item: str) -> tuple[str, float]:
+    """``NAME=VALUE`` of ``--size``: a scalar size of :class:`fsistab.mesh.MeshSizes` and a positive
+    number, else a one-line error."""
+    name, _, text = item.partition("=")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if name not in SCALAR_SIZES or not value > 0:
+        raise SystemExit(
+            f"--size {item}: expected NAME=VALUE with VALUE > 0, NAME one of {', '.join(SCALAR_SIZES)}"
+        )
+    return name, value
+
+
 def build_spec(args) -> MeshSpec:
     sizes = {}
     if args.far is not None:
@@ -236,12 +256,9 @@ def build_spec(args) -> MeshSpec:
         sizes["middle"], sizes["middle_box"] = args.middle[0], tuple(args.middle[1:])
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
-    names = {f.name for f in fields(MeshSizes)}
     for item in args.size:
-        name, _, value = item.partition("=")
-        if name not in names or not value:
-            raise SystemExit(f"--size {item}: expected NAME=VALUE, NAME one of {', '.join(sorted(names))}")
-        sizes[name] = float(value)
+        name, value = _size_item(item)
+        sizes[name] = value
     domain = Domain(*args.domain) if args.domain else None
     # its own sponges only, unless the library's is asked for (then it is the baseline's)
     sponge = parse_sponge(args.library_sponge) if args.library_sponge else None
