@@ -37,6 +37,7 @@ from fsistab.transfer_map import (
     second_order_loads,
     transfer_neutral_map,
     undamped_resonances,
+    unresolved_resonance,
     unstable_counts,
 )
 
@@ -380,10 +381,12 @@ def test_unstable_sides_agree_with_the_eigenvalue_count():
 
 
 def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
-    """Plate, Re = 2900, coarse mesh: a map whose frequencies (10.2-11.6) hold only the wake mode
+    """Plate, Re = 2900, coarse mesh: a map whose frequencies (6.3-15.9) hold only the wake mode
     of the fixed plate (-0.07 + 10.81i) and the solid frequencies passing it, with no
-    wake_frequency: every curve is VIV (frequency locked while U* varies) in the map, the NetCDF
-    dataset and the JSON; every unresolved interval has a reason, serialised."""
+    wake_frequency, from initial frequencies 6.3, 10.0 and 15.9 (none within the resonance: without
+    the resonance's sample, :func:`unresolved_resonance`, the map has no curve): every curve is
+    VIV (frequency locked near the wake mode's while U* varies) in the map, the NetCDF dataset and
+    the JSON; every unresolved interval has a reason, serialised."""
     from fsistab import workflows
     from fsistab.neutral import neutral_map_dataset
     from fsistab.params import MapSettings
@@ -395,12 +398,13 @@ def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
         fluid,
         Solid(),
         mass_range=(1.0, 10.0),
-        omega_range=(10.2, 11.6),
-        initial=12,
+        omega_range=(6.3, 15.9),
+        initial=3,
         reduced=ReducedModels(fluid, counter=counter),
         counter=counter,
     )
     assert len(tmap.curves) >= 2 and {c.kind for c in tmap.curves} == {"viv"}
+    assert all(abs(r.frequency - 10.81) < 0.1 * 10.81 for c in tmap.curves for r in c.roots)
     assert {kind for _, _, kind in tmap.crossings_at(3.0)} - {"divergence"} == {"viv"}
     assert all(u.reason in UNRESOLVED_REASONS and u.low < u.high for u in tmap.unresolved)
     result = as_neutral_map(tmap, Solid())
@@ -414,6 +418,34 @@ def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
     assert payload["unresolved_count"] == len(tmap.unresolved)
     assert [u["reason"] for u in payload["unresolved"]] == [u.reason for u in tmap.unresolved]
     assert all(set(c["unstable_side"]) <= {-1, 1} for c in payload["curves"])
+
+
+def _pole_samples(seed: int, pole: complex, residue: float = 1.0) -> tuple[AxisSample, AxisSample]:
+    """Samples at ω = 10.47 and 12.31 (the default map's initial frequencies around the plate's wake
+    mode) of G(s) = A₀ + A₁s + A₂s²/20 + r R/(s − λ), random 3 × 4 matrices, and of dG/ds."""
+    rng = np.random.default_rng(seed)
+    a0, a1, a2, r = (rng.normal(size=(3, 4)) + 1j * rng.normal(size=(3, 4)) for _ in range(4))
+
+    def sample(omega):
+        s = 1j * omega
+        value = a0 + a1 * s + a2 * s * s / 20 + residue * r / (s - pole)
+        return AxisSample(omega, value, a1 + a2 * s / 10 - residue * r / (s - pole) ** 2)
+
+    return sample(10.47), sample(12.31)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_weakly_damped_pole_between_two_samples_is_sampled_next(seed):
+    """A pole 0.03 from the axis between two samples 1.84 apart (no neutral root need show at
+    either): the next sample lands within 0.1 of its frequency, 6× closer than the nearest sample
+    can be. A pole damped more than half the half-width (resolved by the samples), one outside the
+    interval, and no pole at all (a quadratic G) call for no sample."""
+    frequency = np.random.default_rng(seed + 100).uniform(10.8, 12.0)
+    omega = unresolved_resonance(*_pole_samples(seed, -0.03 + 1j * frequency))
+    assert omega is not None and abs(omega - frequency) < 0.1
+    assert unresolved_resonance(*_pole_samples(seed, -1.0 + 1j * frequency)) is None
+    assert unresolved_resonance(*_pole_samples(seed, -0.03 + 14j)) is None
+    assert unresolved_resonance(*_pole_samples(seed, -0.03 + 1j * frequency, residue=0.0)) is None
 
 
 def test_unresolved_intervals_are_reported_with_their_reasons():

@@ -5,9 +5,11 @@ For each Reynolds number and lateral half-width ``L`` (domain ``[-U, D] × [-L, 
 MODEL.md §4) the steady state and one real factorisation give ``dC_L/dα`` and ``d(-C_M)/dα``
 about mid-chord (MODEL.md §9), on the preset's sizes fitted to that Re (``--preset``, default
 ``medium``) with the far-field size ``--far`` (the preset's own sizes, middle box and wake band
-included, with ``--far preset``). ``--sponge`` gives every domain the preset's outlet sponge (it
-enters the linear operator, hence the slopes, by 0.04 % on ``medium``): with ``--upstream 80
---downstream 160 --far preset --sponge`` the point ``L = 80`` is the default ``medium`` mesh itself.
+included, with ``--far preset``), and any scalar size changed by ``--size NAME=VALUE`` (as in
+``sponge_check.py``; the point's record keeps them under ``sizes``). ``--sponge`` gives every
+domain the preset's outlet sponge (it enters the linear operator, hence the slopes, by 0.04 % on
+``medium``): with ``--upstream 80 --downstream 160 --far preset --sponge`` the point ``L = 80`` is
+the default ``medium`` mesh itself.
 One JSON line per point is appended to ``--out``; a point already there is skipped (a rerun resumes).
 
 Usage: python validation/lateral_blockage.py [--reynolds 500 2900 10000] [--lateral 20 40 80 160]
@@ -21,6 +23,7 @@ import time
 from pathlib import Path
 
 from ngsolve import SetNumThreads
+from sponge_check import add_size_option, size_item  # the sibling script's (run from validation/)
 
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
@@ -44,7 +47,9 @@ def main() -> None:
     parser.add_argument("--sponge", action="store_true", help="the preset's outlet sponge on every domain")
     parser.add_argument("--out", default="docs/data/lateral_blockage.jsonl")
     parser.add_argument("--cache", default=None)
+    add_size_option(parser)
     args = parser.parse_args()
+    changed = dict(size_item(item) for item in args.size)  # bad input refused before any mesh
     SetNumThreads(1)
     out = Path(args.out)
     done = set()
@@ -52,14 +57,14 @@ def main() -> None:
         for line in out.read_text().splitlines():
             r = json.loads(line)
             shape = (r.get("upstream", 20.0), r.get("downstream", 40.0), r.get("sponge", False))
-            done.add((r["reynolds"], r["lateral"], r["preset"], r["far"], *shape))
+            done.add((r["reynolds"], r["lateral"], r["preset"], r["far"], *shape, str(r.get("sizes", {}))))
     cache = Path(args.cache) if args.cache else default_cache_dir()
     far_label = args.far if args.far == "preset" else float(args.far)
-    sizes = {} if args.far == "preset" else {"far": float(args.far)}
+    sizes = {**({} if args.far == "preset" else {"far": float(args.far)}), **changed}
     for reynolds in args.reynolds:
         for lateral in args.lateral:
             shape = (args.upstream, args.downstream, args.sponge)
-            if (reynolds, lateral, args.preset, far_label, *shape) in done:
+            if (reynolds, lateral, args.preset, far_label, *shape, str(changed)) in done:
                 continue
             domain = Domain(args.upstream, args.downstream, lateral)
             sponge = default_sponge("plate", args.preset) if args.sponge else None
@@ -76,6 +81,7 @@ def main() -> None:
                 "upstream": args.upstream,
                 "downstream": args.downstream,
                 "sponge": args.sponge,
+                **({"sizes": changed} if changed else {}),
                 "unknowns": int(fluid.n_fluid),
                 "lift_slope_alpha": slopes.lift_slope_alpha,
                 "moment_slope_alpha": slopes.moment_slope_alpha,

@@ -233,7 +233,7 @@ def print_record(record: dict) -> None:
 SCALAR_SIZES = tuple(f.name for f in fields(MeshSizes) if f.type in (float, "float"))
 
 
-def _size_item(item: str) -> tuple[str, float]:
+def size_item(item: str) -> tuple[str, float]:
     """``NAME=VALUE`` of ``--size``: a scalar size of :class:`fsistab.mesh.MeshSizes` and a positive
     number, else a one-line error."""
     name, _, text = item.partition("=")
@@ -248,6 +248,17 @@ def _size_item(item: str) -> tuple[str, float]:
     return name, value
 
 
+def add_size_option(parser: argparse.ArgumentParser) -> None:
+    """``--size NAME=VALUE`` (repeatable), checked by :func:`size_item`."""
+    parser.add_argument(
+        "--size",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="another of the preset's sizes (fsistab.mesh.MeshSizes: wall, corner, near, wake, ...)",
+    )
+
+
 def build_spec(args) -> MeshSpec:
     sizes = {}
     if args.far is not None:
@@ -257,7 +268,7 @@ def build_spec(args) -> MeshSpec:
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
     for item in args.size:
-        name, value = _size_item(item)
+        name, value = size_item(item)
         sizes[name] = value
     domain = Domain(*args.domain) if args.domain else None
     # its own sponges only, unless the library's is asked for (then it is the baseline's)
@@ -280,13 +291,7 @@ def main() -> None:
     parser.add_argument("--domain", type=float, nargs=3, metavar=("UP", "DOWN", "LAT"))
     parser.add_argument("--far", type=float, help="far-field element size (chords)")
     parser.add_argument("--middle", type=float, nargs=4, metavar=("SIZE", "UP", "DOWN", "LAT"))
-    parser.add_argument(
-        "--size",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="another of the preset's sizes (fsistab.mesh.MeshSizes: wall, corner, near, wake, ...)",
-    )
+    add_size_option(parser)
     parser.add_argument(
         "--band", type=float, nargs=2, metavar=("END", "HALF"), help="middle-sized band behind the body"
     )

@@ -620,8 +620,9 @@ def neutral(opts):
     reduced (rational Krylov) models of the fluid with a certified error, one factorisation each
     (fsistab.reduced_model; on meshes from 200 000 fluid unknowns, the default one among them, and
     with --reduced-blocks 0, G is sampled exactly instead: faster there, docs/performance.md).
-    Samples and models are saved and reused for other solid parameters. Without --wake-frequency
-    the VIV curves, narrow in ω, may be missed.
+    Samples and models are saved and reused for other solid parameters. A weakly damped fluid mode
+    between two samples (the wake mode, whose VIV curves are narrow in ω) is located from them and
+    sampled at its frequency: the VIV curves need no --wake-frequency.
 
     --method continuation: sweeps at --start-mass-ratio over --reduced-velocity-range, at each
     --seed-mass-ratio over that range scaled by √(m/start), and (with --wake-frequency) at the lowest

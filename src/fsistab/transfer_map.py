@@ -43,6 +43,12 @@ changes sign beyond the range (through ``m = ∞``, a pole of the neutral mass) 
 0), or roots born outside the range on one side, settle the interval without a curve
 (:func:`_swept`). With an undamped dof the resultant vanishes at its in-vacuo resonance at every
 frequency (:func:`undamped_resonances`, ``m = ∞``); that root is divided out.
+A weakly damped fluid mode between two samples much farther apart than its damping (the wake mode,
+damped by 0.03 at ω ≈ 11, between initial frequencies 18 % apart) may leave no root at either
+although its resonance holds whole VIV curves; the samples' values and ``dG/ds`` locate its pole
+(:func:`resonance`, a rational fit), and an interval whose pole lies closer to the axis than half
+its half-width is sampled at the pole's frequency (:func:`unresolved_resonance`), no wake-frequency
+hint needed.
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 ``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
@@ -88,6 +94,12 @@ from fsistab.transfer import (
 
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
+# an interval whose samples point to a fluid pole between them, closer to the axis than this many
+# half-widths, is sampled at the pole's frequency (:func:`unresolved_resonance`)
+RESONANCE_DAMPING = 0.5
+RESONANCE_SHARE = 1e-3  # and whose residue makes at least this share of G at the samples
+RESONANCE_STEP = 1e-3  # relative width below which no resonance is looked for
+RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interval from either end
 
 
 @dataclass(frozen=True)
@@ -610,6 +622,60 @@ def _resolved(left, right, h, tolerance, inner) -> bool:
     return need(left, done_left) and need(right, done_right)
 
 
+def resonance(left: AxisSample, right: AxisSample) -> tuple[complex, float]:
+    """The pole ``λ`` of the fluid's transfer function that two samples point to, and the share of
+    ``G`` its residue makes at the samples: from one rational fit ``p_e(s)/(s − λ)`` (``p_e``
+    quadratic, one per entry of ``G``) to the values and ``dG/ds`` of both samples, in least
+    squares (48 equations, 37 unknowns); the share is ``‖p(λ)‖/‖G‖`` in the fit's variable
+    ``t = (s − s_mid)/h`` (``h`` the half-width), the pole's part of ``G`` at the ends.
+
+    A weakly damped fluid mode (the wake mode) between two frequencies far apart compared with its
+    damping leaves no neutral root at either, but the tails of its pole ``R/(s − λ)`` in ``G`` and
+    ``dG/ds`` show: on the plate at Re 2900 (default mesh), samples at ω = 10.47 and 12.31 give
+    0.005 + 10.915i with share 0.047 for the wake mode −0.032 + 11.098i. A smooth ``G`` gives a
+    pole anywhere with a small share (4e-4 for an exact quadratic in ``s``)."""
+    a, b = 1j * left.frequency, 1j * right.frequency
+    middle, half = 0.5 * (a + b), 0.5 * (b - a)
+    entries = left.transfer.size
+    rows, rhs = [], []
+    for s, value, rate in ((a, left.transfer, left.rate), (b, right.transfer, right.rate)):
+        t = (s - middle) / half  # unknowns: μ = (λ − middle)/half, then p_e's coefficients in t
+        for e, (f, df) in enumerate(zip(value.ravel(), half * rate.ravel(), strict=True)):
+            # (t − μ) f = p(t) and its t-derivative f + (t − μ) f' = p'(t), at both samples
+            equations = ((-f, -t * f, (1, t, t * t)), (-df, -(f + t * df), (0, 1, 2 * t)))
+            for coefficient, known, powers in equations:
+                row = np.zeros(1 + 3 * entries, dtype=complex)
+                row[0], row[1 + 3 * e : 4 + 3 * e] = coefficient, np.negative(powers)
+                rows.append(row)
+                rhs.append(known)
+    matrix = np.array(rows)
+    scale = np.linalg.norm(matrix, axis=0)
+    scale[scale == 0] = 1.0
+    solution = np.linalg.lstsq(matrix / scale, np.array(rhs), rcond=None)[0] / scale
+    mu, numerators = solution[0], solution[1:].reshape(entries, 3)
+    residue = numerators @ np.array([1.0, mu, mu * mu])
+    size = max(np.linalg.norm(left.transfer), np.linalg.norm(right.transfer))
+    return complex(middle + half * mu), float(np.linalg.norm(residue) / size) if size > 0 else 0.0
+
+
+def unresolved_resonance(left: AxisSample, right: AxisSample) -> float | None:
+    """The frequency at which to sample next if the two samples straddle a resonance they do not
+    resolve: the :func:`resonance` pole lies between them, closer to the axis than
+    ``RESONANCE_DAMPING`` half-widths, with a residue share above ``RESONANCE_SHARE``; its
+    frequency, kept ``RESONANCE_MARGIN`` of the interval from either end. None otherwise, and for
+    intervals narrower than ``RESONANCE_STEP`` (relative), where the fit is ill-conditioned."""
+    low, high = left.frequency, right.frequency
+    if not 0 < low < high or high - low < RESONANCE_STEP * high:
+        return None
+    pole, share = resonance(left, right)
+    if not low < pole.imag < high or abs(pole.real) >= RESONANCE_DAMPING * 0.5 * (high - low):
+        return None
+    if share < RESONANCE_SHARE:
+        return None
+    margin = RESONANCE_MARGIN * (high - low)
+    return float(min(max(pole.imag, low + margin), high - margin))
+
+
 def default_frequency_range(wake_frequency: float | None) -> tuple[float, float]:
     """``ω`` from 0.01 to ``max(20, 1.5 ω_wake)``: flutter below ω ≈ 2 and VIV around the wake."""
     return (0.01, 20.0 if wake_frequency is None else max(20.0, 1.5 * wake_frequency))
@@ -649,8 +715,10 @@ def transfer_neutral_map(
     own roots (:func:`fsistab.neutral.curve_kind`); ``wake_frequency``, if given, is only a guess
     that adds initial frequencies around it (:func:`initial_frequencies`).
 
-    Starts from :func:`initial_frequencies` and bisects every interval whose roots are not matched
-    within ``tolerance`` (in ``log m``, ``log U*``) by their tangents, down to a relative step
+    Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
+    resonance at its pole's frequency (:func:`unresolved_resonance`), and bisects every interval
+    whose roots are not matched within ``tolerance`` (in ``log m``, ``log U*``) by their tangents,
+    down to a relative step
     ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
     listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born or
     dying together at a fold are joined); intervals
@@ -771,19 +839,24 @@ def transfer_neutral_map(
                 smallest, reason = SWEEP_STEP, "sweep"
                 if w1 - w0 < smallest * w1 and not _swept(tracks[w0], tracks[w1], wide, settled=True):
                     continue  # at the finest step: a pole of m, or roots born outside the range
+            elif (pole := unresolved_resonance(stored[w0], stored[w1])) is not None:
+                # a weakly damped fluid mode between the samples (the wake mode's VIV curves lie
+                # within its resonance and may leave no root at either sample): sample at its pole
+                todo.append((w1 - w0, w0, w1, pole))
+                continue
             else:
                 continue
             if w1 - w0 < smallest * w1:
                 unresolved[(w0, w1)] = reason
             else:
-                todo.append((w1 - w0, w0, w1))
+                todo.append((w1 - w0, w0, w1, 0.5 * (w0 + w1)))
         if not todo:
             break
         if len(roots) >= max_samples:
-            unresolved.update({(w0, w1): "budget" for _, w0, w1 in todo})
+            unresolved.update({(w0, w1): "budget" for _, w0, w1, _ in todo})
             say(f"stopped at {max_samples} frequencies with {len(todo)} intervals unresolved")
             break
-        batch = [0.5 * (w0 + w1) for _, w0, w1 in sorted(todo, reverse=True)[: max_samples - len(roots)]]
+        batch = [omega for *_, omega in sorted(todo, reverse=True)[: max_samples - len(roots)]]
         prefetch(batch)
         for omega in batch:
             add(omega)

@@ -385,10 +385,6 @@ def stability_map(
     if wake is not None:
         say("wake mode of the fixed body")
         wake = wake_mode_near(fluid, wake, counter=counter).frequency
-    elif settings.method == "transfer":
-        # measured on the default mesh at Re 2900: the 48 geometric initial frequencies step over
-        # the VIV window (ω 10.80-11.12), and the map has no VIV curve (docs/stability_map.md)
-        say("no --wake-frequency: VIV curves narrower in ω than the initial sampling may be missed")
     reduced = None
     blocks = settings.krylov_blocks(fluid.n_fluid)
     if settings.method == "transfer" and blocks:
