@@ -32,7 +32,7 @@ from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.reduced_model import ReducedModels
 from fsistab.steady import solve_steady
-from fsistab.transfer_map import default_frequency_range, nearest_on_map, transfer_neutral_map
+from fsistab.transfer_map import nearest_on_map, transfer_neutral_map
 
 
 def _peak_mb() -> float:
@@ -96,7 +96,6 @@ def main() -> None:
             fluid,
             template,
             mass_range=mass_range,
-            omega_range=default_frequency_range(wake.frequency),
             wake_frequency=wake.frequency,
             tolerance=args.tolerance,
             samples_path=samples,

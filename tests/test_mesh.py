@@ -228,3 +228,25 @@ def test_converged_presets_take_their_own_domain_and_graded_far_field():
     assert mesh_spec(Plate(), "coarse", 2900).sizes.middle is None
     for preset in ("coarse", "medium", "fine"):
         assert mesh_spec(Cylinder(), preset, 40).domain == DEFAULT_DOMAINS["cylinder"]
+
+
+def test_the_quick_preset_has_the_medium_near_body_on_a_narrow_uniform_far_field():
+    """`quick` (docs/how-to/meshes.md): medium's wall, corner and near sizes at every Re (the fixed
+    plate's wake mode depends on them), a 0.1-chord wake box of 8 chords, 1-chord elements up to the
+    boundary of [-20, 160] x [-20, 20], and the outlet sponge only; its cache keys differ from the
+    other presets'. The cylinder has no quick preset: refused in one line before any meshing."""
+    from fsistab.params import Case, Domain, Sponge
+
+    for reynolds in (10, 110, 2900, 10000):
+        quick, medium = preset_sizes(Plate(), "quick", reynolds), preset_sizes(Plate(), "medium", reynolds)
+        assert (quick.wall, quick.corner, quick.near) == (medium.wall, medium.corner, medium.near)
+    spec = mesh_spec(Plate(), "quick", 2900)
+    assert spec.domain == Domain(20, 160, 20)
+    assert (spec.sizes.far, spec.sizes.wake, spec.sizes.wake_length) == (1.0, 0.1, 8.0)
+    assert spec.sizes.middle is None and spec.sponge == Sponge() and spec.sponge.far_sigma == 0
+    keys = {mesh_spec(Plate(), preset, 2900).linear_key() for preset in ("coarse", "quick", "medium")}
+    assert len(keys) == 3
+    with pytest.raises(InputError, match="plate only"):
+        mesh_spec(Cylinder(), "quick", 40)
+    with pytest.raises(InputError, match="plate only"):
+        Case.create("cylinder", reynolds=40, preset="quick")

@@ -466,3 +466,30 @@ def test_unresolved_intervals_are_reported_with_their_reasons():
     assert unresolved_intervals({}, [curve]) == ()
     with pytest.raises(InputError, match="reason"):
         UnresolvedInterval(0.0, 1.0, "tired")
+
+
+def test_a_curve_leaving_the_lowest_frequency_is_followed_below_it(fluid, tmp_path):
+    """The flutter curve's restabilisation branch falls in frequency as m grows (ω ≈ 0.0078 at
+    m = 6000 on this mesh): followed below ω = 0.01, it bounds the flutter region at m = 6000, and
+    the unstable counts on either side of it are the eigen-solver's (2 below: flutter and
+    divergence; 1 above). The same map without following leaves the region open above (2 unstable
+    modes counted where there is 1) and reports the interval below ω = 0.01 as ``range``."""
+    settings_ = dict(mass_range=(3000.0, 8000.0), omega_range=(0.01, 0.2), initial=8)
+    settings_["samples_path"] = tmp_path / "samples.nc"
+    tmap = transfer_neutral_map(fluid, Solid(), follow_low=True, **settings_)
+    assert tmap.frequencies[1] < 0.01  # ω = 0 first
+    assert not any(u.reason == "range" and u.low == 0.0 for u in tmap.unresolved)
+    flutter = [(u, rate) for u, rate, kind in tmap.crossings_at(6000.0) if kind == "flutter"]
+    assert len(flutter) == 2 and flutter[0][1] > 0 > flutter[1][1]  # onset, then restabilisation
+    restabilisation = flutter[1][0]
+    velocities = [0.9 * restabilisation, 1.1 * restabilisation]
+    assert unstable_counts(tmap, 6000.0, velocities).tolist() == [2, 1]
+    for u, expected in zip(velocities, (2, 1), strict=True):
+        system = CoupledSystem(fluid, Solid(mass_ratio=6000, reduced_velocity=u))
+        pairs = eigenpairs_near(system, [0.02, 0.001 + 0.8j / u, 0.001 + 1j / u], 6)
+        unstable = {round(p.value.real, 6) for p in pairs if p.growth_rate > 1e-7 and p.frequency >= 0}
+        assert len(unstable) == expected
+    fixed = transfer_neutral_map(fluid, Solid(), follow_low=False, **settings_)
+    assert [u for u, _, kind in fixed.crossings_at(6000.0) if kind == "flutter"] == [flutter[0][0]]
+    assert unstable_counts(fixed, 6000.0, velocities[1:]).tolist() == [2]
+    assert [(u.low, u.high) for u in fixed.unresolved if u.reason == "range"] == [(0.0, 0.01)]

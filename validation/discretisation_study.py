@@ -65,6 +65,7 @@ FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 # same with a 1-chord band across the wake to the outlet (`medium` since)
 D1_DOM80 = {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)}
 BAND20 = {**D1_DOM80, "middle_band": (160, 20)}
+QUICK = {"far": 1.0, "wake": 0.1, "wake_length": 8.0}
 
 VARIANTS = {
     "medium": ("medium", {}, (20, 40, 20)),
@@ -123,6 +124,13 @@ VARIANTS = {
     "coarse": ("coarse", {}, (20, 40, 20)),
     "coarse-d1": ("coarse", CANDIDATE, (40, 80, 40)),
     "nested-80-box30": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (30, 60, 30)}, (80, 160, 80)),
+    # candidates for a quick preset (issue 14, 1 December 2026): 1-chord elements everywhere on a
+    # narrow, long domain (clean at m = 10 on coarse near-body sizes, docs/discretisation.md), with
+    # coarse or medium near-body and wake sizes, to find which of them the wake mode needs
+    "quick-sponge": ("coarse", QUICK, (20, 160, 20)),
+    "quick-wake-sponge": ("coarse", {**QUICK, "wake": 0.05}, (20, 160, 20)),
+    # the `quick` preset itself: medium's near body (fitted to Re) with QUICK's wake and far field
+    "quick-near-sponge": ("medium", {**QUICK, "wake_half_width": 0.6}, (20, 160, 20)),
 }
 
 

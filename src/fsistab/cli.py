@@ -94,7 +94,10 @@ CASE_OPTIONS = {
         Annotated[float, typer.Option("--alpha0", help="steady angle of attack, degrees, nose-up +")],
         0.0,
     ),
-    "preset": (Annotated[str, typer.Option("--mesh", help="mesh preset: coarse, medium or fine")], "medium"),
+    "preset": (
+        Annotated[str, typer.Option("--mesh", help="mesh preset: coarse, quick (plate), medium or fine")],
+        "medium",
+    ),
     "aspect_ratio": (Annotated[float, typer.Option("--aspect-ratio", help="plate chord/thickness")], 20.0),
     "corner_radius": (
         Annotated[float, typer.Option("--corner-radius", help="plate corner radius / thickness")],
@@ -563,7 +566,9 @@ MAP_OPTIONS = {
         Annotated[
             tuple[float, float] | None,
             typer.Option(
-                "--frequency-range", help="transfer: ω range sampled (default 0.01 to max(20, 1.5 ω_wake))"
+                "--frequency-range",
+                help="transfer: ω range sampled (default 0.01 to max(20, 1.5 ω_wake), "
+                "extended down while a curve leaves it)",
             ),
         ],
         None,
@@ -594,7 +599,7 @@ MAP_OPTIONS = {
             typer.Option(
                 "--reduced-blocks",
                 help="transfer: Krylov blocks of the reduced fluid models (0: exact samples only; "
-                "default 60 below 200 000 fluid unknowns, 0 from there)",
+                "default 60 below 100 000 fluid unknowns, 0 from there)",
             ),
         ],
         None,
@@ -618,7 +623,7 @@ def neutral(opts):
     refined until every neutral curve is resolved to --tolerance; at each ω all neutral (m, U*)
     follow from a polynomial (fsistab.transfer_map). Where the sampling is refined, G comes from
     reduced (rational Krylov) models of the fluid with a certified error, one factorisation each
-    (fsistab.reduced_model; on meshes from 200 000 fluid unknowns, the default one among them, and
+    (fsistab.reduced_model; on meshes from 100 000 fluid unknowns, quick and medium among them, and
     with --reduced-blocks 0, G is sampled exactly instead: faster there, docs/performance.md).
     Samples and models are saved and reused for other solid parameters. A weakly damped fluid mode
     between two samples (the wake mode, whose VIV curves are narrow in ω) is located from them and
@@ -687,7 +692,11 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
     for interval in p["unresolved"]:
         low, high = interval["frequency_range"]
         lines.append(f"unresolved: ω in [{low:.5g}, {high:.5g}] ({interval['reason']})")
-    lines.append(f"{p['factorisations']} factorisations; curves and map saved in {out}; figure {p['figure']}")
+    # a rerun reuses the saved samples: the map's frequencies are its cost, this count the run's
+    lines.append(
+        f"{p['factorisations']} factorisations in this run; curves and map saved in {out}; "
+        f"figure {p['figure']}"
+    )
     return lines
 
 

@@ -81,7 +81,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.operators import FluidOperators
-from fsistab.params import Solid
+from fsistab.params import MAX_FREQUENCY, Solid
 from fsistab.reduced_model import ReducedModels
 from fsistab.store import ResumableTable
 from fsistab.transfer import (
@@ -100,6 +100,9 @@ RESONANCE_DAMPING = 0.5
 RESONANCE_SHARE = 1e-3  # and whose residue makes at least this share of G at the samples
 RESONANCE_STEP = 1e-3  # relative width below which no resonance is looked for
 RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interval from either end
+# the default frequency range is extended down, by halving, while a curve leaves it inside the mass
+# range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
+LOWEST_FREQUENCY = 1e-4
 
 
 @dataclass(frozen=True)
@@ -499,13 +502,14 @@ UNRESOLVED_REASONS = {
     "fold": "a fold in ω: two branches born or dying together, joined through it (no sample can resolve it)",
     "min_step": "roots still unmatched at the smallest step (min_step): a curve ends or moves too fast in ω",
     "sweep": "a curve may cross the whole mass range inside the interval, not seen down to SWEEP_STEP",
+    "range": "a curve leaves the sampled frequency range inside the mass range: it goes on outside it",
 }
 
 
 @dataclass(frozen=True)
 class UnresolvedInterval:
     """A frequency interval ``[low, high]`` that the sampling left unresolved, and why: a key of
-    ``UNRESOLVED_REASONS`` (``budget``, ``fold``, ``min_step``, ``sweep``)."""
+    ``UNRESOLVED_REASONS`` (``budget``, ``fold``, ``min_step``, ``sweep``, ``range``)."""
 
     low: float
     high: float
@@ -697,7 +701,8 @@ def transfer_neutral_map(
     template: Solid,
     *,
     mass_range: tuple[float, float] = (1.0, 1e4),
-    omega_range: tuple[float, float] = (0.01, 20.0),
+    omega_range: tuple[float, float] | None = None,
+    follow_low: bool | None = None,
     wake_frequency: float | None = None,
     initial: int = 48,
     tolerance: float | None = None,
@@ -711,9 +716,15 @@ def transfer_neutral_map(
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
-    and ``U*``; divergence from ``G(0)``. Each curve is labelled ``flutter`` or ``viv`` from its
-    own roots (:func:`fsistab.neutral.curve_kind`); ``wake_frequency``, if given, is only a guess
-    that adds initial frequencies around it (:func:`initial_frequencies`).
+    and ``U*``; divergence from ``G(0)``. Without ``omega_range`` the range is
+    :func:`default_frequency_range`. With ``follow_low`` (the default without ``omega_range``) the
+    range is extended down by halving while a curve leaves it inside the mass range (down to
+    ``LOWEST_FREQUENCY``): the flutter curve's restabilisation branch, whose frequency falls as m
+    grows. A curve that leaves the final range inside the mass range is reported as an unresolved
+    interval of reason ``range`` beyond that end. Each curve is labelled ``flutter`` or ``viv``
+    from its own roots (:func:`fsistab.neutral.curve_kind`);
+    ``wake_frequency``, if given, is only a guess that adds initial frequencies around it
+    (:func:`initial_frequencies`) and to the default range (:func:`default_frequency_range`).
 
     Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
     resonance at its pole's frequency (:func:`unresolved_resonance`), and bisects every interval
@@ -741,6 +752,8 @@ def transfer_neutral_map(
     tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else 1e-2)
     min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
     max_samples = max_samples if max_samples is not None else (4000 if reduced is not None else 400)
+    follow = omega_range is None if follow_low is None else follow_low
+    omega_range = default_frequency_range(wake_frequency) if omega_range is None else omega_range
     low, high = mass_range
     if not (0 < low < high and math.isfinite(high)):
         raise InputError(f"the mass-ratio range must satisfy 0 < low < high, got {mass_range}")
@@ -820,7 +833,8 @@ def transfer_neutral_map(
         roots[omega] = _roots_on_tracks(tracks[omega], loads, rate, omega, template, wide)
 
     static = sample(0.0)
-    saved = [w for w in stored if omega_range[0] <= w <= omega_range[1]]  # free: use them all
+    lowest = LOWEST_FREQUENCY if follow else omega_range[0]
+    saved = [w for w in stored if lowest <= w <= omega_range[1]]  # free: use them all
     first = sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved})
     prefetch(first)
     for omega in first:
@@ -850,6 +864,8 @@ def transfer_neutral_map(
                 unresolved[(w0, w1)] = reason
             else:
                 todo.append((w1 - w0, w0, w1, 0.5 * (w0 + w1)))
+        if follow and grid[0] / 2 >= LOWEST_FREQUENCY and _leaves(roots[grid[0]], inner):
+            todo.append((grid[0] / 2, 0.0, grid[0], grid[0] / 2))  # the curve goes on below: follow it
         if not todo:
             break
         if len(roots) >= max_samples:
@@ -864,6 +880,11 @@ def transfer_neutral_map(
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):
         save()
+    grid = sorted(roots)
+    if _leaves(roots[grid[0]], inner):
+        unresolved[(0.0, grid[0])] = "range"
+    if _leaves(roots[grid[-1]], inner):
+        unresolved[(grid[-1], max(MAX_FREQUENCY, 2 * grid[-1]))] = "range"
     curves = _assemble(roots, tracks, mass_range)
     lambdas, rates = divergence_lines(static, template, theta0, loads0)
     return TransferMap(
@@ -877,6 +898,12 @@ def transfer_neutral_map(
     )
 
 
+def _leaves(roots: list[NeutralRoot], inner: tuple[float, float]) -> bool:
+    """Whether a curve crosses the end of the sampled range at one of ``roots`` (those at the
+    lowest or highest frequency): a root with its mass inside ``inner``."""
+    return any(inner[0] <= r.mass_ratio <= inner[1] for r in roots)
+
+
 def unresolved_intervals(
     unresolved: dict[tuple[float, float], str], curves: Sequence[TransferCurve]
 ) -> tuple[UnresolvedInterval, ...]:
@@ -886,7 +913,7 @@ def unresolved_intervals(
     folds = {(curve.roots[k].frequency, side) for curve in curves for k, side in curve.folds}
     intervals = []
     for (w0, w1), reason in sorted(unresolved.items()):
-        if (w1, -1) in folds or (w0, +1) in folds:
+        if reason != "range" and ((w1, -1) in folds or (w0, +1) in folds):
             reason = "fold"
         intervals.append(UnresolvedInterval(float(w0), float(w1), reason))
     return tuple(intervals)

@@ -305,7 +305,7 @@ def _solid_attrs(case: Case, solid: Solid) -> dict:
 def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say):
     """The map by the chosen method; ``(NeutralMap, TransferMap or None)``."""
     from fsistab.neutral import map_seeds, trace_neutral_map
-    from fsistab.transfer_map import as_neutral_map, default_frequency_range, transfer_neutral_map
+    from fsistab.transfer_map import as_neutral_map, transfer_neutral_map
 
     wake = attrs["wake_frequency"]
     wake = None if not math.isfinite(wake) else wake
@@ -336,7 +336,7 @@ def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, sa
         fluid,
         template,
         mass_range=settings.mass_range,
-        omega_range=settings.frequency_range or default_frequency_range(wake),
+        omega_range=settings.frequency_range,  # None: the default range, followed down
         wake_frequency=wake,
         tolerance=settings.tolerance,
         max_samples=settings.max_frequencies,
