@@ -380,6 +380,47 @@ def test_unstable_sides_agree_with_the_eigenvalue_count():
     assert checked > 20
 
 
+def test_a_family_whose_crossings_do_not_add_up_is_left_unshaded_and_reported(tmp_path):
+    """Quasi-steady loads: the whole map's signed crossings add up everywhere (nothing reported).
+    Its second flutter curve (an onset) read as a restabilisation, with no onset below it (a curve
+    missing, as in an unresolved interval), would make the flutter count fall below zero: over that
+    curve's masses the family is left out of the shading grid and reported as unshaded, in the
+    dataset, the JSON and the figure's note."""
+    from dataclasses import replace as replaced
+
+    from fsistab import workflows
+    from fsistab.neutral import neutral_map_dataset, unshaded_families
+    from fsistab.params import MapSettings
+    from fsistab.transfer_map import TransferCurve, as_neutral_map
+
+    solid = Solid()
+    settings = MapSettings(mass_range=(10.0, 2000.0))
+    whole = _quasi_steady_map(solid, np.geomspace(0.05, 0.7, 60).tolist(), (10.0, 2000.0))
+
+    def dataset(tmap):
+        result = as_neutral_map(tmap, solid)
+        attrs = {"wake_frequency": math.nan, "method": "transfer"}
+        ds = workflows._map_details(neutral_map_dataset(result, attrs), result, tmap, settings)
+        return ds.assign_attrs(factorisations_this_run=0, reduced_models=0, data="m.nc", figure="m.png")
+
+    complete = dataset(whole)
+    assert unshaded_families(complete) == [] and workflows.payload("neutral", complete)["unshaded"] == []
+    assert len(whole.curves) == 2 and all(r.crossing_rate > 0 for c in whole.curves for r in c.roots)
+    kept = [replaced(r, crossing_rate=-r.crossing_rate) for r in whole.curves[1].roots]
+    broken = dataset(replaced(whole, curves=(whole.curves[0], TransferCurve("flutter", tuple(kept)))))
+    masses = [r.mass_ratio for r in kept if 10.0 <= r.mass_ratio <= 2000.0]
+    [(kind, low, high)] = unshaded_families(broken)
+    assert kind == "flutter" and min(masses) * 0.9 <= low < high <= max(masses) * 1.1
+    assert (broken.unstable_count.values >= 0).all()
+    assert workflows.payload("neutral", broken)["unshaded"] == [
+        {"kind": "flutter", "mass_ratio_range": [low, high]}
+    ]
+    from fsistab.plots import plot_map
+
+    figure = plot_map(broken, tmp_path / "map.svg")
+    assert "flutter not shaded at m" in figure.read_text()
+
+
 def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
     """Plate, Re = 2900, coarse mesh: a map whose frequencies (6.3-15.9) hold only the wake mode
     of the fixed plate (-0.07 + 10.81i) and the solid frequencies passing it, with no

@@ -692,6 +692,12 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
     for interval in p["unresolved"]:
         low, high = interval["frequency_range"]
         lines.append(f"unresolved: ω in [{low:.5g}, {high:.5g}] ({interval['reason']})")
+    for gap in p["unshaded"]:
+        low, high = gap["mass_ratio_range"]
+        lines.append(
+            f"{gap['kind']}: a curve is missing at m in [{low:.4g}, {high:.4g}] (its crossings do not "
+            "add up); its unstable region is not shaded there"
+        )
     # a rerun reuses the saved samples: the map's frequencies are its cost, this count the run's
     lines.append(
         f"{p['factorisations']} factorisations in this run; curves and map saved in {out}; "

@@ -803,6 +803,21 @@ def map_curves(ds) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
     ]
 
 
+def unshaded_families(ds) -> list[tuple[str, float, float]]:
+    """``(kind, m_low, m_high)`` for each family (divergence, flutter, viv) whose signed crossings
+    do not add up somewhere on a map's shading grid: a curve of that family is missing there (an
+    unresolved interval), so its unstable region is left unshaded over that range of m
+    (:func:`fsistab.transfer_map.unstable_grid`). Empty without a grid."""
+    if "unshaded" not in ds:
+        return []
+    masses = ds.grid_mass_ratio.values
+    return [
+        (str(kind), float(masses[row].min()), float(masses[row].max()))
+        for kind, row in zip(ds.shading_family.values, ds.unshaded.values.astype(bool), strict=True)
+        if row.any()
+    ]
+
+
 def map_curve_names(ds) -> list[str]:
     """``flutter 0``, ``viv 1``, ...: the names of a map dataset's curves (tables, JSON)."""
     return [f"{kind} {i}" for i, kind in enumerate(ds.curve_kind.values)]

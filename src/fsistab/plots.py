@@ -765,6 +765,7 @@ def plot_stability_map(
     reference=(),
     sides=None,
     unresolved=(),
+    unshaded=(),
 ) -> Path:
     """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
 
@@ -779,7 +780,9 @@ def plot_stability_map(
     unstable modes (instead of the grey). ``turning_points`` (▽) and ``crossings`` (codimension-two
     points, ★) are ``(m, U*)`` pairs; ``reference``: ``(m, U*)`` points of another method (open
     circles); ``unresolved``: ``(low, high, reason)`` frequency intervals the transfer method left
-    unresolved, listed in a box. The legend is under the axes, where it hides nothing.
+    unresolved, listed in a box; ``unshaded``: ``(kind, m_low, m_high)``, families whose unstable
+    region is left out of the shading over that range of m (a curve missing), listed under it. The
+    legend is under the axes, where it hides nothing.
     """
     from matplotlib.collections import PolyCollection
     from matplotlib.patches import Patch
@@ -860,7 +863,8 @@ def plot_stability_map(
         frameon=False,
     )
     ax.set_title(title or "stability map")
-    note = _unresolved_note(unresolved)
+    gaps = [f"{kind} not shaded at m ∈ [{a:.3g}, {b:.3g}]: a curve missing" for kind, a, b in unshaded]
+    note = "\n".join([_unresolved_note(unresolved), *gaps]).strip()
     if note:  # under the legend: nothing of the map is hidden
         fig.draw_without_rendering()
         below = legend.get_window_extent().transformed(fig.transFigure.inverted())
@@ -1054,7 +1058,7 @@ def plot_map(ds, path: Path, title: str = "") -> Path:
     :func:`plot_stability_map`: curves (legend by kind: flutter, viv), divergence, turning points,
     codimension-two points (★), unstable-side bands and, for the transfer method, the unstable
     regions of ``unstable_count`` and the unresolved frequency intervals."""
-    from fsistab.neutral import map_curves
+    from fsistab.neutral import map_curves, unshaded_families
 
     unstable = None
     if "unstable_count" in ds:
@@ -1077,6 +1081,7 @@ def plot_map(ds, path: Path, title: str = "") -> Path:
         )
         if "unresolved_low" in ds
         else (),
+        unshaded=unshaded_families(ds),
     )
 
 

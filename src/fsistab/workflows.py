@@ -444,12 +444,13 @@ def _map_details(ds: xr.Dataset, result, tmap, settings: MapSettings) -> xr.Data
         grid_u = shading_velocities(
             [p.reduced_velocity for c in curves for p in c.points], result.divergence_velocities
         )
+        counts, incomplete = unstable_grid(tmap, grid_m, grid_u)
+        families = list(incomplete)
         ds = ds.assign(
-            unstable_count=(
-                ("grid_reduced_velocity", "grid_mass_ratio"),
-                unstable_grid(tmap, grid_m, grid_u)[0],
-            )
-        ).assign_coords(grid_mass_ratio=grid_m, grid_reduced_velocity=grid_u)
+            unstable_count=(("grid_reduced_velocity", "grid_mass_ratio"), counts),
+            # where a family's crossings do not add up (a curve missing): left out of the count
+            unshaded=(("shading_family", "grid_mass_ratio"), np.array([incomplete[k] for k in families])),
+        ).assign_coords(grid_mass_ratio=grid_m, grid_reduced_velocity=grid_u, shading_family=families)
     return ds
 
 
@@ -798,7 +799,7 @@ def _critical_payload(ds):
 
 
 def _neutral_payload(ds):
-    from fsistab.neutral import map_curve_names, map_curves
+    from fsistab.neutral import map_curve_names, map_curves, unshaded_families
 
     names = map_curve_names(ds)
     curves = []
@@ -865,6 +866,9 @@ def _neutral_payload(ds):
             )
         ],
         "unresolved_count": int(ds.sizes.get("unresolved", 0)),
+        "unshaded": [
+            {"kind": kind, "mass_ratio_range": [low, high]} for kind, low, high in unshaded_families(ds)
+        ],
         "wake_frequency": wake if math.isfinite(wake) else None,
         "method": ds.attrs["method"],
         "factorisations": int(ds.attrs["factorisations_this_run"]),
