@@ -252,6 +252,7 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
         (["neutral", "--method", "transfer", "--frequency-range", "1", "0.5"], "--frequency-range"),
         (["neutral", "--reduced-blocks", "2"], "--reduced-blocks"),
         (["neutral", "--reduced-tolerance", "0.5"], "--reduced-tolerance"),
+        (["neutral", "--min-step", "0"], "--min-step must be in (0, 0.5)"),
         (["neutral", "--method", "continuation", "--seed-mass-ratio", "1e5"], "seed-mass-ratio"),
         (["neutral", "--wake-frequency", "-1"], "wake-frequency"),
         (["flow-neutral", "--parameter", "mach"], "--parameter"),

@@ -573,6 +573,17 @@ MAP_OPTIONS = {
         ],
         None,
     ),
+    "min_step": (
+        Annotated[
+            float | None,
+            typer.Option(
+                "--min-step",
+                help="transfer: smallest relative step of the refinement in ω (default 1e-3; reduced "
+                "models: 1e-7); 1e-4 resolves the VIV windows' onsets near the wake mode",
+            ),
+        ],
+        None,
+    ),
     "tolerance": (
         Annotated[
             float | None,

@@ -609,8 +609,8 @@ class MapSettings:
     """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, MODEL.md §8).
 
     Every value is checked whichever ``method`` uses it. ``seed_masses`` None means ``m/10`` and
-    ``m/100`` of ``start_mass`` within the range; ``tolerance`` and ``max_frequencies`` None are the
-    transfer method's defaults; ``reduced_blocks`` None chooses by the mesh
+    ``m/100`` of ``start_mass`` within the range; ``tolerance``, ``min_step`` and ``max_frequencies``
+    None are the transfer method's defaults; ``reduced_blocks`` None chooses by the mesh
     (:meth:`krylov_blocks`).
     """
 
@@ -624,6 +624,7 @@ class MapSettings:
     method: str = "transfer"
     frequency_range: tuple[float, float] | None = None
     tolerance: float | None = None
+    min_step: float | None = None
     max_frequencies: int | None = None
     reduced_blocks: int | None = None
     reduced_tolerance: float = 1e-7
@@ -663,6 +664,11 @@ class MapSettings:
             if not 0 < tolerance < 0.5:
                 raise InputError(f"--tolerance must be in (0, 0.5), got {tolerance:g}")
             object.__setattr__(self, "tolerance", tolerance)
+        if self.min_step is not None:
+            min_step = _finite("--min-step", self.min_step)
+            if not 0 < min_step < 0.5:
+                raise InputError(f"--min-step must be in (0, 0.5), got {min_step:g}")
+            object.__setattr__(self, "min_step", min_step)
         if self.max_frequencies is not None:
             object.__setattr__(
                 self, "max_frequencies", _count("--max-frequencies", self.max_frequencies, 4, 100_000)

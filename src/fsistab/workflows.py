@@ -339,6 +339,7 @@ def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, sa
         omega_range=settings.frequency_range,  # None: the default range, followed down
         wake_frequency=wake,
         tolerance=settings.tolerance,
+        min_step=settings.min_step,
         max_samples=settings.max_frequencies,
         samples_path=out / f"transfer_{case.tag}_samples.nc",
         reduced=reduced,
