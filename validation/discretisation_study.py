@@ -129,8 +129,8 @@ VARIANTS = {
     # coarse or medium near-body and wake sizes, to find which of them the wake mode needs
     "quick-sponge": ("coarse", QUICK, (20, 160, 20)),
     "quick-wake-sponge": ("coarse", {**QUICK, "wake": 0.05}, (20, 160, 20)),
-    # the `quick` preset itself: medium's near body (fitted to Re) with QUICK's wake and far field
-    "quick-near-sponge": ("medium", {**QUICK, "wake_half_width": 0.6}, (20, 160, 20)),
+    # the `quick` preset itself (medium's near body with QUICK's wake and far field)
+    "quick-near-sponge": ("quick", {}, (20, 160, 20)),
 }
 
 

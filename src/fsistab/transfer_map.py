@@ -722,9 +722,9 @@ def transfer_neutral_map(
     ``LOWEST_FREQUENCY``): the flutter curve's restabilisation branch, whose frequency falls as m
     grows. A curve that leaves the final range inside the mass range is reported as an unresolved
     interval of reason ``range`` beyond that end. Each curve is labelled ``flutter`` or ``viv``
-    from its own roots (:func:`fsistab.neutral.curve_kind`);
-    ``wake_frequency``, if given, is only a guess that adds initial frequencies around it
-    (:func:`initial_frequencies`) and to the default range (:func:`default_frequency_range`).
+    from its own roots (:func:`fsistab.neutral.curve_kind`); ``wake_frequency``, if given, is only
+    a guess that adds initial frequencies around it (:func:`initial_frequencies`) and widens the
+    default range (:func:`default_frequency_range`).
 
     Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
     resonance at its pole's frequency (:func:`unresolved_resonance`), and bisects every interval
