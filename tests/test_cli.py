@@ -131,6 +131,33 @@ def test_critical_json_matches_the_static_formula(tmp_path, plate_2900, plate_co
     assert divergence == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
 
 
+def test_critical_kind_does_not_depend_on_the_wake_shift(
+    tmp_path, plate_2900, plate_coarse_spec, plate_operators
+):
+    """``fsistab critical --wake-shift 0+0.19i`` at m = 1000: the fixed plate's least stable mode
+    near 0.19 (a weakly damped far-field mode, ω ≈ 0.21) lies within 30 % of the flutter frequency
+    0.1876, where the earlier rule called the onset VIV; the onset's frequency follows the solid's
+    (ω_c U*_c ≈ Ω), so it stays flutter: the shift only adds samples."""
+    from fsistab.critical import wake_mode_near
+    from fsistab.params import Flow
+    from fsistab.steady import save_steady, steady_path
+
+    hint = wake_mode_near(plate_operators, 0.19).frequency
+    cache = tmp_path / "cache"
+    save_steady(plate_2900, steady_path(plate_coarse_spec, Flow(2900), cache))
+    args = [
+        "critical", "--body", "plate", "--Re", "2900", "--mesh", "coarse", "--mass-ratio", "1000",
+        "--wake-shift", "0+0.19i", "--json", "--out", str(tmp_path / "out"), "--cache", str(cache),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    points = json.loads(result.stdout)["critical_points"]
+    assert [(p["kind"], p["boundary"]) for p in points] == [("flutter", "onset"), ("divergence", "onset")]
+    onset = points[0]
+    assert abs(onset["frequency"] / hint - 1) < 0.3  # the 30 % rule would have said viv
+    assert onset["frequency"] * onset["reduced_velocity"] == pytest.approx(0.8, rel=0.1)
+
+
 def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec, plate_operators):
     """``fsistab neutral``: one flutter curve through the m = 1000 threshold, the divergence
     curve, figure and map file; the rerun resumes the saved curves."""

@@ -2,6 +2,7 @@
 independent references: the branch tracking's thresholds, finite differences of the roots, the
 coupled eigenvalue problem."""
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -14,8 +15,9 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
 from fsistab.frequency_sweep import sweep_thresholds, velocity_roots
 from fsistab.linalg import FactorCounter
+from fsistab.neutral import VIV_FOLLOWING
 from fsistab.params import Solid
-from fsistab.transfer import transfer_sample
+from fsistab.transfer import transfer_flutter_point, transfer_sample
 from fsistab.transfer_map import AxisSample, characteristic_function, second_order_loads
 
 
@@ -48,10 +50,34 @@ def test_root_slopes_match_finite_differences(plate_operators):
     assert np.allclose(at.slopes, centred, rtol=1e-6, atol=1e-9 * np.abs(at.roots).max())
 
 
+def _following_by_differences(fluid, solid: Solid, threshold, step: float = 0.01) -> float:
+    """The local frequency following ``|Δ log ω / Δ log U*|`` of the neutral curve through
+    ``threshold`` from two more of its points, at ``m e^(±step)`` (Newton on ``det T`` from the
+    threshold, about six factorisations): a centred difference along the curve, independent of the
+    exact tangent that labelled the threshold."""
+    points = [
+        transfer_flutter_point(
+            fluid,
+            replace(
+                solid, mass_ratio=solid.mass_ratio * math.exp(s), reduced_velocity=threshold.reduced_velocity
+            ),
+            threshold.frequency,
+            refine=False,
+        )
+        for s in (-step, step)
+    ]
+    d_log_frequency = math.log(points[1].frequency / points[0].frequency)
+    d_log_velocity = math.log(points[1].reduced_velocity / points[0].reduced_velocity)
+    return abs(d_log_frequency / d_log_velocity)
+
+
 def test_sweep_reproduces_the_branch_tracking(plate_operators):
     """Coarse plate, Re 2900, m = 1000: the flutter onset and the divergence of the branch
     tracking (Newton on the augmented sparse system) to 1e-8, with the same kinds and sides, in
-    fewer factorisations; each critical mode is an eigenvector of the coupled problem."""
+    fewer factorisations; each critical mode is an eigenvector of the coupled problem. The onset is
+    flutter by its frequency following: its frequency follows the solid's (``ω_c U*_c`` = 0.82
+    near the heave frequency Ω = 0.8 in vacuo), the following from the tangent matches a centred
+    difference along the neutral curve, near 1."""
     solid = Solid(mass_ratio=1000.0, reduced_velocity=2.0)
     velocities = np.geomspace(2.0, 10.0, 24)
     tracked, _ = find_thresholds(plate_operators, solid, velocities, method="tracking")
@@ -72,6 +98,37 @@ def test_sweep_reproduces_the_branch_tracking(plate_operators):
         scale = spla.norm(system.jacobian, 1) * np.linalg.norm(q)  # ‖J‖₁‖q‖: ‖Jq‖ vanishes at ω = 0
         assert np.linalg.norm(residual) < 1e-10 * scale
     assert swept[0].branch == "heave"  # REFERENCE.md §E: the heave branch goes unstable
+    onset = swept[0]
+    assert onset.frequency * onset.reduced_velocity == pytest.approx(solid.freq_ratio, rel=0.1)
+    following = _following_by_differences(plate_operators, solid, onset)
+    assert onset.frequency_following == pytest.approx(following, rel=1e-2)
+    assert VIV_FOLLOWING < following < 1.2
+    assert math.isnan(swept[1].frequency_following)  # divergence: no frequency to follow
+
+
+def test_viv_thresholds_are_labelled_without_a_wake_shift(plate_operators):
+    """Coarse plate, Re 2900, m = 10, U* from 0.04 to 0.12, where the solid's frequencies meet the
+    fixed plate's wake mode: with no wake hint, both thresholds (a lock-in onset and its
+    restabilisation) are VIV. Their frequencies lie within 5 % of the wake mode's (an eigenvalue of
+    the fixed plate, solved here) and nearer it than both in-vacuo frequencies Ω/U*, 1/U*; the
+    frequency following that labelled them is far below 1/2 and matches, on the restabilisation,
+    a centred difference along its neutral curve."""
+    from fsistab.critical import wake_mode_near
+
+    solid = Solid(mass_ratio=10.0, reduced_velocity=0.04)
+    found, details = find_thresholds(plate_operators, solid, np.array([0.04, 0.12]))
+    assert details["wake_frequency"] is None and details["unresolved"] == ()
+    assert [(t.kind, t.boundary) for t in found] == [("viv", "onset"), ("viv", "restabilisation")]
+    wake = wake_mode_near(plate_operators, 11.0).frequency
+    assert wake == pytest.approx(10.807, rel=1e-3)  # docs/how-to/sensitivity.md, coarse
+    for t in found:
+        in_vacuo = (solid.freq_ratio / t.reduced_velocity, 1.0 / t.reduced_velocity)
+        assert abs(t.frequency / wake - 1) < 0.05
+        assert abs(t.frequency - wake) < min(abs(t.frequency - w) for w in in_vacuo)
+        assert t.frequency_following < 0.1 * VIV_FOLLOWING
+    restabilisation = found[1]
+    following = _following_by_differences(plate_operators, solid, restabilisation)
+    assert restabilisation.frequency_following == pytest.approx(following, rel=1e-2)
 
 
 def test_sweep_finds_a_narrow_window_and_the_eigenvalues_confirm_it(plate_operators):
@@ -82,6 +139,7 @@ def test_sweep_finds_a_narrow_window_and_the_eigenvalues_confirm_it(plate_operat
     result = sweep_thresholds(plate_operators, solid, (2.0, 10.0))
     window = [t for t in result.thresholds if 3.0 < t.reduced_velocity < 4.0]
     assert [t.boundary for t in window] == ["onset", "restabilisation"]
+    assert [t.kind for t in window] == ["flutter", "flutter"]  # its frequency follows 1/U*
     inside = 0.5 * (window[0].reduced_velocity + window[1].reduced_velocity)
     below = window[0].reduced_velocity - 0.1
     for velocity, unstable in ((inside, True), (below, False)):

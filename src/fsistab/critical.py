@@ -350,12 +350,15 @@ def divergence_point(
 @dataclass(frozen=True)
 class Threshold:
     """An instability threshold along U* at fixed m: ``kind`` flutter, divergence or viv;
-    ``boundary`` onset (unstable above U*_c along the branch) or restabilisation."""
+    ``boundary`` onset (unstable above U*_c along the branch) or restabilisation;
+    ``frequency_following`` the local frequency following of its neutral curve that labelled it
+    (:func:`fsistab.frequency_sweep.local_following`; NaN for divergence and by tracking)."""
 
     kind: str
     boundary: str
     branch: str
     point: CriticalPoint
+    frequency_following: float = math.nan
 
     @property
     def reduced_velocity(self) -> float:
@@ -407,15 +410,20 @@ def find_thresholds(
     method: str = "transfer",
 ) -> tuple[list[Threshold], dict]:
     """Every threshold with U* between ``velocities[0]`` and ``velocities[-1]`` (increasing) at
-    ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue, whose
-    frequency labels VIV (a dynamic threshold within 30 % of it).
+    ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue.
 
     ``method="transfer"`` (default): the exact transfer function swept in frequency
     (:func:`fsistab.frequency_sweep.sweep_thresholds`), every neutral point of the range, each
-    converged by Newton on ``det T``; ``velocities`` only give the range.
-    ``method="tracking"``: the eigenvalue branches of the solid modes (and the wake mode) followed
-    over ``velocities`` (:func:`track_thresholds`); a crossing of a mode no branch follows is
-    missed. Both converge each threshold to the same equation (MODEL.md §8).
+    converged by Newton on ``det T``; ``velocities`` only give the range. Each dynamic threshold is
+    labelled ``viv`` or ``flutter`` by the local frequency following of its neutral curve (the
+    map's rule, :func:`fsistab.frequency_sweep.local_following`), with or without ``wake_shift``:
+    the wake mode refined from it (one eigen-solve) only adds samples near its frequency.
+    ``method="tracking"``: the eigenvalue branches of the solid modes (and, with ``wake_shift``, the
+    wake mode) followed over ``velocities`` (:func:`track_thresholds`); a crossing of a mode no
+    branch follows is missed, and VIV is recognised only with ``wake_shift`` (a crossing of the
+    wake branch or within 30 % of its frequency: the tangent of the local rule would cost a
+    factorisation per threshold there). Both converge each threshold to the same equation
+    (MODEL.md §8).
 
     Returns the thresholds sorted by U* and details: ``wake_frequency`` (None without
     ``wake_shift``), and ``frequencies`` sampled (transfer) or the tracked ``branches``.
@@ -452,7 +460,7 @@ def find_thresholds(
             point = CriticalPoint(
                 "flutter", t.mass_ratio, t.reduced_velocity, t.frequency, mode, t.residuals, t.factorisations
             )
-        thresholds.append(Threshold(t.kind, t.boundary, t.branch, point))
+        thresholds.append(Threshold(t.kind, t.boundary, t.branch, point, t.frequency_following))
     return thresholds, {
         "wake_frequency": wake,
         "frequencies": result.frequencies,

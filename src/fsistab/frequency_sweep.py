@@ -26,10 +26,19 @@ a quarter of the interval apart are then made around it (the interpolant's error
 ``4⁴``), and Newton on the exact ``det T(iω; U*) = 0``
 (:func:`fsistab.transfer.transfer_flutter_point`, unrefined solves) converges it from the start
 found on them; the sign of the crossing rate ``∂(Re σ)/∂(log U*)`` at the converged point says
-onset (> 0) or restabilisation as U* grows. Divergence (``ω = 0``) comes from ``G(0)`` exactly,
-``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real factorisation, made
-when the band's low end first needs it, or else in a second thread during the serial Newton
-iterations.
+onset (> 0) or restabilisation as U* grows. The loads of the last Newton iterate also give, with
+no further factorisation, the exact tangent ``d(log m, log U*)/dω`` of the neutral curve through
+the point (m and U* varying, the other solid parameters fixed;
+:func:`fsistab.transfer_map._root_with_tangent`), hence its local frequency following
+``|d log ω / d log U*|`` (:func:`local_following`): the threshold is ``viv``
+(the fixed body's wake mode locked onto a solid frequency, its frequency held while the solid's
+scale ``1/U*`` moves) when that is below ``VIV_FOLLOWING`` = 1/2, ``flutter`` otherwise: the rule
+that labels the curves of a map (:func:`fsistab.neutral.curve_kind`), taken at the point rather
+than over the curve's range (without its mass term, :func:`local_following`), with no hint of the
+wake frequency. Divergence (``ω = 0``) comes from
+``G(0)`` exactly, ``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real
+factorisation, made when the band's low end first needs it, or else in a second thread during the
+serial Newton iterations.
 
 The sweep covers the frequencies where a root can lie in the velocity range: it starts from the
 in-vacuo frequencies of the range's ends widened by ``BAND_MARGIN`` and widens the band (at most
@@ -58,6 +67,7 @@ import numpy.polynomial.polynomial as npoly
 
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.neutral import following_kind, following_ratio
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.transfer import (
@@ -69,6 +79,8 @@ from fsistab.transfer import (
 )
 from fsistab.transfer_map import (
     AxisSample,
+    NeutralRoot,
+    _root_with_tangent,
     characteristic_function,
     divergence_lines,
     scaled_polynomials,
@@ -110,10 +122,12 @@ class SweepSample:
 
 @dataclass(frozen=True)
 class SweepThreshold:
-    """A threshold of the sweep: ``kind`` flutter, viv or divergence; ``boundary`` onset
-    (unstable above ``reduced_velocity`` at fixed m) or restabilisation; ``branch`` the dof with
-    most of the critical mode's solid kinetic energy (``static`` for divergence); ``mode`` the
-    coupled critical mode; ``residuals`` ``σ_min(T)/‖T‖`` at the Newton iterates."""
+    """A threshold of the sweep: ``kind`` flutter, viv (by ``frequency_following``,
+    :func:`local_following`) or divergence; ``boundary`` onset (unstable above
+    ``reduced_velocity`` at fixed m) or restabilisation; ``branch`` the dof with most of the
+    critical mode's solid kinetic energy (``static`` for divergence); ``mode`` the coupled critical
+    mode; ``residuals`` ``σ_min(T)/‖T‖`` at the Newton iterates; ``frequency_following`` NaN for
+    divergence."""
 
     kind: str
     boundary: str
@@ -124,6 +138,7 @@ class SweepThreshold:
     mode: np.ndarray
     residuals: tuple[float, ...]
     factorisations: int
+    frequency_following: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -328,9 +343,13 @@ def sweep_thresholds(
 ) -> SweepResult:
     """Every threshold with ``U*`` in ``velocity_range`` at ``solid.mass_ratio`` (module docstring),
     each converged on the exact transfer function, with its critical mode. A dynamic threshold is
-    ``viv`` if its frequency is within 30 % of ``wake_frequency`` (when given), ``flutter``
-    otherwise; ``divergence`` from ``G(0)`` when pitch is active (``static_factor``: a factorisation
-    of ``J_ff`` to reuse). ``threads``: samples factorised at once
+    ``viv`` or ``flutter`` by the local frequency following of its neutral curve
+    (:func:`local_following`, the rule of the map's curves), with or without ``wake_frequency``:
+    that guess (e.g. of the fixed body's wake mode) only adds initial samples at 0.9–1.1 times it,
+    where a narrow lock-in window may hide. One rule everywhere, so that a threshold's kind does
+    not depend on whether a hint was given, and is that of the rule labelling its curve on a map.
+    ``divergence`` from ``G(0)`` when pitch is active (``static_factor``: a factorisation of
+    ``J_ff`` to reuse). ``threads``: samples factorised at once
     (:func:`fsistab.transfer.transfer_samples`)."""
     low, high = (float(v) for v in velocity_range)
     if not (0 < low < high and math.isfinite(high)):
@@ -405,7 +424,7 @@ def sweep_thresholds(
             if closer:
                 omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
             try:
-                threshold = _converge(fluid, solid, omega, velocity, wake_frequency, counter)
+                threshold = _converge(fluid, solid, omega, velocity, counter)
             except ConvergenceError as error:  # e.g. two crossings about to merge: reported, not fatal
                 unresolved.append((a, b))
                 say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
@@ -471,33 +490,56 @@ def _bisect(samples: dict, add, solid: Solid, relevant, threads: int):
         add(*(w0 + (w1 - w0) * k / parts for w0, w1 in todo for k in range(1, parts)))
 
 
-def _converge(fluid, solid: Solid, omega: float, velocity: float, wake_frequency, counter) -> SweepThreshold:
+def _converge(fluid, solid: Solid, omega: float, velocity: float, counter) -> SweepThreshold:
     """The neutral point from the start ``(ω, U*)`` by Newton on ``det T``
-    (:func:`fsistab.transfer.transfer_flutter_point`), labelled: viv within 30 % of
-    ``wake_frequency``, flutter otherwise; onset or restabilisation by the crossing rate."""
+    (:func:`fsistab.transfer.transfer_flutter_point`), labelled from the loads of its last iterate
+    (no further factorisation, :func:`neutral_root`): ``viv`` when the local frequency following
+    of its neutral curve is below ``VIV_FOLLOWING``, ``flutter`` otherwise
+    (:func:`local_following`); onset or restabilisation by the sign of the crossing rate."""
     point = transfer_flutter_point(
         fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter,
         tolerance=NEWTON_STEP, refine=False,
     )  # fmt: skip
     critical = replace(solid, reduced_velocity=point.reduced_velocity)
     mode = point.sample.mode(critical, fluid.theta0, fluid.loads0)
-    rate = _crossing_rate(point.sample, critical, fluid.theta0, fluid.loads0)
-    is_viv = wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
+    root = neutral_root(point.sample, critical, fluid.theta0, fluid.loads0)
+    following = local_following(root)
     return SweepThreshold(
-        "viv" if is_viv else "flutter", "onset" if rate > 0 else "restabilisation",
+        following_kind(following), "onset" if root.crossing_rate > 0 else "restabilisation",
         _branch(mode, solid), solid.mass_ratio, point.reduced_velocity, point.frequency, mode,
-        point.residuals, point.factorisations,
+        point.residuals, point.factorisations, following,
     )  # fmt: skip
 
 
-def _crossing_rate(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> float:
-    """``∂(Re σ)/∂(log U*)`` at fixed m of the neutral mode at ``sample``'s frequency: from
-    ``F_s dσ + F_u du = 0`` and ``du = −u d(log U*)``, ``(u F_u/F_s).real`` (> 0: onset)."""
+def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> NeutralRoot:
+    """The neutral point at ``sample``'s frequency and ``solid``'s ``(m, U*)`` with the exact tangent
+    of its neutral curve, ``d(log m, log U*)/dω`` from ``F(log m, log U*, ω) = 0``, and the crossing
+    rate ``∂(Re σ)/∂(log U*)`` at fixed m, ``(u F_u/F_s).real`` (> 0: onset)
+    (:func:`fsistab.transfer_map._root_with_tangent`, MODEL.md §7–§8). Where the tangent is not
+    defined (``F_m m`` and ``F_u u`` parallel: a fold of the curve in ω, where ``ω`` is stationary
+    along it) its derivatives are infinite."""
     omega = sample.s.imag
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
-    u = 1.0 / solid.reduced_velocity
-    _, _, f_u, f_s = characteristic_function(loads, rate, solid, 1j * omega, solid.mass_ratio, u)
-    return float((u * f_u / f_s).real)
+    m, u = solid.mass_ratio, 1.0 / solid.reduced_velocity
+    try:
+        return _root_with_tangent(loads, rate, solid, omega, m, u)
+    except np.linalg.LinAlgError:
+        _, _, f_u, f_s = characteristic_function(loads, rate, solid, 1j * omega, m, u)
+        return NeutralRoot(omega, m, 1.0 / u, math.inf, math.inf, float((u * f_u / f_s).real))
+
+
+def local_following(root: NeutralRoot) -> float:
+    """The frequency following of the neutral curve through ``root``, at that point:
+    ``|d log ω / d log U*|`` along its exact tangent (:func:`fsistab.neutral.following_ratio` with
+    ``d log ω/dω = 1/ω`` and no mass term): how far the threshold's frequency moves with the solid's
+    frequency scale ``1/U*``. The ranges over a whole curve (:func:`fsistab.neutral.frequency_following`)
+    add ``½ |Δ log m|`` to the denominator, for flat curves whose U* and ω barely change over m;
+    at one point the derivatives stay finite and the mass term would call ``viv`` a flutter curve
+    where m swings at nearly fixed U* (the zig-zags of the coarse plate's flutter curve below
+    m ≈ 30, 0.14–0.42 with it, 0.69–2.4 without). Default mesh, Re 2900 (map points): 0.003–0.26
+    on the VIV curves for m = 3–5000, 1.00–1.03 on the flutter curve; coarse plate: 1.4e-4 and
+    4.5e-3 at the VIV onset (ω = 11.24) and restabilisation (ω = 10.49) at m = 10."""
+    return following_ratio(1.0 / root.frequency, root.dlog_velocity, 0.0)
 
 
 def _static_sample(fluid, static_factor) -> TransferSample:

@@ -401,6 +401,23 @@ class MapCurve:
 VIV_FOLLOWING = 0.5  # a curve whose frequency follows less than half of the solid's is VIV
 
 
+def following_ratio(dlog_frequency: float, dlog_velocity: float, dlog_mass: float) -> float:
+    """``|d log ω| / max(|d log U*|, ½ |d log m|)``: how far the frequency of a neutral curve
+    follows the solid's frequency scale when ``(m, U*)`` move by ``(d log m, d log U*)`` along it
+    (why these weights: :func:`frequency_following`). The changes are either the ranges over the
+    curve's points (:func:`frequency_following`) or the derivatives along its exact tangent at one
+    neutral point (:func:`fsistab.frequency_sweep.local_following`). NaN when neither U* nor m
+    moves."""
+    span = max(abs(dlog_velocity), 0.5 * abs(dlog_mass))
+    return abs(dlog_frequency) / span if span > 0 else math.nan
+
+
+def following_kind(following: float) -> str:
+    """``viv`` when a frequency following (:func:`following_ratio`) is below ``VIV_FOLLOWING``,
+    ``flutter`` otherwise, also when it is NaN (not measurable)."""
+    return "viv" if following < VIV_FOLLOWING else "flutter"
+
+
 def frequency_following(
     mass_ratios: Sequence[float], reduced_velocities: Sequence[float], frequencies: Sequence[float]
 ) -> float:
@@ -426,8 +443,8 @@ def frequency_following(
     keep = (m > 0) & (u > 0) & (w > 0) & np.isfinite(m) & np.isfinite(u) & np.isfinite(w)
     if keep.sum() < 2:
         return math.nan
-    span = max(float(np.ptp(np.log(u[keep]))), 0.5 * float(np.ptp(np.log(m[keep]))))
-    return float(np.ptp(np.log(w[keep])) / span) if span > 0 else math.nan
+    ranges = (np.ptp(np.log(x[keep])) for x in (w, u, m))
+    return float(following_ratio(*ranges))
 
 
 def curve_kind(
@@ -438,9 +455,9 @@ def curve_kind(
     :func:`frequency_following` is below ``VIV_FOLLOWING`` (the frequency stays at the wake mode's
     while the solid's moves), **flutter** otherwise (also when it cannot be measured: a single
     point). Both map methods label by this rule, from the curve alone: no wake-frequency hint and
-    no extra factorisation."""
-    following = frequency_following(mass_ratios, reduced_velocities, frequencies)
-    return "viv" if following < VIV_FOLLOWING else "flutter"
+    no extra factorisation; the threshold sweep applies it at each threshold, to the curve's
+    tangent there (:func:`fsistab.frequency_sweep.local_following`)."""
+    return following_kind(frequency_following(mass_ratios, reduced_velocities, frequencies))
 
 
 def sides_from_role(plane: np.ndarray, seed_index: int, boundary: str) -> tuple[int, ...]:

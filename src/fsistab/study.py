@@ -25,8 +25,11 @@ units, MODEL.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, MODEL.md 
 frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, when given). In order:
 
 1. ``divergence``: a static threshold, ``ω_c = 0`` (:func:`fsistab.critical.divergence_point`);
-2. ``viv`` by the wake: the threshold lies on the tracked wake branch, or ``ω_c`` is within 30 %
-   of ``ω_w`` and nearer to it than to both ``ω_h`` and ``ω_θ``;
+2. ``viv`` by the wake: the threshold is the wake mode's — its own kind is ``viv`` (its frequency
+   stays locked while the solid's moves: the local frequency following of its neutral curve,
+   :func:`fsistab.frequency_sweep.local_following`, which needs no ``ω_w``) or it lies on the
+   tracked wake branch — or ``ω_c`` is within 30 % of ``ω_w`` and nearer to it than to both
+   ``ω_h`` and ``ω_θ``;
 3. for a body with heave and pitch, by mechanism (:func:`single_dof_growth`): the growth rates
    ``λ_h``, ``λ_θ`` of the structural modes of the body with only heave (pitch clamped) and with
    only pitch, at the same ``m`` and ``U*_c``. The critical mode's own dof is the one holding
@@ -48,9 +51,10 @@ frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, whe
    heave alone and pitch alone are both stable there (growth rates −0.003 and −0.014 on the
    coarse mesh), as REFERENCE.md §E says.
 
-Without ``ω_w`` (no ``wake_shift``) rule 2 cannot recognise a lock-in on the wake: a
-fluid-dominated onset at a solid frequency whose dof alone is unstable is then classed
-single-mode flutter by rule 3. Give ``wake_shift`` where the wake frequency may meet a solid one.
+Without ``ω_w`` (no ``wake_shift``) rule 2 rests on the threshold's kind alone: the sweep
+recognises a lock-in on the wake by itself. ``wake_shift`` adds the frequency test, which also
+calls VIV a threshold of kind ``flutter`` (its frequency following the solid's) lying within 30 %
+of ``ω_w`` and nearer to it than to the solid frequencies.
 
 The shares and the ratios ``ω_c/ω_h``, ``ω_c/ω_θ``, ``ω_c/ω_w`` are kept in the study's data, so
 that the class can be checked or redrawn with other thresholds.
@@ -291,8 +295,9 @@ def classify(
     pitch_alone_growth: float = math.nan,
 ) -> str:
     """The class of a threshold (one of :data:`CLASSES`) by the five rules of the module
-    docstring: divergence if ``ω_c = 0``; VIV on the wake branch or within 30 % of ``ω_w`` (and
-    nearer it than ``ω_h`` and ``ω_θ``); with both one-dof growth rates (:func:`single_dof_growth`),
+    docstring: divergence if ``ω_c = 0``; VIV if ``wake_branch`` (the wake mode's threshold: on the
+    tracked wake branch, or of kind ``viv``) or within 30 % of ``ω_w`` (and nearer it than ``ω_h``
+    and ``ω_θ``); with both one-dof growth rates (:func:`single_dof_growth`),
     heave (pitch) single-mode flutter if the mode's own dof (the larger of ``E_h``, ``E_θ``) alone
     is unstable, at its own frequency (within 30 %) when the fluid holds half the energy; VIV when
     the fluid holds half the energy; then coupled-mode flutter with the rates, or, without them,
@@ -341,7 +346,7 @@ def classify(
 def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
     """The class of every threshold of a study's Dataset (:func:`run_study`) by :func:`classify`,
     from what the Dataset keeps: the energy shares, the frequency, the one-dof growth rates, the
-    wake frequency and branch, and ``ω_h = Ω/U*``, ``ω_θ = 1/U*`` from ``U*_c`` and the settings'
+    wake frequency, the branch and kind, and ``ω_h = Ω/U*``, ``ω_θ = 1/U*`` from ``U*_c`` and the settings'
     ``freq_ratio`` (attribute ``settings``; the body's U* convention from attribute ``body``).
     ``""`` where there is no threshold. The one place a class is decided: :func:`run_point`
     applies it to a new point and :func:`assemble` to every point again, so that a study's classes
@@ -382,7 +387,7 @@ def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
                     freq_ratio / velocity,
                     1.0 / velocity,
                     w_w,
-                    branch == "wake",
+                    branch == "wake" or k == "viv",  # rule 2: the threshold's own kind is not overruled
                     r_h,
                     r_t,
                 )
