@@ -19,6 +19,7 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.params import Solid
+from fsistab.reduced_model import relative_error
 from fsistab.store import ResumableTable
 from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
@@ -534,3 +535,42 @@ def test_a_curve_leaving_the_lowest_frequency_is_followed_below_it(fluid, tmp_pa
     assert [u for u, _, kind in fixed.crossings_at(6000.0) if kind == "flutter"] == [flutter[0][0]]
     assert unstable_counts(fixed, 6000.0, velocities[1:]).tolist() == [2]
     assert [(u.low, u.high) for u in fixed.unresolved if u.reason == "range"] == [(0.0, 0.01)]
+
+
+def test_a_viv_curve_unresolved_at_the_smallest_exact_step_is_found_by_a_rational_fit(
+    fluid, tmp_path, monkeypatch
+):
+    """ω ∈ [11.18, 11.3] on this mesh (wake mode −0.07 + 10.81i): a VIV curve crosses m from 1 to
+    100 within Δω ≈ 0.01. Exact samples alone stop at ``min_step`` and draw no curve; a certified
+    rational fit of the same samples (:mod:`fsistab.rational_fit`) refines on with no factorisation
+    and finds it. At its crossing of m = 10 the fit's G equals an exact sample's to 1e-6, the
+    neutral point from that exact sample equals the map's, and the eigen-solver counts no unstable
+    wake-frequency mode 1.5 % below it and one 1.5 % above (the curve is a VIV onset)."""
+    settings_ = dict(mass_range=(1.0, 100.0), omega_range=(11.18, 11.3), initial=5)
+    counter = FactorCounter()
+    tmap = transfer_neutral_map(fluid, Solid(), counter=counter, samples_path=tmp_path / "s.nc", **settings_)
+    assert tmap.rational_fits >= 1 and tmap.interpolated > 0
+    assert counter.count == tmap.factorisations == len(tmap.frequencies) - tmap.interpolated
+    assert not [u for u in tmap.unresolved if u.reason == "min_step"]
+    crossings = [(u, rate) for u, rate, kind in tmap.crossings_at(10.0) if kind != "divergence"]
+    assert len(crossings) == 1 and crossings[0][1] > 0
+    u_viv = crossings[0][0]
+    root = min((r for c in tmap.curves for r in c.roots), key=lambda r: abs(math.log(r.mass_ratio / 10.0)))
+    assert {c.kind for c in tmap.curves} == {"viv"} and abs(root.mass_ratio - 10.0) < 1.0
+    saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
+    assert saved[root.frequency].reduced  # the root came from the fit
+    exact = _sample(fluid, root.frequency)
+    assert relative_error(saved[root.frequency].transfer, exact.transfer) < 1e-6
+    again = neutral_roots(exact, Solid(), fluid.theta0, fluid.loads0, (0.25, 400.0))
+    twin = min(again, key=lambda r: abs(math.log(r.mass_ratio / root.mass_ratio)))
+    assert twin.mass_ratio == pytest.approx(root.mass_ratio, rel=1e-5)
+    assert twin.reduced_velocity == pytest.approx(root.reduced_velocity, rel=1e-6)
+    for factor, expected in ((0.985, 0), (1.015, 1)):
+        system = CoupledSystem(fluid, Solid(mass_ratio=10.0, reduced_velocity=factor * u_viv))
+        pairs = eigenpairs_near(system, [0.01 + 11.2j], 6)
+        unstable = {round(p.value.real, 6) for p in pairs if p.growth_rate > 1e-7 and 10 < p.frequency < 12}
+        assert len(unstable) == expected
+    monkeypatch.setattr("fsistab.transfer_map.FIT_MARGINS", ())  # exact samples alone
+    plain = transfer_neutral_map(fluid, Solid(), samples_path=tmp_path / "plain.nc", **settings_)
+    assert plain.factorisations == tmap.factorisations and not plain.curves
+    assert {u.reason for u in plain.unresolved} == {"min_step"}

@@ -482,7 +482,12 @@ def critical(
     velocity_range: VelocityRange = (2.0, 10.0),
     points: Points = 24,
     wake_shift: Annotated[
-        str | None, typer.Option("--wake-shift", help="shift near the wake mode: its frequency labels VIV")
+        str | None,
+        typer.Option(
+            "--wake-shift",
+            help="shift near the wake mode: samples near its frequency (VIV is labelled without it); "
+            "with --method tracking, the wake mode is followed and labels VIV",
+        ),
     ] = None,
     method: Annotated[
         str,
@@ -578,8 +583,9 @@ MAP_OPTIONS = {
             float | None,
             typer.Option(
                 "--min-step",
-                help="transfer: smallest relative step of the refinement in ω (default 1e-3; reduced "
-                "models: 1e-7); 1e-4 resolves the VIV windows' onsets near the wake mode",
+                help="transfer: smallest relative step of the exact refinement in ω (default 1e-3; "
+                "reduced models: 1e-7); below it a certified rational fit of the samples refines on "
+                "to 1e-7 where it can",
             ),
         ],
         None,
@@ -599,7 +605,9 @@ MAP_OPTIONS = {
         Annotated[
             int | None,
             typer.Option(
-                "--max-frequencies", help="transfer: at most this many sampled ω (default 4000; exact: 400)"
+                "--max-frequencies",
+                help="transfer: at most this many sampled ω (default 4000; exact: 400, not counting "
+                "those from rational fits)",
             ),
         ],
         None,
@@ -698,7 +706,8 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
     if p["method"] == "transfer":
         lines.append(
             f"transfer method: {ds.attrs.get('frequencies', 0)} frequencies sampled "
-            f"({p['reduced_models']} reduced fluid models)"
+            f"({p['reduced_models']} reduced fluid models; {p['interpolated_frequencies']} "
+            f"interpolated by {p['rational_fits']} rational fits of the exact samples)"
         )
     for interval in p["unresolved"]:
         low, high = interval["frequency_range"]
@@ -1046,7 +1055,12 @@ def study(
     velocity_range: VelocityRange = (2.0, 10.0),
     points: Points = 24,
     wake_shift: Annotated[
-        str | None, typer.Option("--wake-shift", help="shift near the wake mode, to follow it too (VIV)")
+        str | None,
+        typer.Option(
+            "--wake-shift",
+            help="shift near the wake mode: samples near its frequency, which the classification "
+            "also tests (rule 2); VIV is recognised without it",
+        ),
     ] = None,
     with_map: Annotated[
         bool, typer.Option("--map", help="the whole (m, U*) map at each point (plate)")
@@ -1169,7 +1183,10 @@ def sensitivity(
     points: Points = 24,
     wake_shift: Annotated[
         str | None,
-        typer.Option("--wake-shift", help="shift near the wake mode: follow it (VIV), map the fixed body's"),
+        typer.Option(
+            "--wake-shift",
+            help="shift near the wake mode: samples near its frequency, and map the fixed body's",
+        ),
     ] = None,
 ):
     """Every threshold along U* with its derivatives dU*_c/dp for p in Re, α0 (per degree), m, Ω,

@@ -48,7 +48,12 @@ damped by 0.03 at ω ≈ 11, between initial frequencies 18 % apart) may leave n
 although its resonance holds whole VIV curves; the samples' values and ``dG/ds`` locate its pole
 (:func:`resonance`, a rational fit), and an interval whose pole lies closer to the axis than half
 its half-width is sampled at the pole's frequency (:func:`unresolved_resonance`), no wake-frequency
-hint needed.
+hint needed. Within that resonance the VIV curves move faster in ``ω`` than exact samples
+``min_step`` apart resolve (at Re 2900 on the default mesh 30 such intervals at ω 10.78–11.26)
+while ``G`` itself is smooth there (its poles lie 0.03–0.2 from the axis, several sample spacings):
+a run of such intervals is refined on with a rational fit of the exact samples around it, certified
+there out of sample and against the samples' exact ``dG/ds`` (:mod:`fsistab.rational_fit`), down
+to ``FIT_MIN_STEP``, with no factorisation.
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 ``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
@@ -82,6 +87,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import MAX_FREQUENCY, Solid
+from fsistab.rational_fit import TransferFit, certified_transfer
 from fsistab.reduced_model import ReducedModels
 from fsistab.store import ResumableTable
 from fsistab.transfer import (
@@ -103,12 +109,18 @@ RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interva
 # the default frequency range is extended down, by halving, while a curve leaves it inside the mass
 # range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
 LOWEST_FREQUENCY = 1e-4
+# an interval of exact samples unresolved at min_step is refined on with a certified rational fit
+# of the exact samples around it (fsistab.rational_fit), this many on each side (more on a retry),
+FIT_MARGINS = (10, 16)
+FIT_MIN_STEP = 1e-7  # down to this relative step (no factorisation: as with reduced models)
+FITTED_SAMPLES = 4000  # and at most this many interpolated frequencies in one map
 
 
 @dataclass(frozen=True)
 class AxisSample:
     """``G(iω)`` and ``dG/ds`` at ``s = iω`` (3 × 4 each, :func:`fsistab.transfer.exact_transfer`);
-    ``reduced`` if they come from a certified reduced model (:mod:`fsistab.reduced_model`)."""
+    ``reduced`` if they come from a certified model, not a factorisation: a reduced fluid model
+    (:mod:`fsistab.reduced_model`) or a rational fit of exact samples (:mod:`fsistab.rational_fit`)."""
 
     frequency: float
     transfer: np.ndarray
@@ -533,6 +545,8 @@ class TransferMap:
     mass_range: tuple[float, float]
     factorisations: int
     unresolved: tuple[UnresolvedInterval, ...]
+    rational_fits: int = 0  # certified rational fits that refined the sampling below min_step
+    interpolated: int = 0  # frequencies sampled from them
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
         # λ is the static load slope per unit inertia r_θ² (MODEL.md §8): U*_D = √(m · 1 / λ)
@@ -571,8 +585,8 @@ def samples_table(path: Path, fluid: FluidOperators) -> ResumableTable:
     flow (:func:`fsistab.transfer.flow_identity`): the fluid's whole contribution to the map,
     reusable for any solid parameters. Fields of each ``sample``: ``frequency``, ``transfer`` (G:
     body-axis loads (F_x, F_y, M) [ρ U² L] per unit (h, θ, ḣ, θ̇) ~ e^{st}, s = i·frequency, time
-    unit L/U), ``transfer_rate`` (dG/ds), ``reduced`` (1 where G comes from a certified reduced
-    model, :mod:`fsistab.reduced_model`)."""
+    unit L/U), ``transfer_rate`` (dG/ds), ``reduced`` (1 where G comes from a certified model, not
+    a factorisation: :mod:`fsistab.reduced_model` or :mod:`fsistab.rational_fit`)."""
     return ResumableTable(path, flow_identity(fluid), SAMPLE_FIELDS)
 
 
@@ -729,15 +743,19 @@ def transfer_neutral_map(
     Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
     resonance at its pole's frequency (:func:`unresolved_resonance`), and bisects every interval
     whose roots are not matched within ``tolerance`` (in ``log m``, ``log U*``) by their tangents,
-    down to a relative step
-    ``min_step`` (intervals still unresolved there — the ends of curves at folds in ``ω`` — are
-    listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born or
-    dying together at a fold are joined); intervals
-    where a curve may cross the whole mass range between the samples (:func:`resultant_tracks`) are
-    bisected down to ``SWEEP_STEP``; at most ``max_samples`` frequencies. With exact samples only
-    (one factorisation each) ``tolerance`` is 1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by
-    default. With ``samples_path`` each sample is saved as it is computed (atomically) and saved
-    samples of the same mesh and flow are reused, for any solid parameters.
+    down to a relative step ``min_step``. With exact samples, a run of intervals still unresolved
+    there (not a fold in ``ω``) goes on with a certified rational fit of the exact samples around
+    it (:func:`fsistab.rational_fit.certified_transfer`, ``FIT_MARGINS`` samples on each side),
+    bisected down to ``FIT_MIN_STEP`` with no factorisation (at most ``FITTED_SAMPLES`` such
+    frequencies). Intervals still unresolved then (folds in ``ω``, or where no fit is certified)
+    are listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born
+    or dying together at a fold are joined. Intervals where a curve may cross the whole mass range
+    between the samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
+    ``max_samples`` frequencies. With exact samples only (one factorisation each) ``tolerance`` is
+    1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by default; ``max_samples`` then counts the
+    exact samples, not the fitted ones. With ``samples_path`` each sample is saved as it is
+    computed (atomically) and saved samples of the same mesh and flow are reused, for any solid
+    parameters.
 
     With ``reduced`` (:class:`fsistab.reduced_model.ReducedModels`), a frequency inside the
     certified interval of a reduced model is evaluated from it (no factorisation); a frequency
@@ -787,7 +805,29 @@ def transfer_neutral_map(
         if table is not None:
             table.save()
 
+    fits: list[TransferFit] = []  # certified rational fits of the exact samples (below min_step)
+
+    def fitted(omega: float) -> TransferFit | None:
+        return next((f for f in fits if f.covers(omega)), None)
+
+    def fit_around(low_end: float, high_end: float) -> TransferFit | None:
+        """A rational fit of the exact samples around ``[low_end, high_end]``, certified there."""
+        exact = np.array(sorted(w for w, x in stored.items() if w > 0 and not x.reduced))
+        first, last = np.searchsorted(exact, low_end, "right") - 1, np.searchsorted(exact, high_end, "left")
+        for margin in FIT_MARGINS:
+            window = exact[max(first - margin, 0) : last + margin + 1]
+            data = [stored[w] for w in window]
+            fit = certified_transfer(
+                window, [x.transfer for x in data], [x.rate for x in data], (low_end, high_end)
+            )
+            if fit is not None:
+                return fit
+        return None
+
     def sample(omega: float) -> AxisSample:
+        if omega not in stored and (fit := fitted(omega)) is not None:
+            g, dg = fit.transfer(omega)
+            keep(AxisSample(omega, g, dg, reduced=True))
         if omega not in stored and reduced is not None:
             model = reduced.covering(omega)
             if model is None and omega > 0 and refined(omega):
@@ -811,6 +851,7 @@ def transfer_neutral_map(
             for w in dict.fromkeys(frequencies)
             if w > 0
             and w not in stored
+            and fitted(w) is None
             and (reduced is None or (reduced.covering(w) is None and not refined(w)))
         ]
         chunk = sample_threads(threads)  # each chunk saved as it finishes: an interruption loses one at most
@@ -840,14 +881,23 @@ def transfer_neutral_map(
     for omega in first:
         add(float(omega))
     unresolved: dict[tuple[float, float], str] = {}  # interval -> reason (UNRESOLVED_REASONS)
+    interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
     while True:
         grid = sorted(roots)
-        todo = []
+        todo, stuck = [], []
         for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
             if (w0, w1) in unresolved:
                 continue
             if not _resolved(roots[w0], roots[w1], w1 - w0, tolerance, inner):
-                smallest, reason = min_step, "min_step"
+                # a fold in ω (a pair of roots of the range born or dying together, as the
+                # resultant's real roots) is no step's to resolve; curves too fast for the step are
+                # refined on with a rational fit
+                fold = min(abs(len(roots[w0]) - len(roots[w1])), abs(len(tracks[w0]) - len(tracks[w1]))) >= 2
+                covered = not fold and any(f.covers(w0) and f.covers(w1) for f in fits)
+                if not covered and not fold and reduced is None and w1 - w0 < min_step * w1:
+                    stuck.append((w0, w1))  # a rational fit of the samples around may go on
+                    continue
+                smallest, reason = (FIT_MIN_STEP if covered else min_step), "min_step"
             elif _swept(tracks[w0], tracks[w1], wide):
                 # a curve may cross the whole range in between: find it
                 smallest, reason = SWEEP_STEP, "sweep"
@@ -864,18 +914,38 @@ def transfer_neutral_map(
                 unresolved[(w0, w1)] = reason
             else:
                 todo.append((w1 - w0, w0, w1, 0.5 * (w0 + w1)))
+        for run in _runs(stuck):
+            # exact samples min_step apart that do not resolve a curve (a VIV curve near the wake
+            # mode moves faster in ω than they are apart) while G is smooth there: refine on with
+            # a certified rational fit of the samples around, no factorisation
+            fit = fit_around(run[0][0], run[-1][1]) if interpolated < FITTED_SAMPLES else None
+            if fit is None:
+                unresolved.update({interval: "min_step" for interval in run})
+                continue
+            fits.append(fit)
+            todo += [(w1 - w0, w0, w1, 0.5 * (w0 + w1)) for w0, w1 in run]
+            say(f"a rational fit certified on ω ∈ [{fit.low:.5g}, {fit.high:.5g}] (error {fit.error:.1e})")
         if follow and grid[0] / 2 >= LOWEST_FREQUENCY and _leaves(roots[grid[0]], inner):
             todo.append((grid[0] / 2, 0.0, grid[0], grid[0] / 2))  # the curve goes on below: follow it
         if not todo:
             break
-        if len(roots) >= max_samples:
-            unresolved.update({(w0, w1): "budget" for _, w0, w1, _ in todo})
-            say(f"stopped at {max_samples} frequencies with {len(todo)} intervals unresolved")
+        # max_samples counts the frequencies whose sample costs a factorisation (or a reduced
+        # model); those from a rational fit cost none and have their own cap
+        spent = len(roots) if reduced is not None else len(roots) - interpolated
+        room = max(max_samples - spent, 0)
+        free = [item for item in todo if fitted(item[-1]) is not None]
+        costly = [item for item in sorted(todo, reverse=True) if fitted(item[-1]) is None]
+        over = costly[room:] + (free if interpolated >= FITTED_SAMPLES else [])
+        if over:
+            unresolved.update({(w0, w1): "budget" for _, w0, w1, _ in over})
+            say(f"stopped at {spent} sampled frequencies with {len(over)} intervals unresolved")
+        batch = [omega for *_, omega in costly[:room] + (free if interpolated < FITTED_SAMPLES else [])]
+        if not batch:
             break
-        batch = [omega for *_, omega in sorted(todo, reverse=True)[: max_samples - len(roots)]]
         prefetch(batch)
         for omega in batch:
             add(omega)
+        interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
         save()  # the round's reduced samples: a rerun samples the same frequencies
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):
@@ -895,7 +965,20 @@ def transfer_neutral_map(
         (float(low), float(high)),
         counter.count - start,
         unresolved_intervals(unresolved, curves),
+        len(fits),
+        interpolated,
     )
+
+
+def _runs(intervals: list[tuple[float, float]]) -> list[list[tuple[float, float]]]:
+    """Adjacent intervals (each starting where the last ends) grouped into runs, in order."""
+    runs: list[list[tuple[float, float]]] = []
+    for interval in sorted(intervals):
+        if runs and runs[-1][-1][1] == interval[0]:
+            runs[-1].append(interval)
+        else:
+            runs.append([interval])
+    return runs
 
 
 def _leaves(roots: list[NeutralRoot], inner: tuple[float, float]) -> bool:

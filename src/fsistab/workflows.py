@@ -404,6 +404,8 @@ def stability_map(
         map_attrs["frequencies"] = len(tmap.frequencies)
         map_attrs["unresolved_intervals"] = len(tmap.unresolved)
         map_attrs["reduced_models"] = len(reduced.models) if reduced else 0
+        map_attrs["rational_fits"] = tmap.rational_fits  # fsistab.rational_fit: below min_step
+        map_attrs["interpolated_frequencies"] = tmap.interpolated
     ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
     ds.attrs["factorisations_this_run"] = counter.count
     ds.attrs["reduced_models"] = len(reduced.models) if reduced else 0
@@ -874,6 +876,8 @@ def _neutral_payload(ds):
         "method": ds.attrs["method"],
         "factorisations": int(ds.attrs["factorisations_this_run"]),
         "reduced_models": int(ds.attrs["reduced_models"]),
+        "rational_fits": int(ds.attrs.get("rational_fits", 0)),
+        "interpolated_frequencies": int(ds.attrs.get("interpolated_frequencies", 0)),
         "data": ds.attrs["data"],
         "figure": ds.attrs["figure"],
     }
