@@ -53,6 +53,9 @@ def main() -> None:
     parser.add_argument("--reduced-blocks", type=int, default=60, help="0: exact samples only")
     parser.add_argument("--reduced-tolerance", type=float, default=1e-7)
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument(
+        "--no-fit-first", action="store_true", help="exact samples: rational fits only below min_step"
+    )
     parser.add_argument("--curve-only", action="store_true", help="continuation: first flutter curve only")
     parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
     args = parser.parse_args()
@@ -101,6 +104,7 @@ def main() -> None:
             samples_path=samples,
             reduced=reduced,
             counter=counter,
+            fit_first=not args.no_fit_first,
         )
         elapsed = time.perf_counter() - t0
         results["transfer"] = (counter.count, elapsed)

@@ -53,7 +53,9 @@ hint needed. Within that resonance the VIV curves move faster in ``ω`` than exa
 while ``G`` itself is smooth there (its poles lie 0.03–0.2 from the axis, several sample spacings):
 a run of such intervals is refined on with a rational fit of the exact samples around it, certified
 there out of sample and against the samples' exact ``dG/ds`` (:mod:`fsistab.rational_fit`), down
-to ``FIT_MIN_STEP``, with no factorisation.
+to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried first, before any exact bisection
+(``fit_first``): wherever the samples already certify one, the refinement costs no factorisation
+(at Re 2900 on the `quick` mesh 205 exact samples instead of 240 for the same map).
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
 ``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
@@ -109,10 +111,12 @@ RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interva
 # the default frequency range is extended down, by halving, while a curve leaves it inside the mass
 # range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
 LOWEST_FREQUENCY = 1e-4
-# an interval of exact samples unresolved at min_step is refined on with a certified rational fit
-# of the exact samples around it (fsistab.rational_fit), this many on each side (more on a retry),
+# an interval of exact samples unresolved (before an exact bisection, and at min_step) is refined on
+# with a certified rational fit of the exact samples around it (fsistab.rational_fit), this many on
+# each side (more on a retry),
 FIT_MARGINS = (10, 16)
 FIT_MIN_STEP = 1e-7  # down to this relative step (no factorisation: as with reduced models)
+FIT_FIRST_SPAN = 2  # a fit before exact bisection is certified this many exact samples beyond its run
 FITTED_SAMPLES = 4000  # and at most this many interpolated frequencies in one map
 
 
@@ -727,6 +731,7 @@ def transfer_neutral_map(
     counter: FactorCounter | None = None,
     progress: Callable[[str], None] | None = None,
     threads: int | None = None,
+    fit_first: bool = True,
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
@@ -747,9 +752,12 @@ def transfer_neutral_map(
     there (not a fold in ``ω``) goes on with a certified rational fit of the exact samples around
     it (:func:`fsistab.rational_fit.certified_transfer`, ``FIT_MARGINS`` samples on each side),
     bisected down to ``FIT_MIN_STEP`` with no factorisation (at most ``FITTED_SAMPLES`` such
-    frequencies). Intervals still unresolved then (folds in ``ω``, or where no fit is certified)
-    are listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born
-    or dying together at a fold are joined. Intervals where a curve may cross the whole mass range
+    frequencies). With ``fit_first`` (the default) such a fit is tried before each round's exact
+    bisections too (unmatched roots or a possible sweep), on each run of intervals to bisect and
+    ``FIT_FIRST_SPAN`` exact samples beyond it: where it is certified, the bisections there are made
+    on it. Intervals still unresolved then (folds in ``ω``, or where no fit is certified) are
+    listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born or
+    dying together at a fold are joined. Intervals where a curve may cross the whole mass range
     between the samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
     ``max_samples`` frequencies. With exact samples only (one factorisation each) ``tolerance`` is
     1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by default; ``max_samples`` then counts the
@@ -824,6 +832,14 @@ def transfer_neutral_map(
                 return fit
         return None
 
+    def certify(low_end: float, high_end: float) -> bool:
+        """Whether a fit of the exact samples is certified on ``[low_end, high_end]`` (kept)."""
+        fit = fit_around(low_end, high_end)
+        if fit is not None:
+            fits.append(fit)
+            say(f"a rational fit certified on ω ∈ [{fit.low:.5g}, {fit.high:.5g}] (error {fit.error:.1e})")
+        return fit is not None
+
     def sample(omega: float) -> AxisSample:
         if omega not in stored and (fit := fitted(omega)) is not None:
             g, dg = fit.transfer(omega)
@@ -884,7 +900,7 @@ def transfer_neutral_map(
     interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
     while True:
         grid = sorted(roots)
-        todo, stuck = [], []
+        todo, stuck, pending = [], [], []
         for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
             if (w0, w1) in unresolved:
                 continue
@@ -897,12 +913,16 @@ def transfer_neutral_map(
                 if not covered and not fold and reduced is None and w1 - w0 < min_step * w1:
                     stuck.append((w0, w1))  # a rational fit of the samples around may go on
                     continue
+                if fit_first and not covered and not fold and reduced is None:
+                    pending.append((w0, w1))
                 smallest, reason = (FIT_MIN_STEP if covered else min_step), "min_step"
             elif _swept(tracks[w0], tracks[w1], wide):
                 # a curve may cross the whole range in between: find it
                 smallest, reason = SWEEP_STEP, "sweep"
                 if w1 - w0 < smallest * w1 and not _swept(tracks[w0], tracks[w1], wide, settled=True):
                     continue  # at the finest step: a pole of m, or roots born outside the range
+                if fit_first and reduced is None and not any(f.covers(w0) and f.covers(w1) for f in fits):
+                    pending.append((w0, w1))
             elif (pole := unresolved_resonance(stored[w0], stored[w1])) is not None:
                 # a weakly damped fluid mode between the samples (the wake mode's VIV curves lie
                 # within its resonance and may leave no root at either sample): sample at its pole
@@ -918,13 +938,19 @@ def transfer_neutral_map(
             # exact samples min_step apart that do not resolve a curve (a VIV curve near the wake
             # mode moves faster in ω than they are apart) while G is smooth there: refine on with
             # a certified rational fit of the samples around, no factorisation
-            fit = fit_around(run[0][0], run[-1][1]) if interpolated < FITTED_SAMPLES else None
-            if fit is None:
+            if interpolated < FITTED_SAMPLES and certify(run[0][0], run[-1][1]):
+                todo += [(w1 - w0, w0, w1, 0.5 * (w0 + w1)) for w0, w1 in run]
+            else:
                 unresolved.update({interval: "min_step" for interval in run})
-                continue
-            fits.append(fit)
-            todo += [(w1 - w0, w0, w1, 0.5 * (w0 + w1)) for w0, w1 in run]
-            say(f"a rational fit certified on ω ∈ [{fit.low:.5g}, {fit.high:.5g}] (error {fit.error:.1e})")
+        exact = np.array(sorted(w for w, x in stored.items() if w > 0 and not x.reduced))
+        for run in _runs(pending):
+            # before bisecting exactly (the midpoints are in todo): a fit of the samples around,
+            # certified over the run and FIT_FIRST_SPAN exact samples on each side, makes these
+            # midpoints and the refinement around them free
+            if interpolated < FITTED_SAMPLES and fitted(0.5 * (run[0][0] + run[0][1])) is None:
+                a = max(np.searchsorted(exact, run[0][0], "right") - 1 - FIT_FIRST_SPAN, 0)
+                b = min(np.searchsorted(exact, run[-1][1], "left") + FIT_FIRST_SPAN, len(exact) - 1)
+                certify(float(exact[a]), float(exact[b]))
         if follow and grid[0] / 2 >= LOWEST_FREQUENCY and _leaves(roots[grid[0]], inner):
             todo.append((grid[0] / 2, 0.0, grid[0], grid[0] / 2))  # the curve goes on below: follow it
         if not todo:
