@@ -537,6 +537,15 @@ def test_a_curve_leaving_the_lowest_frequency_is_followed_below_it(fluid, tmp_pa
     assert [(u.low, u.high) for u in fixed.unresolved if u.reason == "range"] == [(0.0, 0.01)]
 
 
+def _assert_root_of_exact_sample(fluid, root, exact):
+    """A map root from an interpolated frequency: the neutral point nearest it from the exact
+    sample ``exact`` at that frequency is the same (1e-5 in m, 1e-6 in U*)."""
+    again = neutral_roots(exact, Solid(), fluid.theta0, fluid.loads0, (0.25, 400.0))
+    twin = min(again, key=lambda r: abs(math.log(r.mass_ratio / root.mass_ratio)))
+    assert twin.mass_ratio == pytest.approx(root.mass_ratio, rel=1e-5)
+    assert twin.reduced_velocity == pytest.approx(root.reduced_velocity, rel=1e-6)
+
+
 def test_a_viv_curve_unresolved_at_the_smallest_exact_step_is_found_by_a_rational_fit(
     fluid, tmp_path, monkeypatch
 ):
@@ -563,10 +572,7 @@ def test_a_viv_curve_unresolved_at_the_smallest_exact_step_is_found_by_a_rationa
     assert saved[root.frequency].reduced  # the root came from the fit
     exact = _sample(fluid, root.frequency)
     assert relative_error(saved[root.frequency].transfer, exact.transfer) < 1e-6
-    again = neutral_roots(exact, Solid(), fluid.theta0, fluid.loads0, (0.25, 400.0))
-    twin = min(again, key=lambda r: abs(math.log(r.mass_ratio / root.mass_ratio)))
-    assert twin.mass_ratio == pytest.approx(root.mass_ratio, rel=1e-5)
-    assert twin.reduced_velocity == pytest.approx(root.reduced_velocity, rel=1e-6)
+    _assert_root_of_exact_sample(fluid, root, exact)
     for factor, expected in ((0.985, 0), (1.015, 1)):
         system = CoupledSystem(fluid, Solid(mass_ratio=10.0, reduced_velocity=factor * u_viv))
         pairs = eigenpairs_near(system, [0.01 + 11.2j], 6)
@@ -601,7 +607,4 @@ def test_fits_tried_before_exact_bisection_draw_the_same_map_with_fewer_factoris
     saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
     fitted = [r for c in tmap.curves for r in c.roots if saved[r.frequency].reduced]
     root = next(r for r in fitted if 2 < r.mass_ratio < 50)
-    again = neutral_roots(_sample(fluid, root.frequency), Solid(), fluid.theta0, fluid.loads0, (0.25, 400.0))
-    twin = min(again, key=lambda r: abs(math.log(r.mass_ratio / root.mass_ratio)))
-    assert twin.mass_ratio == pytest.approx(root.mass_ratio, rel=1e-5)
-    assert twin.reduced_velocity == pytest.approx(root.reduced_velocity, rel=1e-6)
+    _assert_root_of_exact_sample(fluid, root, _sample(fluid, root.frequency))

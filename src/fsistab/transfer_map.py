@@ -819,10 +819,18 @@ def transfer_neutral_map(
     def fitted(omega: float) -> TransferFit | None:
         return next((f for f in fits if f.covers(omega)), None)
 
-    def fit_around(low_end: float, high_end: float) -> TransferFit | None:
-        """A rational fit of the exact samples around ``[low_end, high_end]``, certified there."""
+    def spanned(w0: float, w1: float) -> bool:
+        """Whether one certified fit covers both ends of ``[w0, w1]``."""
+        return any(f.covers(w0) and f.covers(w1) for f in fits)
+
+    def fit_around(low_end: float, high_end: float, beyond: int = 0) -> TransferFit | None:
+        """A rational fit of the exact samples around ``[low_end, high_end]``, certified there,
+        the interval first widened to the ``beyond``-th exact sample outside it on each side."""
         exact = np.array(sorted(w for w, x in stored.items() if w > 0 and not x.reduced))
         first, last = np.searchsorted(exact, low_end, "right") - 1, np.searchsorted(exact, high_end, "left")
+        if beyond:
+            first, last = max(first - beyond, 0), min(last + beyond, len(exact) - 1)
+            low_end, high_end = float(exact[first]), float(exact[last])
         for margin in FIT_MARGINS:
             window = exact[max(first - margin, 0) : last + margin + 1]
             data = [stored[w] for w in window]
@@ -833,9 +841,10 @@ def transfer_neutral_map(
                 return fit
         return None
 
-    def certify(low_end: float, high_end: float) -> bool:
-        """Whether a fit of the exact samples is certified on ``[low_end, high_end]`` (kept)."""
-        fit = fit_around(low_end, high_end)
+    def certify(low_end: float, high_end: float, beyond: int = 0) -> bool:
+        """Whether a fit of the exact samples is certified around ``[low_end, high_end]`` (kept;
+        :func:`fit_around`)."""
+        fit = fit_around(low_end, high_end, beyond)
         if fit is not None:
             fits.append(fit)
             say(f"a rational fit certified on ω ∈ [{fit.low:.5g}, {fit.high:.5g}] (error {fit.error:.1e})")
@@ -910,7 +919,7 @@ def transfer_neutral_map(
                 # resultant's real roots) is no step's to resolve; curves too fast for the step are
                 # refined on with a rational fit
                 fold = min(abs(len(roots[w0]) - len(roots[w1])), abs(len(tracks[w0]) - len(tracks[w1]))) >= 2
-                covered = not fold and any(f.covers(w0) and f.covers(w1) for f in fits)
+                covered = not fold and spanned(w0, w1)
                 if not covered and not fold and reduced is None and w1 - w0 < min_step * w1:
                     stuck.append((w0, w1))  # a rational fit of the samples around may go on
                     continue
@@ -922,7 +931,7 @@ def transfer_neutral_map(
                 smallest, reason = SWEEP_STEP, "sweep"
                 if w1 - w0 < smallest * w1 and not _swept(tracks[w0], tracks[w1], wide, settled=True):
                     continue  # at the finest step: a pole of m, or roots born outside the range
-                if fit_first and reduced is None and not any(f.covers(w0) and f.covers(w1) for f in fits):
+                if fit_first and reduced is None and not spanned(w0, w1):
                     pending.append((w0, w1))
             elif (pole := unresolved_resonance(stored[w0], stored[w1])) is not None:
                 # a weakly damped fluid mode between the samples (the wake mode's VIV curves lie
@@ -943,15 +952,12 @@ def transfer_neutral_map(
                 todo += [(w1 - w0, w0, w1, 0.5 * (w0 + w1)) for w0, w1 in run]
             else:
                 unresolved.update({interval: "min_step" for interval in run})
-        exact = np.array(sorted(w for w, x in stored.items() if w > 0 and not x.reduced))
         for run in _runs(pending):
             # before bisecting exactly (the midpoints are in todo): a fit of the samples around,
             # certified over the run and FIT_FIRST_SPAN exact samples on each side, makes these
             # midpoints and the refinement around them free
             if interpolated < FITTED_SAMPLES and fitted(0.5 * (run[0][0] + run[0][1])) is None:
-                a = max(np.searchsorted(exact, run[0][0], "right") - 1 - FIT_FIRST_SPAN, 0)
-                b = min(np.searchsorted(exact, run[-1][1], "left") + FIT_FIRST_SPAN, len(exact) - 1)
-                certify(float(exact[a]), float(exact[b]))
+                certify(run[0][0], run[-1][1], FIT_FIRST_SPAN)
         if follow and grid[0] / 2 >= LOWEST_FREQUENCY and _leaves(roots[grid[0]], inner):
             todo.append((grid[0] / 2, 0.0, grid[0], grid[0] / 2))  # the curve goes on below: follow it
         if not todo:
