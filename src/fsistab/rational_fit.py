@@ -1,5 +1,6 @@
 """Local rational models of the fluid's transfer function from its exact samples (MODEL.md §7):
-the neutral map's refinement below the smallest exact step, at no factorisation.
+the neutral map's refinement wherever they certify one (before an exact bisection, and below
+the smallest exact step), at no factorisation.
 
 ``G(s)`` (:func:`fsistab.transfer.exact_transfer`) is rational in ``s``; its poles are the fixed
 body's fluid eigenvalues. Near the wake mode (the plate at Re 2900: ``−0.032 + 11.098i``) the VIV
