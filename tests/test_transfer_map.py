@@ -303,6 +303,28 @@ def test_the_two_branches_of_a_fold_in_frequency_are_joined():
     assert len(separate) == 2 and not separate[0].crossings_at(1.0)  # no birth seen: no join
 
 
+def test_a_power_law_branch_is_matched_and_interpolated_exactly_in_log_frequency():
+    """At large m the restabilisation branch is close to a power law, m ∝ ω⁻² and U* ∝ ω⁻¹: on
+    m = 10 ω⁻², U* = 0.8 ω⁻¹ the roots at the initial frequencies 0.01 and 0.0118 (their ratio)
+    predict each other along ``log ω`` to rounding, where along ``ω`` they miss by 0.029 (three
+    times the default tolerance, so the interval would be bisected), and the curve between them
+    crosses m = 8 10⁴ at the power law's U* and ω."""
+    from fsistab.transfer_map import NeutralRoot, _assemble, _match, log_step
+
+    def root(omega):
+        return NeutralRoot(omega, 10 / omega**2, 0.8 / omega, -2 / omega, -1 / omega, -1.0)
+
+    w0, w1 = 0.01, 0.0118
+    ((i, j, miss),) = _match([root(w0)], [root(w1)], log_step(w0, w1), 1e-2)
+    assert miss < 1e-12
+    linear = max(abs(root(w0).plane + (w1 - w0) * root(w0).tangent - root(w1).plane))
+    assert linear > 0.028
+    (curve,) = _assemble({w: [root(w)] for w in (w0, w1)}, {w: np.ones((1, 2)) for w in (w0, w1)}, (1e4, 1e6))
+    ((velocity, omega, rate),) = curve.crossings_at(8e4)
+    assert omega == pytest.approx(math.sqrt(10 / 8e4), rel=1e-12)
+    assert velocity == pytest.approx(0.8 / math.sqrt(10 / 8e4), rel=1e-12) and rate < 0
+
+
 # --- map outputs (issue 14, item 4) ----------------------------------------------------------------
 
 # quasi-steady loads A(s) = A0 + A1 s + A2 s² (rows C_L, C_M; columns h, θ): stiffness, damping and

@@ -26,39 +26,43 @@ frequency intervals (:mod:`fsistab.reduced_model`, one factorisation per model),
 map is neither the number of points nor, with reduced models, the number of frequencies.
 
 Frequencies are added where the curves are not yet resolved: between two samples every root is
-predicted at the other sample from its exact tangent ``d(log m, log U*)/dω`` (implicit
+predicted at the other sample from its exact tangent ``d(log m, log U*)/d log ω`` (implicit
 differentiation of ``F``, with ``dG/ds``); the interval is bisected until each root in the mass
 range is matched to one on the other side within ``tolerance`` in ``(log m, log U*)``. Between
-samples the curves are cubic Hermite interpolants in ``ω`` (values and exact tangents), whose error
-is about the square of the matching tolerance. Curves that end (folds in ``ω``, or curves too fast
-in ω, like lock-in boundaries near the wake frequency) are located down to ``min_step``; two
-branches born (or dying) together at a fold in ``ω`` are joined into one curve through it, by a
-Hermite cubic in a chord parameter (the curve is smooth in the ``(m, U*)`` plane there; only its
-parametrisation by ``ω`` turns). A curve can also cross the whole mass range inside one interval
-(near the wake frequency a lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root
-at either end; the real roots of the resultant are tracked with their ``m`` of any sign, and an
-interval where a pair of them is born or dies, or one passes through ``m = 0`` or ``∞`` or across
-the range, is bisected down to ``SWEEP_STEP`` until the curve shows up; at that step a root that
-changes sign beyond the range (through ``m = ∞``, a pole of the neutral mass) or below it (through
-0), or roots born outside the range on one side, settle the interval without a curve
-(:func:`_swept`). With an undamped dof the resultant vanishes at its in-vacuo resonance at every
-frequency (:func:`undamped_resonances`, ``m = ∞``); that root is divided out.
-A weakly damped fluid mode between two samples much farther apart than its damping (the wake mode,
-damped by 0.03 at ω ≈ 11, between initial frequencies 18 % apart) may leave no root at either
-although its resonance holds whole VIV curves; the samples' values and ``dG/ds`` locate its pole
-(:func:`resonance`, a rational fit), and an interval whose pole lies closer to the axis than half
-its half-width is sampled at the pole's frequency (:func:`unresolved_resonance`), no wake-frequency
-hint needed. Within that resonance the VIV curves move faster in ``ω`` than exact samples
-``min_step`` apart resolve (at Re 2900 on the default mesh 30 such intervals at ω 10.78–11.26)
-while ``G`` itself is smooth there (its poles lie 0.03–0.2 from the axis, several sample spacings):
-a run of such intervals is refined on with a rational fit of the exact samples around it, certified
-there out of sample and against the samples' exact ``dG/ds`` (:mod:`fsistab.rational_fit`), down
-to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried first, before any exact bisection
-(``fit_first``): wherever the samples already certify one, the refinement costs no factorisation
-(at Re 2900: 195 factorisations instead of 237 on the default mesh, 205 instead of 240 on `quick`,
-for the same map).
-Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of
-``A(0)`` relative to ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
+samples the curves are cubic Hermite interpolants in ``log ω`` (values and exact tangents), whose
+error is about the square of the matching tolerance. The parameter is ``log ω`` rather than ``ω``
+because the curves are close to power laws at low frequency (the restabilisation branch, ``m ∝
+ω⁻²``): with ``ω`` the tangents' errors on the log-spaced initial frequencies there exceed the
+tolerance and every interval below ω ≈ 0.1 was bisected once more (on `quick`, 30 exact samples
+below ω = 0.1 instead of 16, 188 in all instead of 205, the same crossings to 3e-6 and both within
+1e-5 of Newton's thresholds). Curves that end (folds in ``ω``, or curves too fast in ω, like lock-in
+boundaries near the wake frequency) are located down to ``min_step``; two branches born (or dying)
+together at a fold in ``ω`` are joined into one curve through it, by a Hermite cubic in a chord
+parameter (the curve is smooth in the ``(m, U*)`` plane there; only its parametrisation by ``ω``
+turns). A curve can also cross the whole mass range inside one interval (near the wake frequency a
+lock-in onset spans m from 0.07 to 95 within Δω = 0.02) and leave no root at either end; the real
+roots of the resultant are tracked with their ``m`` of any sign, and an interval where a pair of
+them is born or dies, or one passes through ``m = 0`` or ``∞`` or across the range, is bisected down
+to ``SWEEP_STEP`` until the curve shows up; at that step a root that changes sign beyond the range
+(through ``m = ∞``, a pole of the neutral mass) or below it (through 0), or roots born outside the
+range on one side, settle the interval without a curve (:func:`_swept`). With an undamped dof the
+resultant vanishes at its in-vacuo resonance at every frequency (:func:`undamped_resonances`, ``m =
+∞``); that root is divided out. A weakly damped fluid mode between two samples much farther apart
+than its damping (the wake mode, damped by 0.03 at ω ≈ 11, between initial frequencies 18 % apart)
+may leave no root at either although its resonance holds whole VIV curves; the samples' values and
+``dG/ds`` locate its pole (:func:`resonance`, a rational fit), and an interval whose pole lies
+closer to the axis than half its half-width is sampled at the pole's frequency
+(:func:`unresolved_resonance`), no wake-frequency hint needed. Within that resonance the VIV curves
+move faster in ``ω`` than exact samples ``min_step`` apart resolve (at Re 2900 on the default mesh
+30 such intervals at ω 10.78–11.26) while ``G`` itself is smooth there (its poles lie 0.03–0.2 from
+the axis, several sample spacings): a run of such intervals is refined on with a rational fit of the
+exact samples around it, certified there out of sample and against the samples' exact ``dG/ds``
+(:mod:`fsistab.rational_fit`), down to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried
+first, before any exact bisection (``fit_first``): wherever the samples already certify one, the
+refinement costs no factorisation (at Re 2900: 195 factorisations instead of 237 on the default
+mesh, 205 instead of 240 on `quick`, for the same map; 172 and 188 with ``log ω`` as the parameter).
+Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of ``A(0)`` relative to
+``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
 The side that is unstable follows from the crossing rate ``∂(Re σ)/∂(log U*)`` at fixed ``m``
 (``dσ = −F_u du / F_s``): positive is an onset of instability as U* grows, negative a
@@ -78,6 +82,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -153,6 +158,18 @@ class NeutralRoot:
     @property
     def tangent(self) -> np.ndarray:
         return np.array([self.dlog_mass, self.dlog_velocity])
+
+    @property
+    def log_tangent(self) -> np.ndarray:
+        """The tangent along ``log ω``: ``ω d(log m, log U*)/dω``."""
+        return self.frequency * self.tangent
+
+
+def log_step(w0: float, w1: float) -> float:
+    """The step in ``log ω`` between two sampled frequencies (> 0), the parameter of the map's
+    curves: at low frequency they are close to power laws of ω (the restabilisation branch,
+    ``m ∝ ω⁻²`` at large m), straight in ``(log ω, log m, log U*)`` but curved against ``ω``."""
+    return math.log(w1 / w0)
 
 
 def second_order_loads(
@@ -429,6 +446,11 @@ def divergence_lines(
     return np.array(lambdas), np.array(rates)
 
 
+def _geometric(omega0: float, step: float, tau: float) -> float:
+    """``ω`` at ``τ ∈ [0, 1]`` of a segment from ``omega0`` that is ``step`` long in ``log ω``."""
+    return float(omega0 * math.exp(step * tau))
+
+
 def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: float) -> np.ndarray:
     """Cubic Hermite coefficients in ``τ ∈ [0, 1]`` (ascending, one column per component)."""
     d = x1 - x0
@@ -438,7 +460,7 @@ def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: 
 @dataclass(frozen=True)
 class TransferCurve:
     """A neutral curve: exact neutral points at the sampled frequencies, in order along the curve,
-    joined by cubic Hermite interpolants in ``ω``; ``kind`` is ``flutter`` or ``viv``.
+    joined by cubic Hermite interpolants in ``log ω``; ``kind`` is ``flutter`` or ``viv``.
 
     ``folds`` lists ``(k, s)`` for segments ``k`` that pass through a fold in ``ω`` (two roots at
     the same sampled frequency, a pair born or dying just beyond it): there the Hermite runs in a
@@ -451,20 +473,20 @@ class TransferCurve:
 
     def _segments(self):
         """Per interval: the roots, the cubic Hermite of ``(log m, log U*)`` in ``τ ∈ [0, 1]``
-        (values and exact tangents), ``ω`` along it (linear; constant across a fold) and
-        ``rate/(d log m/dτ)`` at both ends."""
+        (values and exact tangents), ``ω(τ)`` along it (geometric, ``log ω`` linear in ``τ``;
+        constant across a fold) and ``rate/(d log m/dτ)`` at both ends."""
         folds = dict(self.folds)
         for k, (r0, r1) in enumerate(zip(self.roots[:-1], self.roots[1:], strict=True)):
-            h = r1.frequency - r0.frequency
             if k in folds:
                 chord = float(np.linalg.norm(r1.plane - r0.plane))
                 unit = lambda t: t / max(float(np.linalg.norm(t)), 1e-300)  # noqa: E731
                 start, end = folds[k] * chord * unit(r0.tangent), -folds[k] * chord * unit(r1.tangent)
                 plane = _hermite(r0.plane, start, r1.plane, end, 1.0)
-                omega = np.array([r0.frequency, 0.0, 0.0, 0.0])
+                omega = partial(_geometric, r0.frequency, 0.0)
             else:
-                plane = _hermite(r0.plane, r0.tangent, r1.plane, r1.tangent, h)
-                omega = np.array([r0.frequency, h, 0.0, 0.0])
+                step = log_step(r0.frequency, r1.frequency)
+                plane = _hermite(r0.plane, r0.log_tangent, r1.plane, r1.log_tangent, step)
+                omega = partial(_geometric, r0.frequency, step)
             slope = npoly.polyder(plane[:, 0])
             ends = (npoly.polyval(0.0, slope), npoly.polyval(1.0, slope))
             q = tuple(r.crossing_rate / d if d else 0.0 for r, d in zip((r0, r1), ends, strict=True))
@@ -490,7 +512,7 @@ class TransferCurve:
                     tau = float(np.clip(tau.real, 0, 1))
                     log_u = npoly.polyval(tau, coef[:, 1])
                     rate = (q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0]))
-                    found.append((math.exp(log_u), float(npoly.polyval(tau, omega)), rate))
+                    found.append((math.exp(log_u), omega(tau), rate))
         unique = []
         for u, w, rate in found:  # a root at a shared sample is found from both sides
             if all(abs(u - v) > 1e-10 * u for v, _, _ in unique):
@@ -500,7 +522,7 @@ class TransferCurve:
     def turning_points(self) -> list[tuple[float, float, float]]:
         """``(m, U*, ω)`` where ``m`` is extremal along the curve (turning points of MODEL.md §8)."""
         points = []
-        for _, _, coef, omega_coef, _ in self._segments():
+        for _, _, coef, omega, _ in self._segments():
             slope = npoly.polyder(coef[:, 0])
             for tau in npoly.polyroots(npoly.polytrim(slope, tol=0.0)) if np.any(slope[1:]) else []:
                 if abs(tau.imag) < 1e-12 and 0 < tau.real < 1:
@@ -509,8 +531,7 @@ class TransferCurve:
                     after = npoly.polyval(tau + 1e-6, slope)
                     if before * after < 0:
                         x = npoly.polyval(tau, coef)
-                        omega = float(npoly.polyval(tau, omega_coef))
-                        points.append((math.exp(x[0]), math.exp(x[1]), omega))
+                        points.append((math.exp(x[0]), math.exp(x[1]), omega(tau)))
         return points
 
 
@@ -614,16 +635,16 @@ def read_samples(table: ResumableTable) -> dict[float, AxisSample]:
 
 
 def _match(
-    left: list[NeutralRoot], right: list[NeutralRoot], h: float, limit: float
+    left: list[NeutralRoot], right: list[NeutralRoot], step: float, limit: float
 ) -> list[tuple[int, int, float]]:
-    """Pairs ``(i, j, d)`` of roots at two adjacent frequencies ``h`` apart, ``d`` the larger of
-    the two tangent predictions' errors (∞-norm in ``(log m, log U*)``), greedy by ``d`` below
-    ``limit``."""
+    """Pairs ``(i, j, d)`` of roots at two adjacent frequencies ``step`` apart in ``log ω``
+    (:func:`log_step`), ``d`` the larger of the two tangent predictions' errors (∞-norm in
+    ``(log m, log U*)``), greedy by ``d`` below ``limit``."""
     pairs = []
     for i, a in enumerate(left):
         for j, b in enumerate(right):
-            forward = np.abs(a.plane + h * a.tangent - b.plane).max()
-            backward = np.abs(b.plane - h * b.tangent - a.plane).max()
+            forward = np.abs(a.plane + step * a.log_tangent - b.plane).max()
+            backward = np.abs(b.plane - step * b.log_tangent - a.plane).max()
             pairs.append((max(forward, backward), i, j))
     used_left, used_right, matches = set(), set(), []
     for d, i, j in sorted(pairs):
@@ -634,9 +655,9 @@ def _match(
     return matches
 
 
-def _resolved(left, right, h, tolerance, inner) -> bool:
+def _resolved(left, right, step, tolerance, inner) -> bool:
     """Every root inside ``inner`` (a mass range) on either side is matched within ``tolerance``."""
-    matches = _match(left, right, h, tolerance)
+    matches = _match(left, right, step, tolerance)
     done_left = {i for i, _, _ in matches}
     done_right = {j for _, j, _ in matches}
     need = lambda roots, done: all(  # noqa: E731
@@ -914,7 +935,7 @@ def transfer_neutral_map(
         for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
             if (w0, w1) in unresolved:
                 continue
-            if not _resolved(roots[w0], roots[w1], w1 - w0, tolerance, inner):
+            if not _resolved(roots[w0], roots[w1], log_step(w0, w1), tolerance, inner):
                 # a fold in ω (a pair of roots of the range born or dying together, as the
                 # resultant's real roots) is no step's to resolve; curves too fast for the step are
                 # refined on with a rational fit
@@ -1049,7 +1070,7 @@ def _assemble(
     successor: dict[tuple[float, int], tuple[float, int]] = {}
     has_predecessor = set()
     for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
-        for i, j, _ in _match(roots[w0], roots[w1], w1 - w0, 0.25):
+        for i, j, _ in _match(roots[w0], roots[w1], log_step(w0, w1), 0.25):
             successor[(w0, i)] = (w1, j)
             has_predecessor.add((w1, j))
     chains = []
