@@ -204,6 +204,22 @@ def test_stability_map_draws_the_curves_turning_points_and_crossings(tmp_path, f
     assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
 
 
+def test_stability_map_axes_are_the_mass_range_even_where_a_line_runs_beyond_it(tmp_path, figures):
+    """A curve's first point beyond the mass range (kept so that its line reaches the edge; at
+    Re 2900 the upper flutter branch's is m = 1.4e4, U* = 160 on a map to m = 10⁴) is drawn, but
+    the axes stay the map's mass range (the U* range holds the whole line, which crosses the edge
+    between its points)."""
+    from fsistab.plots import plot_stability_map
+
+    masses = np.geomspace(1, 1e4, 50)
+    flutter = ("flutter", [1000.0, 1e4, 1.4e4], [41.6, 132.0, 160.0])
+    plot_stability_map([flutter], (masses, 0.23 * np.sqrt(masses)), tmp_path / "map.png")
+    ax = figures[-1].axes[0]
+    assert _has_line(ax, flutter[1], flutter[2])
+    assert ax.get_xlim() == pytest.approx((1.0, 1e4))
+    assert ax.get_ylim()[1] == pytest.approx(160.0 * 1.5)
+
+
 def _map_dataset():
     from fsistab.neutral import neutral_map_dataset
 

@@ -847,6 +847,9 @@ def plot_stability_map(
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(bottom, top)
+    if len(m_div):  # the map's mass range, which the divergence line spans: a curve's first point
+        # beyond it (kept so that its line reaches the edge) does not widen the axes
+        ax.set_xlim(m_div.min(), m_div.max())
     ax.set_xlabel("mass ratio m")
     ax.set_ylabel("reduced velocity U*")
     secondary = ax.secondary_yaxis("right", functions=(_reciprocal, _reciprocal))
