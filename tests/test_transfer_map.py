@@ -25,6 +25,7 @@ from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
     SAMPLE_FIELDS,
     AxisSample,
+    _born_outside,
     _real_resultant,
     _swept,
     characteristic_function,
@@ -257,6 +258,31 @@ def test_at_the_finest_step_a_pole_or_a_birth_outside_the_band_is_not_a_sweep():
     ]
     for left, right in ambiguous:
         assert _swept(left, right, band, settled=True)
+
+
+def test_a_young_pair_born_outside_the_band_on_one_side_settles_at_min_step():
+    """A pair of resultant roots born between two frequencies (the plate at Re 2900 near ω = 9.2:
+    v 0.9597 and 0.9737, m −2.20 and −2.43, 0.003 after the birth at m ≈ −2.31) is settled at
+    ``min_step`` when both its roots lie on one side outside the band and close together in v; a
+    pair straddling the band, one with a root in it, one far apart in v (not just born), two pairs,
+    or another root that sweeps, is not."""
+    band = (0.25, 4e4)
+    before = np.array([[0.8148, -3.47]])
+    young = np.array([[0.8148, -3.4654], [0.9597, -2.2009], [0.9737, -2.4294]])
+    assert _swept(before, young, band)  # a birth: looked for
+    assert _born_outside(before, young, band) and _born_outside(young, before, band)  # born, or dying
+    beyond = np.array([[0.8148, -3.4654], [0.9597, 5e5], [0.9737, 7e5]])
+    assert _born_outside(before, beyond, band)  # beyond the band on one side
+    not_settled = [
+        np.array([[0.8148, -3.4654], [0.9597, -2.2], [0.9737, 5e5]]),  # straddling (through ∞)
+        np.array([[0.8148, -3.4654], [0.9597, -2.2], [0.9737, 3.0]]),  # one in the band
+        np.array([[0.8148, -3.4654], [0.9, -2.2], [1.1, -2.4]]),  # 20 % apart in v: not young
+        np.array([[0.8148, 5e5], [0.9597, -2.2], [0.9737, -2.4]]),  # the old root crosses through ∞
+    ]
+    for after in not_settled:
+        assert not _born_outside(before, after, band)
+    two_pairs = np.array([[0.5, -1.0], [0.51, -1.1], [0.8148, -3.4654], [0.9597, -2.2], [0.9737, -2.4]])
+    assert not _born_outside(before, two_pairs, band)
 
 
 @pytest.mark.parametrize("seed", range(10))

@@ -129,8 +129,10 @@ VARIANTS = {
     # coarse or medium near-body and wake sizes, to find which of them the wake mode needs
     "quick-sponge": ("coarse", QUICK, (20, 160, 20)),
     "quick-wake-sponge": ("coarse", {**QUICK, "wake": 0.05}, (20, 160, 20)),
-    # the `quick` preset itself (medium's near body with QUICK's wake and far field)
-    "quick-near-sponge": ("quick", {}, (20, 160, 20)),
+    # the `quick` preset until 1 December 2026 (medium's near body with QUICK's wake and far field)
+    "quick-near-sponge": ("medium", {**QUICK, "wake_half_width": 0.6}, (20, 160, 20)),
+    # the `quick` preset since: today's `medium` (far2-layer) with 0.1-chord wake elements
+    "far2-wake0.1-layer": ("medium", {**BAND20, "far": 2.0, "wake": 0.1}, (80, 160, 80)),
 }
 
 

@@ -596,7 +596,7 @@ MAP_OPTIONS = {
             typer.Option(
                 "--tolerance",
                 help="transfer: largest error of the tangent predictions between two samples, in "
-                "(log m, log U*) (default 3e-3; exact samples only: 1e-2)",
+                "(log m, log U*) (default 3e-3; exact samples only: 3e-2)",
             ),
         ],
         None,

@@ -116,9 +116,12 @@ class MeshSizes:
 #  near size is multiplied by f = sqrt(2900/Re), the wall and corner sizes by f**2
 _PRESET_TABLE = {
     ("plate", "coarse"): (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
-    # medium's near body (the wake mode needs it: coarse's is damped 0.24 instead of 0.03 on this
-    # far field), a 0.1-chord wake box of 8 chords, 1-chord elements everywhere else
-    ("plate", "quick"): (0.015, 0.5, 0.003, 0.025, 0.1, 1.0, 0.25, 8.0, 0.6),
+    # `medium` with 0.1-chord elements in its wake box instead of 0.05 (268 542 unknowns against
+    # 416 871): within 1.4 % of it at m = 10 and 30 and 0.04 % at m = 1000. Until 1 December 2026
+    # `quick` was medium's near body with an 8-chord wake box on [-20, 160] x [-20, 20] (111 506),
+    # 3.8 % off at m = 10: the lateral extent and the wake box length decide the low-m thresholds
+    # (docs/discretisation.md, "A quick preset")
+    ("plate", "quick"): (0.015, 0.5, 0.003, 0.025, 0.1, 2.0, 0.25, 20.0, 1.0),
     ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
     ("plate", "fine"): (0.008, 0.25, 0.0015, 0.012, 0.04, 2.0, 0.25, 20.0, 1.0),
     ("cylinder", "coarse"): (0.1, 0.6, 0.1, 0.15, 0.35, 4.0, 0.75, 10.0, 2.0),
@@ -138,6 +141,7 @@ _PRESET_TABLE = {
 # stream (damping 0.007, folds below m = 80): 2-chord elements there and the far-field layer of the
 # preset's sponge (fsistab.params.PRESET_SPONGES) remove them.
 _PRESET_MIDDLE = {
+    ("plate", "quick"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
     ("plate", "medium"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
     ("plate", "fine"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
 }

@@ -243,7 +243,7 @@ def parse_sponge(text: str) -> Sponge | None | Literal["preset"]:
 # carry weakly damped free-stream modes (the far-field layer); not on `coarse`, whose spurious modes
 # come from its far-field elements, which no outlet layer removes (docs/discretisation.md).
 PRESET_SPONGES = {
-    ("plate", "quick"): Sponge(),  # the outlet layer only: no outer elements to damp
+    ("plate", "quick"): Sponge(far_sigma=0.2, far_ramp=10.0),  # `medium`'s far field (fsistab.mesh)
     ("plate", "medium"): Sponge(far_sigma=0.2, far_ramp=10.0),
     ("plate", "fine"): Sponge(far_sigma=0.2, far_ramp=10.0),
 }
@@ -265,8 +265,9 @@ DEFAULT_DOMAINS = {
 # about 35 chords long; docs/discretisation.md); the presets meant to be converged reach twice as far,
 # with 1-chord elements up to [-40, 80] x [-40, 40] (fsistab.mesh).
 PRESET_DOMAINS = {
-    # narrow and long: 1-chord elements everywhere stay affordable (docs/how-to/meshes.md)
-    ("plate", "quick"): Domain(upstream=20.0, downstream=160.0, lateral=20.0),
+    # `medium`'s: the narrower [-20, 160] x [-20, 20] of `quick` until 1 December 2026 moved the
+    # flutter onset at m = 10 by 3.8 % (docs/discretisation.md, "A quick preset")
+    ("plate", "quick"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
     ("plate", "medium"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
     ("plate", "fine"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
 }
@@ -596,7 +597,7 @@ THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 # medium (110 379) the models took 0.7-1.0x the wall time of exact samples and 10x fewer
 # factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.1 in ω (the
 # band's weakly damped modes) and a model of 305 vectors, costing about 25 exact samples, certifies
-# an interval that exact samples resolve with 20. On the plate's quick preset (111 506) the whole
+# an interval that exact samples resolve with 20. On the plate's quick preset of the time (111 506) the whole
 # map took 369 s with exact samples (steady state cached); with models it had built 12 (57 s each,
 # certifying ±0.02-0.09 in ω below ω = 3) after 818 s and was stopped. Exact samples from 100 000
 # unknowns on.

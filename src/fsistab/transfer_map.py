@@ -45,7 +45,9 @@ roots of the resultant are tracked with their ``m`` of any sign, and an interval
 them is born or dies, or one passes through ``m = 0`` or ``∞`` or across the range, is bisected down
 to ``SWEEP_STEP`` until the curve shows up; at that step a root that changes sign beyond the range
 (through ``m = ∞``, a pole of the neutral mass) or below it (through 0), or roots born outside the
-range on one side, settle the interval without a curve (:func:`_swept`). With an undamped dof the
+range on one side, settle the interval without a curve (:func:`_swept`); a young pair born on one
+side outside the range (close together in ``v`` where it exists) settles it already at ``min_step``
+(:func:`_born_outside`). With an undamped dof the
 resultant vanishes at its in-vacuo resonance at every frequency (:func:`undamped_resonances`, ``m =
 ∞``); that root is divided out. A weakly damped fluid mode between two samples much farther apart
 than its damping (the wake mode, damped by 0.03 at ω ≈ 11, between initial frequencies 18 % apart)
@@ -106,7 +108,14 @@ from fsistab.transfer import (
     transfer_samples,
 )
 
+# root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
+# interpolants between samples are then good to about its square, 1e-3. On `quick` (Re 2900, whole
+# map) 3e-2 took 143 factorisations against 188 at 1e-2, the crossings at m = 10-10⁴ within 3e-5 of
+# the Newton thresholds and the turning points within 0.09 %; 0.1 took 127 but moved turning points
+# by 0.7 % and split a VIV curve (docs/performance.md, "The whole map")
+EXACT_TOLERANCE = 3e-2
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
+YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
 # an interval whose samples point to a fluid pole between them, closer to the axis than this many
 # half-widths, is sampled at the pole's frequency (:func:`unresolved_resonance`)
@@ -379,6 +388,33 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
                 continue  # through ∞ or 0 next to where it was: a pole of the neutral mass
             return True
     return False
+
+
+def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether the only change between two frequencies is a pair of real resultant roots born (or
+    dying) on one side outside ``band``, close together at the frequency where they exist
+    (``|Δv| ≤ YOUNG_PAIR v``), with every other root matched and not sweeping (:func:`_swept`).
+
+    A pair is born where the track folds in ``ω`` (a double real root): from there both roots move
+    as ``√(ω − ω_b)`` to leading order, in ``v`` and in ``m``, so between the birth and the sample
+    where they exist their ``m`` stay between the two values there. A young pair that lies outside
+    the band on one side there never entered it: no curve to look for. This settles an interval at
+    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (on the plate at Re 2900 a pair born
+    at m ≈ −2.3 near ω = 9.2 cost a chain of 13 exact samples on the default mesh)."""
+    if abs(len(left) - len(right)) != 2:
+        return False
+    longer, shorter = (left, right) if len(left) > len(right) else (right, left)
+    free = list(range(len(longer)))
+    for v, _ in shorter:  # the nearest in v are the same roots, as in _swept
+        free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+    (v1, m1), (v2, m2) = longer[free]
+    if abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
+        return False
+    side = [-1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2 for m in (m1, m2)]
+    if side[0] != side[1] or side[0] == 1:
+        return False
+    kept = np.delete(longer, free, axis=0)
+    return not _swept(shorter, kept, band)
 
 
 def _polish(loads, rate, solid, s, mass_ratio, u, iterations: int = 8):
@@ -782,7 +818,7 @@ def transfer_neutral_map(
     dying together at a fold are joined. Intervals where a curve may cross the whole mass range
     between the samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
     ``max_samples`` frequencies. With exact samples only (one factorisation each) ``tolerance`` is
-    1e-2, ``min_step`` 1e-3 and ``max_samples`` 400 by default; ``max_samples`` then counts the
+    ``EXACT_TOLERANCE``, ``min_step`` 1e-3 and ``max_samples`` 400 by default; ``max_samples`` then counts the
     exact samples, not the fitted ones. With ``samples_path`` each sample is saved as it is
     computed (atomically) and saved samples of the same mesh and flow are reused, for any solid
     parameters.
@@ -797,7 +833,7 @@ def transfer_neutral_map(
     The exact samples of each round (the initial frequencies, then each round's bisections) are
     factorised ``threads`` at a time (:func:`fsistab.transfer.transfer_samples`).
     """
-    tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else 1e-2)
+    tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else EXACT_TOLERANCE)
     min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
     max_samples = max_samples if max_samples is not None else (4000 if reduced is not None else 400)
     follow = omega_range is None if follow_low is None else follow_low
@@ -952,6 +988,8 @@ def transfer_neutral_map(
                 smallest, reason = SWEEP_STEP, "sweep"
                 if w1 - w0 < smallest * w1 and not _swept(tracks[w0], tracks[w1], wide, settled=True):
                     continue  # at the finest step: a pole of m, or roots born outside the range
+                if w1 - w0 < min_step * w1 and _born_outside(tracks[w0], tracks[w1], wide):
+                    continue  # a young pair born outside the range on one side: it never entered it
                 if fit_first and reduced is None and not spanned(w0, w1):
                     pending.append((w0, w1))
             elif (pole := unresolved_resonance(stored[w0], stored[w1])) is not None:
