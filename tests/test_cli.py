@@ -199,8 +199,9 @@ def test_neutral_map_json_and_resume(tmp_path, plate_2900, plate_coarse_spec, pl
 def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coarse_spec):
     """``fsistab neutral --method transfer``: the same flutter onset at m = 1000 as the continuation
     method's Newton (4.39277, docs/transfer.md), the divergence line, the samples and reduced-model
-    files; the rerun factorises nothing. With exact samples only (``--reduced-blocks 0``) the same
-    curves to 1e-6 from more factorisations."""
+    files; the rerun factorises nothing. With exact samples only at the same tangent tolerance
+    (``--reduced-blocks 0 --tolerance 3e-3``; their own default is the coarser 3e-2) the same curves
+    from more factorisations."""
     from fsistab.params import Flow
     from fsistab.steady import save_steady, steady_path
 
@@ -255,6 +256,8 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
         str(cache),
         "--reduced-blocks",
         "0",
+        "--tolerance",
+        "3e-3",
     ]
     exact = json.loads(runner.invoke(app, exact_args).stdout)
     assert exact["reduced_models"] == 0 and exact["factorisations"] > payload["factorisations"]

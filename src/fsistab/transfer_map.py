@@ -109,10 +109,11 @@ from fsistab.transfer import (
 )
 
 # root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
-# interpolants between samples are then good to about its square, 1e-3. On `quick` (Re 2900, whole
-# map) 3e-2 took 143 factorisations against 188 at 1e-2, the crossings at m = 10-10⁴ within 3e-5 of
-# the Newton thresholds and the turning points within 0.09 %; 0.1 took 127 but moved turning points
-# by 0.7 % and split a VIV curve (docs/performance.md, "The whole map")
+# interpolants between samples are then good to about its square, 1e-3. The whole map at Re 2900 on
+# the default mesh took 140 factorisations against 172 at 1e-2, its crossings at m = 10-10⁴ within
+# 9e-4 of the Newton thresholds (5e-5 at 1e-2) and three small turning points at the nose moved by
+# up to 0.2 % in m and 0.9 % in U*; on the `quick` of the time 143 against 188. 0.1 took 127 there
+# but moved turning points by 0.7 % and split a VIV curve (docs/performance.md, "The whole map")
 EXACT_TOLERANCE = 3e-2
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
@@ -353,6 +354,16 @@ def undamped_resonances(solid: Solid) -> list[float]:
     return roots
 
 
+def _born(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Of two frequencies' resultant tracks, the longer, the shorter and the rows of the longer that
+    are born or die in between: each root of the shorter is the nearest in ``v`` of the longer."""
+    longer, shorter = (left, right) if len(left) > len(right) else (right, left)
+    free = list(range(len(longer)))
+    for v, _ in shorter:
+        free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+    return longer, shorter, free
+
+
 def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settled: bool = False) -> bool:
     """Whether a pair of real resultant roots is born or dies between two frequencies, or a root
     (matched by nearest ``v``) passes from one side of ``band`` to the other, or through
@@ -368,10 +379,7 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
     if len(left) != len(right):  # real roots born or dying in between
         if not settled:
             return True
-        longer, shorter = (left, right) if len(left) > len(right) else (right, left)
-        free = list(range(len(longer)))
-        for v, _ in shorter:  # the nearest in v are the same roots; the others are born or die
-            free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+        longer, _, free = _born(left, right)
         sides = {side(m) for m in longer[free, 1]}
         if len(sides) > 1 or 1 in sides:
             return True
@@ -399,14 +407,12 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
     as ``√(ω − ω_b)`` to leading order, in ``v`` and in ``m``, so between the birth and the sample
     where they exist their ``m`` stay between the two values there. A young pair that lies outside
     the band on one side there never entered it: no curve to look for. This settles an interval at
-    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (on the plate at Re 2900 a pair born
-    at m ≈ −2.3 near ω = 9.2 cost a chain of 13 exact samples on the default mesh)."""
+    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (on the plate at Re 2900, default mesh,
+    such a pair born at m ≈ −2.3 near ω = 9.14 was bisected by a chain of 13 samples; settled at
+    ``min_step`` it costs 4 factorisations fewer, the same map)."""
     if abs(len(left) - len(right)) != 2:
         return False
-    longer, shorter = (left, right) if len(left) > len(right) else (right, left)
-    free = list(range(len(longer)))
-    for v, _ in shorter:  # the nearest in v are the same roots, as in _swept
-        free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+    longer, shorter, free = _born(left, right)
     (v1, m1), (v2, m2) = longer[free]
     if abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
         return False
