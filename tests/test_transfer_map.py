@@ -333,7 +333,7 @@ def test_a_power_law_branch_is_matched_and_interpolated_exactly_in_log_frequency
     """At large m the restabilisation branch is close to a power law, m ∝ ω⁻² and U* ∝ ω⁻¹: on
     m = 10 ω⁻², U* = 0.8 ω⁻¹ the roots at the initial frequencies 0.01 and 0.0118 (their ratio)
     predict each other along ``log ω`` to rounding, where along ``ω`` they miss by 0.029 (three
-    times the default tolerance, so the interval would be bisected), and the curve between them
+    times the tolerance 1e-2 used here, so the interval would be bisected), and the curve between them
     crosses m = 8 10⁴ at the power law's U* and ω."""
     from fsistab.transfer_map import NeutralRoot, _assemble, _match, log_step
 

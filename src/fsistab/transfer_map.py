@@ -33,7 +33,8 @@ samples the curves are cubic Hermite interpolants in ``log ω`` (values and exac
 error is about the square of the matching tolerance. The parameter is ``log ω`` rather than ``ω``
 because the curves are close to power laws at low frequency (the restabilisation branch, ``m ∝
 ω⁻²``): with ``ω`` the tangents' errors on the log-spaced initial frequencies there exceed the
-tolerance and every interval below ω ≈ 0.1 was bisected once more (on `quick`, 30 exact samples
+tolerance and every interval below ω ≈ 0.1 was bisected once more (on the `quick` of the time, 111 506
+unknowns, at tolerance 1e-2: 30 exact samples
 below ω = 0.1 instead of 16, 188 in all instead of 205, the same crossings to 3e-6 and both within
 1e-5 of Newton's thresholds). Curves that end (folds in ``ω``, or curves too fast in ω, like lock-in
 boundaries near the wake frequency) are located down to ``min_step``; two branches born (or dying)
@@ -62,7 +63,8 @@ exact samples around it, certified there out of sample and against the samples' 
 (:mod:`fsistab.rational_fit`), down to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried
 first, before any exact bisection (``fit_first``): wherever the samples already certify one, the
 refinement costs no factorisation (at Re 2900: 195 factorisations instead of 237 on the default
-mesh, 205 instead of 240 on `quick`, for the same map; 172 and 188 with ``log ω`` as the parameter).
+mesh, 205 instead of 240 on the `quick` of the time, for the same map; 172 and 188 with ``log ω``
+as the parameter; 136 on the default mesh with ``EXACT_TOLERANCE``).
 Divergence (``ω = 0``): ``m u² = λ``, with ``λ`` the positive eigenvalues of ``A(0)`` relative to
 ``diag(Ω², r_θ²)``, i.e. ``U*_D = √(m/λ)`` (MODEL.md §8).
 
@@ -354,6 +356,11 @@ def undamped_resonances(solid: Solid) -> list[float]:
     return roots
 
 
+def _side(m: float, band: tuple[float, float]) -> int:
+    """Where a resultant root's ``m`` lies: -1 at ``m ≤ 0``, 0 below ``band``, 1 in it, 2 above."""
+    return -1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2
+
+
 def _born(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Of two frequencies' resultant tracks, the longer, the shorter and the rows of the longer that
     are born or die in between: each root of the shorter is the nearest in ``v`` of the longer."""
@@ -373,14 +380,11 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
     one below it at both (``|m| < band[0]``) through ``m = 0``, and roots born or dying all on one
     side of the band (outside it) were born or died there: none of these is a sweep."""
 
-    def side(m: float) -> int:
-        return -1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2
-
     if len(left) != len(right):  # real roots born or dying in between
         if not settled:
             return True
         longer, _, free = _born(left, right)
-        sides = {side(m) for m in longer[free, 1]}
+        sides = {_side(m, band) for m in longer[free, 1]}
         if len(sides) > 1 or 1 in sides:
             return True
     for v, m in left:
@@ -389,7 +393,7 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
         k = int(np.argmin(np.abs(right[:, 0] - v)))
         if abs(right[k, 0] - v) > 0.25 * v:
             continue
-        a, b = side(m), side(right[k, 1])
+        a, b = _side(m, band), _side(right[k, 1], band)
         if a != b and 1 not in (a, b):
             low, high = sorted((abs(m), abs(right[k, 1])))
             if settled and (low > band[1] or high < band[0]):
@@ -416,8 +420,8 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
     (v1, m1), (v2, m2) = longer[free]
     if abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
         return False
-    side = [-1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2 for m in (m1, m2)]
-    if side[0] != side[1] or side[0] == 1:
+    side = _side(m1, band)
+    if side != _side(m2, band) or side == 1:
         return False
     kept = np.delete(longer, free, axis=0)
     return not _swept(shorter, kept, band)
