@@ -179,6 +179,38 @@ def test_samples_in_threads_equal_the_sequential_ones(plate_operators):
         transfer_samples(plate_operators, shifts, threads=0)
 
 
+def test_samples_are_yielded_as_they_finish_and_an_interruption_drops_the_rest(monkeypatch):
+    """``iter_transfer_samples`` gives every shift once, counted as it is yielded; closed after
+    the first sample (an interrupted map), the shifts not yet started are not computed."""
+    import threading
+    import time
+
+    from fsistab import transfer
+
+    started, lock = [], threading.Lock()
+
+    def fake(fluid, s, refine=True):
+        with lock:
+            started.append(s)
+        time.sleep(0.05 if s != 0.1j else 0.2)  # the first shift finishes last
+        return transfer.TransferSample(s, np.zeros((3, 4)), np.zeros((3, 4)), np.zeros((1, 4)))
+
+    monkeypatch.setattr(transfer, "transfer_sample", fake)
+    monkeypatch.setattr(transfer.umfpack, "available", lambda: False)  # no symbolic analysis
+    shifts = [0.1j * k for k in range(1, 9)]
+    counter = FactorCounter()
+    order = [x.s for x in transfer.iter_transfer_samples(None, shifts, counter, threads=2)]
+    assert sorted(order, key=abs) == shifts and order[0] != shifts[0] and counter.count == 8
+    assert [x.s for x in transfer.transfer_samples(None, shifts, threads=2)] == shifts
+
+    started.clear()
+    counter = FactorCounter()
+    samples = transfer.iter_transfer_samples(None, shifts, counter, threads=2)
+    next(samples)
+    samples.close()
+    assert counter.count == 1 and len(started) <= 3
+
+
 def _synthetic_sample(frequency: float, loads: np.ndarray, slope: np.ndarray):
     from fsistab.frequency_sweep import SweepSample
 

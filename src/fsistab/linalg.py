@@ -115,13 +115,20 @@ class FluidFactor:
         umfpack backend: UMFPACK's solve only reads the factors and releases the GIL, and one
         right-hand side at a time is all it does (the Krylov blocks of the reduced models)."""
         if b.ndim == 2:
-            columns = list(b.T)
-            threads = min(sample_threads(threads), len(columns)) if self._lu is not None else 1
+            # a zero column has the zero solution: not solved (the heave column of J_fs + s M_fs,
+            # MODEL.md §7: the body-frame equations do not see the heave displacement)
+            nonzero = [k for k in range(b.shape[1]) if np.any(b[:, k])]
+            result = np.zeros(b.shape, dtype=np.result_type(b.dtype, self.dtype))
+            columns = [b[:, k] for k in nonzero]
+            threads = min(sample_threads(threads), max(len(columns), 1)) if self._lu is not None else 1
             if threads == 1:
-                return np.column_stack([self.solve(col, refine, transpose) for col in columns])
-            with ThreadPoolExecutor(threads) as pool:
-                solved = pool.map(lambda col: self.solve(col, refine, transpose), columns)
-                return np.column_stack(list(solved))
+                solved = [self.solve(col, refine, transpose) for col in columns]
+            else:
+                with ThreadPoolExecutor(threads) as pool:
+                    solved = list(pool.map(lambda col: self.solve(col, refine, transpose), columns))
+            for k, x in zip(nonzero, solved, strict=True):
+                result[:, k] = x
+            return result
         if self._lu is not None:
             return self._lu.solve(b, refine, transpose=transpose)
         if transpose:

@@ -106,8 +106,7 @@ from fsistab.transfer import (
     aerodynamic_loads,
     exact_transfer,
     flow_identity,
-    sample_threads,
-    transfer_samples,
+    iter_transfer_samples,
 )
 
 # root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
@@ -117,6 +116,10 @@ from fsistab.transfer import (
 # up to 0.2 % in m and 0.9 % in U*; on the `quick` of the time 143 against 188. 0.1 took 127 there
 # but moved turning points by 0.7 % and split a VIV curve (docs/performance.md, "The whole map")
 EXACT_TOLERANCE = 3e-2
+# the exact samples' solves are not refined: with the symmetric nested-dissection analysis the plain
+# solve's G differs from the refined one by at most 3e-13 (dG/ds 3e-12, relative) on the default
+# mesh over ω 0-20, far below the certification of the fits (1e-7); it halves the solves' cost
+SAMPLE_REFINE = False
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
 REFINEMENT_RADIUS = 0.05  # before any reduced model: distance to an exact sample that calls for one
@@ -841,7 +844,8 @@ def transfer_neutral_map(
     ``min_step`` 1e-7, ``max_samples`` 4000.
 
     The exact samples of each round (the initial frequencies, then each round's bisections) are
-    factorised ``threads`` at a time (:func:`fsistab.transfer.transfer_samples`).
+    factorised ``threads`` at a time, each saved as it finishes
+    (:func:`fsistab.transfer.iter_transfer_samples`).
     """
     tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else EXACT_TOLERANCE)
     min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
@@ -932,13 +936,14 @@ def transfer_neutral_map(
                 g, dg = model.transfer(1j * omega if omega > 0 else 0.0, derivative=True)
                 keep(AxisSample(omega, g, dg, reduced=True))
         if omega not in stored:
-            g, dg = exact_transfer(fluid, 1j * omega if omega > 0 else 0.0, counter, derivative=True)
+            s = 1j * omega if omega > 0 else 0.0
+            g, dg = exact_transfer(fluid, s, counter, derivative=True, refine=SAMPLE_REFINE)
             keep(AxisSample(omega, g, dg))
         return stored[omega]
 
     def prefetch(frequencies) -> None:
         """The exact samples among ``frequencies`` (those no reduced model covers or will cover),
-        factorised ``threads`` at a time (:func:`fsistab.transfer.transfer_samples`)."""
+        factorised ``threads`` at a time (:func:`fsistab.transfer.iter_transfer_samples`)."""
         exact = [
             float(w)
             for w in dict.fromkeys(frequencies)
@@ -947,12 +952,11 @@ def transfer_neutral_map(
             and fitted(w) is None
             and (reduced is None or (reduced.covering(w) is None and not refined(w)))
         ]
-        chunk = sample_threads(threads)  # each chunk saved as it finishes: an interruption loses one at most
-        for k in range(0, len(exact), chunk):
-            part = exact[k : k + chunk]
-            data = transfer_samples(fluid, [1j * w for w in part], counter, threads=chunk)
-            for w, sample in zip(part, data, strict=True):
-                keep(AxisSample(w, sample.value, sample.rate))
+        by_shift = {complex(1j * w): w for w in exact}
+        # each saved as it finishes: an interruption loses those under way only
+        shifts = list(by_shift)
+        for sample in iter_transfer_samples(fluid, shifts, counter, refine=SAMPLE_REFINE, threads=threads):
+            keep(AxisSample(by_shift[sample.s], sample.value, sample.rate))
 
     roots: dict[float, list[NeutralRoot]] = {}
     tracks: dict[float, np.ndarray] = {}
