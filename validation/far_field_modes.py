@@ -1,16 +1,18 @@
 """Where the fixed plate's weakly damped low-frequency fluid modes live, and what a lateral sponge
 does to them (issue 14: the low-mass-ratio folds of the map).
 
-Plate at Re 2900 on a mesh preset (default ``medium``, its steady state cached): the eigenvalues
-nearest each ``--shift`` of the fixed body (shift-invert Arnoldi, :func:`fsistab.eigen.eigenpairs_near`),
-and for each mode the fraction of its kinetic energy ``½∫|û|²`` in regions of the domain: the band
-``|Y| < 20``, ``20 < |Y| < 40`` and ``|Y| > 40``, each split along X. With ``--lateral-sponge SIGMA
-START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff`` first (test only; MODEL.md §7), ``σ`` rising
-from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral boundary by the smooth step ``3t² − 2t³`` in
+Plate at Re 2900 (``--reynolds``) on a mesh preset (default ``medium``, its steady state cached):
+the eigenvalues nearest each ``--shift`` of the fixed body (shift-invert Arnoldi,
+:func:`fsistab.eigen.eigenpairs_near`), and for each mode the fraction of its kinetic energy
+``½∫|û|²`` in regions of the domain: the band ``|Y| < 20``, ``20 < |Y| < 40`` and ``|Y| > 40``,
+each split along X, and within 5 chords of the body's centre (``r<5``: how much of the mode the
+body feels). With ``--lateral-sponge SIGMA START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff``
+first (test only; MODEL.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
+boundary by the smooth step ``3t² − 2t³`` in
 ``t = (Y² − START²)/(l² − START²)``.
 
 Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j] [--count 8]
-           [--lateral-sponge 0.2 40] [--far SIZE] [--sponge SPEC] [--cache DIR]
+           [--lateral-sponge 0.2 40] [--far SIZE] [--sponge SPEC] [--reynolds 2900] [--cache DIR]
 
 ``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
 modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
@@ -38,6 +40,7 @@ def main() -> None:
         default="preset",
         help="the sponge, as fsistab's --sponge: preset, none, SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]",
     )
+    parser.add_argument("--reynolds", type=float, default=2900.0)
     parser.add_argument("--cache", type=Path, default=None)
     args = parser.parse_args()
 
@@ -52,9 +55,9 @@ def main() -> None:
     from fsistab.store import default_cache_dir
 
     sizes = {} if args.far is None else {"far": args.far}
-    spec = mesh_spec(Plate(), args.preset, 2900.0, sponge=parse_sponge(args.sponge), **sizes)
-    print(f"far-field size {spec.sizes.far:g}, sponge: {spec.sponge}")
-    steady = solve_steady(spec, Flow(2900.0), cache_dir=args.cache or default_cache_dir())
+    spec = mesh_spec(Plate(), args.preset, args.reynolds, sponge=parse_sponge(args.sponge), **sizes)
+    print(f"Re {args.reynolds:g}, far-field size {spec.sizes.far:g}, sponge: {spec.sponge}")
+    steady = solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
     fluid = fluid_operators(steady)
     space, index = steady.space, fluid.free_dofs
     lateral = steady.mesh_spec.domain.lateral
@@ -77,6 +80,7 @@ def main() -> None:
         for strip, band in strips.items()
         for stretch, span in stretches.items()
     }
+    near_body = velocity_mass(IfPos(25.0 - x * x - y * y, 1.0, 0.0))
     if args.lateral_sponge:
         sigma, start = args.lateral_sponge
         t = (y * y - start**2) / (lateral**2 - start**2)
@@ -91,8 +95,9 @@ def main() -> None:
         total = float(np.vdot(q, fluid.mff @ q).real)
         shares = {name: float(np.vdot(q, m @ q).real) / total for name, m in masses.items()}
         strip_shares = {s: sum(v for k, v in shares.items() if k.startswith(s + ",")) for s in strips}
+        body = float(np.vdot(q, near_body @ q).real) / total
         print(
-            f"{pair.value.real:+.5f}{pair.value.imag:+.5f}i  "
+            f"{pair.value.real:+.5f}{pair.value.imag:+.5f}i  r<5 {body:.1e}  "
             + "  ".join(f"{s} {v:.2f}" for s, v in strip_shares.items())
             + "  |  "
             + "  ".join(f"{k} {v:.2f}" for k, v in shares.items() if v >= 0.05)

@@ -118,7 +118,7 @@ from fsistab.transfer import (
 EXACT_TOLERANCE = 3e-2
 # the exact samples' solves are not refined: with the symmetric nested-dissection analysis the plain
 # solve's G differs from the refined one by at most 3e-13 (dG/ds 3e-12, relative) on the default
-# mesh over ω 0-20, far below the certification of the fits (1e-7); it halves the solves' cost
+# mesh over ω 0-20, far below the certification of the fits (1e-6); it halves the solves' cost
 SAMPLE_REFINE = False
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
