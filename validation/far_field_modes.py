@@ -9,10 +9,13 @@ each split along X, and within 5 chords of the body's centre (``r<5``: how much 
 body feels). With ``--lateral-sponge SIGMA START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff``
 first (test only; MODEL.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
 boundary by the smooth step ``3t² − 2t³`` in
-``t = (Y² − START²)/(l² − START²)``.
+``t = (Y² − START²)/(l² − START²)``. With ``--viscosity NU START`` the term ``NU ∫ s(X) ∇u:∇v``
+is added instead (test only), ``s`` rising by the same step from 0 at ``X = START`` to 1 at
+``START + 20``: whether the modes' damping is viscous downstream.
 
 Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j] [--count 8]
-           [--lateral-sponge 0.2 40] [--far SIZE] [--sponge SPEC] [--reynolds 2900] [--cache DIR]
+           [--lateral-sponge 0.2 40] [--viscosity 0.02 40] [--far SIZE] [--sponge SPEC]
+           [--reynolds 2900] [--cache DIR]
 
 ``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
 modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
@@ -34,6 +37,7 @@ def main() -> None:
     parser.add_argument("--shift", nargs="+", type=complex, default=[0.2j, 0.6j])
     parser.add_argument("--count", type=int, default=8, help="eigenvalues per shift")
     parser.add_argument("--lateral-sponge", type=float, nargs=2, metavar=("SIGMA", "START"))
+    parser.add_argument("--viscosity", type=float, nargs=2, metavar=("NU", "START"))
     parser.add_argument("--far", type=float, help="outer element size (default: the preset's)")
     parser.add_argument(
         "--sponge",
@@ -44,7 +48,7 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=None)
     args = parser.parse_args()
 
-    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
+    from ngsolve import BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
@@ -63,9 +67,9 @@ def main() -> None:
     lateral = steady.mesh_spec.domain.lateral
     (u, _), (v, _) = space.TnT()
 
-    def velocity_mass(weight):
+    def velocity_mass(weight, gradients=False):
         form = BilinearForm(space)
-        form += weight * InnerProduct(u, v) * dx
+        form += weight * (InnerProduct(Grad(u), Grad(v)) if gradients else InnerProduct(u, v)) * dx
         form.Assemble()
         return _to_scipy(form.mat, space.ndof)[index][:, index].tocsr()
 
@@ -87,6 +91,12 @@ def main() -> None:
         step = IfPos(t, IfPos(1 - t, 3 * t * t - 2 * t * t * t, 1.0), 0.0)
         fluid = replace(fluid, jff=(fluid.jff + velocity_mass(sigma * step)).tocsr(), analyses={})
         print(f"lateral sponge: sigma_max {sigma} from |Y| = {start} to {lateral}")
+    if args.viscosity:
+        nu, start = args.viscosity
+        t = IfPos(x - start, IfPos(start + 20 - x, (x - start) / 20, 1.0), 0.0)
+        extra = velocity_mass(nu * t * t * (3 - 2 * t), gradients=True)
+        fluid = replace(fluid, jff=(fluid.jff + extra).tocsr(), analyses={})
+        print(f"viscosity {nu} from X = {start} to {start + 20} and beyond")
     t0 = time.perf_counter()
     pairs = eigenpairs_near(CoupledSystem(fluid, Solid(dofs=())), args.shift, args.count)
     print(f"{fluid.n_fluid} unknowns, {len(pairs)} modes in {time.perf_counter() - t0:.0f} s")
