@@ -1,5 +1,6 @@
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -76,11 +77,55 @@ def test_mesh_cache_roundtrip(tmp_path, cached_cylinder_mesh):
     second = build_mesh(spec, tmp_path)
     assert np.array_equal(first.ngmesh.Coordinates(), second.ngmesh.Coordinates())
     assert mesh_statistics(first) == mesh_statistics(second)
-    # the mesh and its checksum beside it, no temporary file left
-    assert sorted(f.name for f in path.parent.iterdir()) == [path.name, sidecar_path(path).name]
+    # the mesh, its checksum and its lock beside it, no temporary file left
+    kept = sorted([path.name, sidecar_path(path).name, path.name + ".lock"])
+    assert sorted(f.name for f in path.parent.iterdir()) == kept
     fresh = tmp_path / "fresh"
     build_mesh(spec, fresh)
-    assert sorted(f.name for f in (fresh / "meshes").iterdir()) == [path.name, sidecar_path(path).name]
+    assert sorted(f.name for f in (fresh / "meshes").iterdir()) == kept
+
+
+def test_two_processes_building_one_mesh_wait_for_each_other(tmp_path, cached_cylinder_mesh, monkeypatch):
+    """Two builders of the same entry in one cache (the workers of a dask cluster): the second
+    waits for the first's mesh and sidecar instead of finding the mesh without its sidecar,
+    taking it for damaged and moving it aside under the writer (CI, 1 December 2026:
+    FileNotFoundError in the writer). The window between the two files is widened to 0.3 s."""
+    import threading
+    import time
+
+    from fsistab import mesh as mesh_module
+    from fsistab import store
+
+    spec, data, _, first = cached_cylinder_mesh
+
+    class Generated:
+        def Save(self, name):  # noqa: N802 - Netgen's name
+            Path(name).write_bytes(data)
+
+    write = store.write_sidecar
+
+    def slow_sidecar(path):
+        time.sleep(0.3)
+        return write(path)
+
+    monkeypatch.setattr(mesh_module, "_generate", lambda spec: Generated())
+    monkeypatch.setattr(store, "write_sidecar", slow_sidecar)
+    built, errors = [], []
+
+    def build():
+        try:
+            built.append(build_mesh(spec, tmp_path).nv)
+        except Exception as exc:  # the failure this test is about: reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=build) for _ in range(2)]
+    threads[0].start()
+    time.sleep(0.1)  # the second arrives while the first is between its mesh and its sidecar
+    threads[1].start()
+    for thread in threads:
+        thread.join()
+    assert not errors and built == [first.nv, first.nv]
+    assert not list((tmp_path / "meshes").glob("*.damaged"))
 
 
 MESH_DAMAGE = (*KINDS[:3], "garbage", "no_sidecar", "bad_sidecar", "gzip_with_fixed_sidecar")

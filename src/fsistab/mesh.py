@@ -300,8 +300,9 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
     The cache stores Netgen's ``.vol.gz`` under the spec's key, with a sha256 sidecar written after
     it. Before Netgen reads a cached file its checksum and whole gzip stream are verified (a damaged
     file makes Netgen crash the process): a damaged or unverifiable entry is reported, moved aside and
-    rebuilt. A file that Netgen still cannot read, or that lacks the expected boundaries, raises
-    CacheError.
+    rebuilt. Processes sharing the cache check and build an entry one at a time
+    (:func:`fsistab.store.entry_lock`). A file that Netgen still cannot read, or that lacks the
+    expected boundaries, raises CacheError.
     """
     import tempfile
 
@@ -312,17 +313,18 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
         with tempfile.TemporaryDirectory() as scratch:
             return build_mesh(spec, scratch)
     path = mesh_path(spec, cache_dir)
-    if path.exists():
-        try:
-            store.verify_sidecar(path)
-        except CacheError as exc:
-            store.discard_damaged(path, exc)
-    if not path.exists():
-        # the file rounds coordinates: what is computed always comes from the file, so a cached
-        # mesh and a fresh one are identical
-        with store.atomic_path(path, ".vol.gz") as tmp:
-            _generate(spec).Save(str(tmp))
-        store.write_sidecar(path)  # after the mesh: a mesh without its sidecar is rebuilt
+    with store.entry_lock(path):  # one process at a time checks or builds this entry
+        if path.exists():
+            try:
+                store.verify_sidecar(path)
+            except CacheError as exc:
+                store.discard_damaged(path, exc)
+        if not path.exists():
+            # the file rounds coordinates: what is computed always comes from the file, so a cached
+            # mesh and a fresh one are identical
+            with store.atomic_path(path, ".vol.gz") as tmp:
+                _generate(spec).Save(str(tmp))
+            store.write_sidecar(path)  # after the mesh: a mesh without its sidecar is rebuilt
     ngmesh = netgen.meshing.Mesh(dim=2)
     try:
         ngmesh.Load(str(path))

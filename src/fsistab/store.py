@@ -339,6 +339,29 @@ def complex_values(array: xr.DataArray) -> np.ndarray:
 # --- meshes and other files with a checksum sidecar --------------------------------------------
 
 
+@contextlib.contextmanager
+def entry_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the cache entry ``path`` (``<name>.lock`` beside it, POSIX
+    ``flock``) for the block: processes sharing a cache (the workers of a dask cluster) build and
+    check an entry one at a time. Without it a worker could find another's mesh renamed into place
+    but its sidecar not yet written, take it for damaged and move it aside under the writer. The
+    lock file is left behind (removing it would race with the next holder). Where ``fcntl`` is
+    missing the block runs unlocked."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path.with_name(path.name + ".lock"), "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def sidecar_path(path: Path) -> Path:
     return Path(path).with_name(Path(path).name + ".sha256.json")
 
