@@ -323,6 +323,33 @@ def test_help_and_bad_input_need_no_numerical_import():
     assert result.stdout.strip() == "[]"
 
 
+def test_the_console_command_runs_blas_single_threaded_unless_told():
+    """The ``fsistab`` entry point sets one BLAS thread before NumPy or NGSolve load (they are
+    imported lazily, after it), and keeps a value the user set."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import os, sys\n"
+        "from fsistab.cli import main\n"
+        "assert 'numpy' not in sys.modules and 'ngsolve' not in sys.modules\n"
+        "sys.argv = ['fsistab', '--help']\n"
+        "try:\n"
+        "    main()\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('|'.join(os.environ[v] for v in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS')))\n"
+    )
+    environ = {k: v for k, v in os.environ.items() if k not in cli.BLAS_THREADS}
+    for omp, expected in ((None, "1|1"), ("3", "3|1")):
+        if omp is not None:
+            environ["OMP_NUM_THREADS"] = omp
+        command = [sys.executable, "-c", code]
+        run = subprocess.run(command, capture_output=True, text=True, env=environ, check=True)
+        assert run.stdout.strip().splitlines()[-1] == expected
+
+
 def test_warnings_of_the_library_are_single_plain_lines_on_stderr(capsys):
     """A damaged cache entry is reported by ``logging.getLogger("fsistab").warning``: the handler the
     CLI installs prints it as one line on stderr, nothing on stdout."""

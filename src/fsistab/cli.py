@@ -16,6 +16,7 @@ import inspect
 import json
 import logging
 import math
+import os
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -1220,7 +1221,22 @@ def sensitivity(
     _print(*lines)
 
 
-def main() -> None:  # pragma: no cover - console entry point
+BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def single_threaded_blas(environ: dict) -> dict:
+    """``environ`` with BLAS set to one thread where the user set nothing. fsistab runs its own
+    threads (two sparse factorisations at once, :func:`fsistab.linalg.sample_threads`); OpenBLAS's
+    threads beside them made eight transfer samples on the default mesh 2.5 times slower (100 s
+    against 40 s wall, docs/performance.md). Must run before NumPy and NGSolve load, which the
+    commands import lazily."""
+    for variable in BLAS_THREADS:
+        environ.setdefault(variable, "1")
+    return environ
+
+
+def main() -> None:  # pragma: no cover - console entry point (tested in a subprocess)
+    single_threaded_blas(os.environ)
     app()
 
 
