@@ -1225,13 +1225,15 @@ BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def single_threaded_blas(environ: dict) -> dict:
-    """``environ`` with BLAS set to one thread where the user set nothing. fsistab runs its own
+    """``environ`` with BLAS set to one thread unless the user set any of :data:`BLAS_THREADS`
+    (then all are left as they are: OpenBLAS reads its own variable before ``OMP_NUM_THREADS``,
+    so setting one would override the user's choice). fsistab runs its own
     threads (two sparse factorisations at once, :func:`fsistab.linalg.sample_threads`); OpenBLAS's
     threads beside them made eight transfer samples on the default mesh 2.5 times slower (100 s
     against 40 s wall, docs/performance.md). Must run before NumPy and NGSolve load, which the
     commands import lazily."""
-    for variable in BLAS_THREADS:
-        environ.setdefault(variable, "1")
+    if not any(variable in environ for variable in BLAS_THREADS):
+        environ.update(dict.fromkeys(BLAS_THREADS, "1"))
     return environ
 
 
