@@ -18,6 +18,7 @@ import logging
 import math
 import os
 import sys
+from collections.abc import MutableMapping
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Annotated
@@ -1224,7 +1225,7 @@ def sensitivity(
 BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def single_threaded_blas(environ: dict) -> dict:
+def single_threaded_blas(environ: MutableMapping[str, str]) -> MutableMapping[str, str]:
     """``environ`` with BLAS set to one thread unless the user set any of :data:`BLAS_THREADS`
     (then all are left as they are: OpenBLAS reads its own variable before ``OMP_NUM_THREADS``,
     so setting one would override the user's choice). fsistab runs its own

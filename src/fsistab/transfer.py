@@ -18,7 +18,8 @@ is assembled from it for any solid parameters. It is the viscous counterpart of 
 (MODEL.md §9) and of the flutter derivatives of wind engineering.
 
 ``G`` is evaluated exactly — one sparse factorisation of ``K_ff(s)`` and three back-substitutions
-per point (:func:`exact_transfer`), with ``dG/ds`` for one more. At Re = 2900 weakly damped wake
+per point (:func:`exact_transfer`; the heave column is zero and not solved), with ``dG/ds`` three
+more. At Re = 2900 weakly damped wake
 modes close to the axis make ``G(iω)`` vary on the scale of their damping (~0.015): a global
 rational fit (AAA) needed too many samples (docs/transfer.md), and the certified local models of
 :mod:`fsistab.reduced_model` replaced it. Neutral points ``det T(iω; U*) = 0`` are converged

@@ -952,11 +952,11 @@ def transfer_neutral_map(
             and fitted(w) is None
             and (reduced is None or (reduced.covering(w) is None and not refined(w)))
         ]
-        by_shift = {complex(1j * w): w for w in exact}
-        # each saved as it finishes: an interruption loses those under way only
-        shifts = list(by_shift)
-        for sample in iter_transfer_samples(fluid, shifts, counter, refine=SAMPLE_REFINE, threads=threads):
-            keep(AxisSample(by_shift[sample.s], sample.value, sample.rate))
+        frequency = {complex(1j * w): w for w in exact}
+        shifts = list(frequency)
+        samples = iter_transfer_samples(fluid, shifts, counter, refine=SAMPLE_REFINE, threads=threads)
+        for sample in samples:  # each saved as it finishes: an interruption loses those under way only
+            keep(AxisSample(frequency[sample.s], sample.value, sample.rate))
 
     roots: dict[float, list[NeutralRoot]] = {}
     tracks: dict[float, np.ndarray] = {}
