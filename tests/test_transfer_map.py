@@ -37,6 +37,7 @@ from fsistab.transfer_map import (
     samples_table,
     scaled_polynomials,
     second_order_loads,
+    sharp_resonance,
     transfer_neutral_map,
     undamped_resonances,
     unresolved_resonance,
@@ -536,6 +537,53 @@ def test_a_weakly_damped_pole_between_two_samples_is_sampled_next(seed):
     assert unresolved_resonance(*_pole_samples(seed, -1.0 + 1j * frequency)) is None
     assert unresolved_resonance(*_pole_samples(seed, -0.03 + 14j)) is None
     assert unresolved_resonance(*_pole_samples(seed, -0.03 + 1j * frequency, residue=0.0)) is None
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_only_a_resonance_much_narrower_than_its_interval_is_sharp(seed):
+    """:func:`sharp_resonance`, between samples 1.84 apart: a pole 0.03 from the axis (0.03 of
+    the half-width, as the plate's wake mode between the default map's initial frequencies) is sharp
+    and gets a reduced model; poles 0.1 and 0.3 from it are sampled (:func:`unresolved_resonance`)
+    but not sharp: exact samples resolve them in a few bisections."""
+    frequency = np.random.default_rng(seed + 100).uniform(10.8, 12.0)
+    assert sharp_resonance(*_pole_samples(seed, -0.03 + 1j * frequency))
+    for damping in (0.1, 0.3):
+        samples = _pole_samples(seed, -damping + 1j * frequency)
+        assert unresolved_resonance(*samples) is not None and not sharp_resonance(*samples)
+
+
+def test_a_sharp_resonance_is_sampled_by_a_reduced_model(fluid, tmp_path):
+    """The wake mode of this mesh (−0.07 + 10.81i) between initial frequencies 10.0 and 15.9 (the
+    exact-sample map from 6.3 to 15.9, m ∈ [1, 10]): the resonance is sharp, and reduced models
+    there (one factorisation each) certify intervals around it whose frequencies cost none. The map
+    has the same VIV curves and crossings at m = 2, 5 and 10 as with exact samples alone
+    (``resonance_blocks=0``; to 1e-8 in U*, measured 1e-13) for less than half the factorisations
+    (measured 18 with two models, certified on ω ∈ [9.63, 11.72] and [10.87, 13.33], against 68);
+    ``G`` from a model at a crossing's frequency equals an exact sample there to 1e-6, and a rerun
+    reads the saved models back (no factorisation)."""
+    settings_ = dict(mass_range=(1.0, 10.0), omega_range=(6.3, 15.9), initial=3)
+    counter, alone = FactorCounter(), FactorCounter()
+    tmap = transfer_neutral_map(fluid, Solid(), counter=counter, samples_path=tmp_path / "s.nc", **settings_)
+    exact = transfer_neutral_map(fluid, Solid(), counter=alone, resonance_blocks=0, **settings_)
+    assert tmap.resonance_models >= 1 and exact.resonance_models == 0
+    assert counter.count == tmap.factorisations < 0.5 * exact.factorisations
+    assert exact.factorisations == alone.count
+    assert {c.kind for c in tmap.curves} == {c.kind for c in exact.curves} == {"viv"}
+    for m in (2.0, 5.0, 10.0):
+        got, expected = tmap.crossings_at(m), exact.crossings_at(m)
+        assert len(got) == len(expected) >= 1
+        for (u, rate, kind), (u0, rate0, kind0) in zip(got, expected, strict=True):
+            assert kind == kind0 and np.sign(rate) == np.sign(rate0)
+            assert u == pytest.approx(u0, rel=1e-8)
+    saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
+    roots = [r for c in tmap.curves for r in c.roots if 2 < r.mass_ratio < 10]
+    root = next(r for r in roots if saved[r.frequency].reduced)
+    sample = _sample(fluid, root.frequency)
+    assert relative_error(saved[root.frequency].transfer, sample.transfer) < 1e-6
+    _assert_root_of_exact_sample(fluid, root, sample)
+    again = FactorCounter()
+    rerun = transfer_neutral_map(fluid, Solid(), counter=again, samples_path=tmp_path / "s.nc", **settings_)
+    assert again.count == 0 and rerun.resonance_models == tmap.resonance_models
 
 
 def test_unresolved_intervals_are_reported_with_their_reasons():

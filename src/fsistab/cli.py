@@ -706,10 +706,12 @@ def _neutral_report(ds, p: dict, settings, out: Path) -> list:
     elif p["method"] == "continuation":
         lines.append("no VIV sweep: give --wake-frequency (a guess of the fixed body's wake-mode frequency)")
     if p["method"] == "transfer":
+        fitted = p["interpolated_frequencies"]  # with exact samples: from fits or resonance models
         lines.append(
             f"transfer method: {ds.attrs.get('frequencies', 0)} frequencies sampled "
-            f"({p['reduced_models']} reduced fluid models; {p['interpolated_frequencies']} "
-            f"interpolated by {p['rational_fits']} rational fits of the exact samples)"
+            f"({p['reduced_models']} reduced fluid model{'' if p['reduced_models'] == 1 else 's'}"
+            + (f"; {fitted} interpolated by them and {p['rational_fits']} rational fits" if fitted else "")
+            + ")"
         )
     for interval in p["unresolved"]:
         low, high = interval["frequency_range"]

@@ -58,7 +58,12 @@ closer to the axis than half its half-width is sampled at the pole's frequency
 (:func:`unresolved_resonance`), no wake-frequency hint needed. Within that resonance the VIV curves
 move faster in ``ω`` than exact samples ``min_step`` apart resolve (at Re 2900 on the default mesh
 30 such intervals at ω 10.78–11.26) while ``G`` itself is smooth there (its poles lie 0.03–0.2 from
-the axis, several sample spacings): a run of such intervals is refined on with a rational fit of the
+the axis, several sample spacings). With exact samples, a resonance much narrower than the interval
+that shows it (:func:`sharp_resonance`: the wake mode between the initial frequencies) is sampled
+by a reduced fluid model at its pole instead (:mod:`fsistab.reduced_model`, ``RESONANCE_BLOCKS``
+Krylov blocks, one factorisation), whose certified interval then costs no factorisation: at Re 2900
+on the default mesh one model certifies ω ∈ [10.29, 11.54], where the VIV curves had taken 56 exact
+samples. Elsewhere, a run of such intervals is refined on with a rational fit of the
 exact samples around it, certified there out of sample and against the samples' exact ``dG/ds``
 (:mod:`fsistab.rational_fit`), down to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried
 first, before any exact bisection (``fit_first``): wherever the samples already certify one, the
@@ -85,6 +90,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -129,6 +135,17 @@ RESONANCE_DAMPING = 0.5
 RESONANCE_SHARE = 1e-3  # and whose residue makes at least this share of G at the samples
 RESONANCE_STEP = 1e-3  # relative width below which no resonance is looked for
 RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interval from either end
+# with exact samples, a resonance is sampled by a reduced fluid model at its pole (one factorisation,
+# fsistab.reduced_model) of this many Krylov blocks, certified to RESONANCE_TOLERANCE: on the plate at
+# Re 2900 (default mesh) 40 blocks (205 vectors) at ω = 11.0 certify ω ∈ [10.38, 11.63], the whole
+# wake band whose VIV curves took 56 exact samples (20 blocks: [10.82, 11.20])
+RESONANCE_BLOCKS = 40
+RESONANCE_TOLERANCE = 1e-7
+# only for a resonance this many times narrower than the half-width of the interval that shows it
+# (the wake mode between the initial frequencies 10.47 and 12.31: 0.005; the flutter band's and the
+# other resonances the map samples on the plate at Re 2900: 0.10-0.34, whose models certified only
+# ±0.04 in ω), where exact bisections would need many samples
+SHARP_RESONANCE = 0.05
 # the default frequency range is extended down, by halving, while a curve leaves it inside the mass
 # range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
 LOWEST_FREQUENCY = 1e-4
@@ -622,6 +639,7 @@ class TransferMap:
     unresolved: tuple[UnresolvedInterval, ...]
     rational_fits: int = 0  # certified rational fits that refined the sampling below min_step
     interpolated: int = 0  # frequencies sampled from them
+    resonance_models: int = 0  # reduced fluid models at resonances (exact samples elsewhere)
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
         # λ is the static load slope per unit inertia r_θ² (MODEL.md §8): U*_D = √(m · 1 / λ)
@@ -751,6 +769,14 @@ def resonance(left: AxisSample, right: AxisSample) -> tuple[complex, float]:
     return complex(middle + half * mu), float(np.linalg.norm(residue) / size) if size > 0 else 0.0
 
 
+def sharp_resonance(left: AxisSample, right: AxisSample) -> bool:
+    """Whether the :func:`resonance` pole between two samples lies closer to the axis than
+    ``SHARP_RESONANCE`` half-widths of their interval: a resonance that exact bisections would
+    resolve only after many halvings."""
+    pole, _ = resonance(left, right)
+    return abs(pole.real) < SHARP_RESONANCE * 0.5 * (right.frequency - left.frequency)
+
+
 def unresolved_resonance(left: AxisSample, right: AxisSample) -> float | None:
     """The frequency at which to sample next if the two samples straddle a resonance they do not
     resolve: the :func:`resonance` pole lies between them, closer to the axis than
@@ -803,6 +829,7 @@ def transfer_neutral_map(
     progress: Callable[[str], None] | None = None,
     threads: int | None = None,
     fit_first: bool = True,
+    resonance_blocks: int = RESONANCE_BLOCKS,
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
@@ -817,7 +844,10 @@ def transfer_neutral_map(
     default range (:func:`default_frequency_range`).
 
     Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
-    resonance at its pole's frequency (:func:`unresolved_resonance`), and bisects every interval
+    resonance at its pole's frequency (:func:`unresolved_resonance`) — with exact samples, a sharp
+    one (:func:`sharp_resonance`) by a reduced fluid model of ``resonance_blocks`` Krylov blocks
+    built there (0: an exact sample), whose certified interval is then sampled at no factorisation
+    (saved next to ``samples_path`` and reused) — and bisects every interval
     whose roots are not matched within ``tolerance`` (in ``log m``, ``log U*``) by their tangents,
     down to a relative step ``min_step``. With exact samples, a run of intervals still unresolved
     there (not a fold in ``ω``) goes on with a certified rational fit of the exact samples around
@@ -886,13 +916,56 @@ def transfer_neutral_map(
             table.save()
 
     fits: list[TransferFit] = []  # certified rational fits of the exact samples (below min_step)
+    # with exact samples, reduced models at resonances (saved next to the samples: a rerun reuses them)
+    # (their own counter: they are built beside the round's exact samples, added to ``counter`` after)
+    resonances, built = None, FactorCounter()
+    if reduced is None and resonance_blocks:
+        path = (
+            None
+            if samples_path is None
+            else Path(samples_path).with_name(Path(samples_path).stem + "_models.nc")
+        )
+        resonances = ReducedModels(
+            fluid,
+            tolerance=RESONANCE_TOLERANCE,
+            blocks=resonance_blocks,
+            path=path,
+            counter=built,
+            progress=say,
+            refine=False,
+        )
+    models = [_model_cover(m, RESONANCE_TOLERANCE) for m in resonances.models] if resonances else []
 
     def fitted(omega: float) -> TransferFit | None:
-        return next((f for f in fits if f.covers(omega)), None)
+        return next((f for f in (*models, *fits) if f.covers(omega)), None)
 
     def spanned(w0: float, w1: float) -> bool:
-        """Whether one certified fit covers both ends of ``[w0, w1]``."""
-        return any(f.covers(w0) and f.covers(w1) for f in fits)
+        """Whether one certified fit (or resonance model) covers both ends of ``[w0, w1]``."""
+        return any(f.covers(w0) and f.covers(w1) for f in (*models, *fits))
+
+    def resonance_model(omega: float) -> TransferFit | None:
+        """A reduced model at the resonance ``omega`` (``resonance_blocks``, plain solves: their
+        residual, 5e-13, is far below the model's tolerance), whose certified interval is then
+        sampled at no factorisation; None if it certifies nothing."""
+        try:
+            model = resonances.build(omega)
+        except ConvergenceError as error:  # no certified interval: exact samples there
+            say(str(error))
+            return None
+        return _model_cover(model, RESONANCE_TOLERANCE)
+
+    def prefetch_beside_models(batch: list[float], sharp: list[tuple[float, float, float]]) -> None:
+        """:func:`prefetch` of ``batch`` while the reduced models at the ``sharp`` resonances
+        ``(w0, w1, pole)`` are built in another thread: the frequencies inside their intervals wait
+        for them (a model may cover them), the others are factorised meanwhile."""
+        waiting = [w for w in batch if any(w0 <= w <= w1 for w0, w1, _ in sharp)]
+        with ThreadPoolExecutor(1) as builder:
+            futures = [builder.submit(resonance_model, pole) for *_, pole in sharp]
+            prefetch([w for w in batch if w not in waiting])
+            models.extend(fit for future in futures if (fit := future.result()) is not None)
+        counter.count += built.count
+        built.count = 0
+        prefetch(waiting)
 
     def fit_around(low_end: float, high_end: float, beyond: int = 0) -> TransferFit | None:
         """A rational fit of the exact samples around ``[low_end, high_end]``, certified there,
@@ -981,7 +1054,7 @@ def transfer_neutral_map(
     interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
     while True:
         grid = sorted(roots)
-        todo, stuck, pending = [], [], []
+        todo, stuck, pending, sharp = [], [], [], []
         for w0, w1 in zip(grid[:-1], grid[1:], strict=True):
             if (w0, w1) in unresolved:
                 continue
@@ -1008,7 +1081,15 @@ def transfer_neutral_map(
                     pending.append((w0, w1))
             elif (pole := unresolved_resonance(stored[w0], stored[w1])) is not None:
                 # a weakly damped fluid mode between the samples (the wake mode's VIV curves lie
-                # within its resonance and may leave no root at either sample): sample at its pole
+                # within its resonance and may leave no root at either sample): sample at its pole,
+                # with exact samples from a reduced model there, which certifies the resonance
+                # around it (its curves are then refined at no factorisation)
+                if (
+                    resonances is not None
+                    and fitted(pole) is None
+                    and sharp_resonance(stored[w0], stored[w1])
+                ):
+                    sharp.append((w0, w1, pole))
                 todo.append((w1 - w0, w0, w1, pole))
                 continue
             else:
@@ -1048,7 +1129,7 @@ def transfer_neutral_map(
         batch = [omega for *_, omega in costly[:room] + (free if interpolated < FITTED_SAMPLES else [])]
         if not batch:
             break
-        prefetch(batch)
+        prefetch_beside_models(batch, sharp) if sharp else prefetch(batch)
         for omega in batch:
             add(omega)
         interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
@@ -1073,7 +1154,24 @@ def transfer_neutral_map(
         unresolved_intervals(unresolved, curves),
         len(fits),
         interpolated,
+        len(models),
     )
+
+
+class _AxisModel:
+    """A reduced fluid model (:class:`fsistab.reduced_model.KrylovModel`) called as the model of a
+    :class:`fsistab.rational_fit.TransferFit` is: ``G(s)`` and, with ``derivative``, ``dG/ds``."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def __call__(self, s: complex, derivative: bool = False):
+        return self.model.transfer(s, derivative=derivative)
+
+
+def _model_cover(model, tolerance: float) -> TransferFit:
+    """A reduced model as a certified local model of ``G`` on its certified interval."""
+    return TransferFit(model.interval[0], model.interval[1], _AxisModel(model), tolerance)
 
 
 def _runs(intervals: list[tuple[float, float]]) -> list[list[tuple[float, float]]]:
