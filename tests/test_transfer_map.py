@@ -569,12 +569,7 @@ def test_a_sharp_resonance_is_sampled_by_a_reduced_model(fluid, tmp_path):
     assert counter.count == tmap.factorisations < 0.5 * exact.factorisations
     assert exact.factorisations == alone.count
     assert {c.kind for c in tmap.curves} == {c.kind for c in exact.curves} == {"viv"}
-    for m in (2.0, 5.0, 10.0):
-        got, expected = tmap.crossings_at(m), exact.crossings_at(m)
-        assert len(got) == len(expected) >= 1
-        for (u, rate, kind), (u0, rate0, kind0) in zip(got, expected, strict=True):
-            assert kind == kind0 and np.sign(rate) == np.sign(rate0)
-            assert u == pytest.approx(u0, rel=1e-8)
+    _assert_same_crossings(tmap, exact, (2.0, 5.0, 10.0), 1, rel=1e-8)
     saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
     roots = [r for c in tmap.curves for r in c.roots if 2 < r.mass_ratio < 10]
     root = next(r for r in roots if saved[r.frequency].reduced)
@@ -631,6 +626,17 @@ def test_a_curve_leaving_the_lowest_frequency_is_followed_below_it(fluid, tmp_pa
     assert [u for u, _, kind in fixed.crossings_at(6000.0) if kind == "flutter"] == [flutter[0][0]]
     assert unstable_counts(fixed, 6000.0, velocities[1:]).tolist() == [2]
     assert [(u.low, u.high) for u in fixed.unresolved if u.reason == "range"] == [(0.0, 0.01)]
+
+
+def _assert_same_crossings(tmap, reference, masses, least: int, rel: float):
+    """At each mass ratio of ``masses`` the two maps cross U* as often (at least ``least`` times),
+    in the same order, with the same kinds and crossing signs, at the same U* (to ``rel``)."""
+    for m in masses:
+        got, expected = tmap.crossings_at(m), reference.crossings_at(m)
+        assert len(got) == len(expected) >= least
+        for (u, rate, kind), (u0, rate0, kind0) in zip(got, expected, strict=True):
+            assert kind == kind0 and np.sign(rate) == np.sign(rate0)
+            assert u == pytest.approx(u0, rel=rel)
 
 
 def _assert_root_of_exact_sample(fluid, root, exact):
@@ -694,12 +700,7 @@ def test_fits_tried_before_exact_bisection_draw_the_same_map_with_fewer_factoris
     assert tmap.rational_fits > plain.rational_fits and tmap.interpolated > plain.interpolated
     assert [(c.kind, len(c.roots)) for c in tmap.curves] == [(c.kind, len(c.roots)) for c in plain.curves]
     assert {c.kind for c in tmap.curves} == {"viv"}
-    for m in (2.0, 5.0, 10.0, 30.0):
-        got, expected = tmap.crossings_at(m), plain.crossings_at(m)
-        assert len(got) == len(expected) >= 2
-        for (u, rate, kind), (u0, rate0, kind0) in zip(got, expected, strict=True):
-            assert kind == kind0 and np.sign(rate) == np.sign(rate0)
-            assert u == pytest.approx(u0, rel=1e-6)
+    _assert_same_crossings(tmap, plain, (2.0, 5.0, 10.0, 30.0), 2, rel=1e-6)
     saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
     fitted = [r for c in tmap.curves for r in c.roots if saved[r.frequency].reduced]
     root = next(r for r in fitted if 2 < r.mass_ratio < 50)

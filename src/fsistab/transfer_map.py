@@ -920,11 +920,8 @@ def transfer_neutral_map(
     # (their own counter: they are built beside the round's exact samples, added to ``counter`` after)
     resonances, built = None, FactorCounter()
     if reduced is None and resonance_blocks:
-        path = (
-            None
-            if samples_path is None
-            else Path(samples_path).with_name(Path(samples_path).stem + "_models.nc")
-        )
+        samples = None if samples_path is None else Path(samples_path)
+        path = None if samples is None else samples.with_name(samples.stem + "_resonance_models.nc")
         resonances = ReducedModels(
             fluid,
             tolerance=RESONANCE_TOLERANCE,
