@@ -59,7 +59,7 @@ closer to the axis than half its half-width is sampled at the pole's frequency
 move faster in ``ω`` than exact samples ``min_step`` apart resolve (at Re 2900 on the default mesh
 30 such intervals at ω 10.78–11.26) while ``G`` itself is smooth there (its poles lie 0.03–0.2 from
 the axis, several sample spacings). With exact samples, a resonance much narrower than the interval
-that shows it (:func:`sharp_resonance`: the wake mode between the initial frequencies) is sampled
+that shows it, between two initial frequencies (:func:`sharp_resonance`: the wake mode) is sampled
 by a reduced fluid model at its pole instead (:mod:`fsistab.reduced_model`, ``RESONANCE_BLOCKS``
 Krylov blocks, one factorisation), whose certified interval then costs no factorisation: at Re 2900
 on the default mesh one model certifies ω ∈ [10.29, 11.54], where the VIV curves had taken 56 exact
@@ -135,17 +135,20 @@ RESONANCE_DAMPING = 0.5
 RESONANCE_SHARE = 1e-3  # and whose residue makes at least this share of G at the samples
 RESONANCE_STEP = 1e-3  # relative width below which no resonance is looked for
 RESONANCE_MARGIN = 0.05  # a resonance sample stays this fraction of its interval from either end
-# with exact samples, a resonance is sampled by a reduced fluid model at its pole (one factorisation,
+# with exact samples, a sharp resonance is sampled by a reduced fluid model at its pole (one factorisation,
 # fsistab.reduced_model) of this many Krylov blocks, certified to RESONANCE_TOLERANCE: on the plate at
 # Re 2900 (default mesh) 40 blocks (205 vectors) at ω = 11.0 certify ω ∈ [10.38, 11.63], the whole
 # wake band whose VIV curves took 56 exact samples (20 blocks: [10.82, 11.20])
 RESONANCE_BLOCKS = 40
 RESONANCE_TOLERANCE = 1e-7
-# only for a resonance this many times narrower than the half-width of the interval that shows it
-# (the wake mode between the initial frequencies 10.47 and 12.31: 0.005; the flutter band's and the
-# other resonances the map samples on the plate at Re 2900: 0.10-0.34, whose models certified only
-# ±0.04 in ω), where exact bisections would need many samples
-SHARP_RESONANCE = 0.05
+# only for a resonance between two initial frequencies, this many times narrower than their
+# half-width, whose residue makes at least SHARP_SHARE of G there: an isolated weakly damped mode
+# the initial grid steps over. On the plate at Re 2900 the wake mode between 10.47 and 12.31 (0.005
+# half-widths and share 0.047 on the default mesh, 0.053 and 0.040 on `quick`) and no other: the
+# flutter band's resonances lie 0.10-0.40 half-widths from the axis with shares 0.002-0.019, and
+# models built at them certified only ±0.04-0.05 in ω (its modes are dense there)
+SHARP_RESONANCE = 0.1
+SHARP_SHARE = 0.02
 # the default frequency range is extended down, by halving, while a curve leaves it inside the mass
 # range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
 LOWEST_FREQUENCY = 1e-4
@@ -771,10 +774,11 @@ def resonance(left: AxisSample, right: AxisSample) -> tuple[complex, float]:
 
 def sharp_resonance(left: AxisSample, right: AxisSample) -> bool:
     """Whether the :func:`resonance` pole between two samples lies closer to the axis than
-    ``SHARP_RESONANCE`` half-widths of their interval: a resonance that exact bisections would
-    resolve only after many halvings."""
-    pole, _ = resonance(left, right)
-    return abs(pole.real) < SHARP_RESONANCE * 0.5 * (right.frequency - left.frequency)
+    ``SHARP_RESONANCE`` half-widths of their interval with a residue of at least ``SHARP_SHARE``
+    of ``G``: an isolated resonance that exact bisections would resolve only after many halvings."""
+    pole, share = resonance(left, right)
+    narrow = abs(pole.real) < SHARP_RESONANCE * 0.5 * (right.frequency - left.frequency)
+    return narrow and share >= SHARP_SHARE
 
 
 def unresolved_resonance(left: AxisSample, right: AxisSample) -> float | None:
@@ -1049,6 +1053,7 @@ def transfer_neutral_map(
         add(float(omega))
     unresolved: dict[tuple[float, float], str] = {}  # interval -> reason (UNRESOLVED_REASONS)
     interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
+    first_round = True  # the intervals of the initial frequencies (and of saved samples)
     while True:
         grid = sorted(roots)
         todo, stuck, pending, sharp = [], [], [], []
@@ -1083,6 +1088,7 @@ def transfer_neutral_map(
                 # around it (its curves are then refined at no factorisation)
                 if (
                     resonances is not None
+                    and first_round
                     and fitted(pole) is None
                     and sharp_resonance(stored[w0], stored[w1])
                 ):
@@ -1126,10 +1132,14 @@ def transfer_neutral_map(
         batch = [omega for *_, omega in costly[:room] + (free if interpolated < FITTED_SAMPLES else [])]
         if not batch:
             break
-        prefetch_beside_models(batch, sharp) if sharp else prefetch(batch)
+        if sharp:
+            prefetch_beside_models(batch, sharp)
+        else:
+            prefetch(batch)
         for omega in batch:
             add(omega)
         interpolated = sum(stored[w].reduced for w in roots) if reduced is None else 0
+        first_round = False
         save()  # the round's reduced samples: a rerun samples the same frequencies
         say(f"{len(roots)} frequencies, {len(todo)} intervals refined")
     if any(x.reduced for x in stored.values()):
