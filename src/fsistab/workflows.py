@@ -400,16 +400,17 @@ def stability_map(
     attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
     result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say)
     map_attrs = {**attrs, "method": settings.method}
+    # the reduced models of the map, or with exact samples those built at sharp resonances
+    models = len(reduced.models) if reduced else tmap.resonance_models if tmap is not None else 0
     if tmap is not None:
         map_attrs["frequencies"] = len(tmap.frequencies)
         map_attrs["unresolved_intervals"] = len(tmap.unresolved)
-        # the reduced models of the map, or with exact samples those built at sharp resonances
-        map_attrs["reduced_models"] = len(reduced.models) if reduced else tmap.resonance_models
+        map_attrs["reduced_models"] = models
         map_attrs["rational_fits"] = tmap.rational_fits  # fsistab.rational_fit: below min_step
         map_attrs["interpolated_frequencies"] = tmap.interpolated
     ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
     ds.attrs["factorisations_this_run"] = counter.count
-    ds.attrs["reduced_models"] = map_attrs.get("reduced_models", len(reduced.models) if reduced else 0)
+    ds.attrs["reduced_models"] = models
     data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
     divergence = xr.Dataset(
         {"reduced_velocity": ("mass_ratio", result.divergence_velocities)},
