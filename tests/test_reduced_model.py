@@ -154,3 +154,26 @@ def test_a_model_at_the_wake_frequency_carries_the_wake_mode_pole(fluid):
     poles = sla.eigvals(-model.jr, model.mr)
     assert np.min(np.abs(poles - wake.value)) < 1e-8
     assert model.covers(wake.frequency)
+
+
+@pytest.mark.parametrize("dtype", [complex, float])
+def test_projection_in_column_chunks_equals_the_dense_product(dtype):
+    """``Vᴴ A V`` formed 32 columns at a time, a real sparse ``A`` split over the real and imaginary
+    parts of ``V``, and ``Vᴴ X`` by BLAS with the conjugate transpose as a flag, against the dense
+    products (70 columns: three chunks, the last one partial)."""
+    import scipy.sparse as sp
+
+    from fsistab.reduced_model import PROJECTION_COLUMNS, _adjoint_product, _projected
+
+    rng = np.random.default_rng(3)
+    n, k = 400, 2 * PROJECTION_COLUMNS + 6
+    operator = sp.random(n, n, density=0.02, random_state=4, format="csr") + sp.identity(n, format="csr")
+    basis = np.asfortranarray(rng.standard_normal((n, k)))
+    if dtype is complex:
+        basis = basis + 1j * rng.standard_normal((n, k))
+    inputs = rng.standard_normal((n, 4))
+    dense = operator.toarray()
+    expected = basis.conj().T @ dense @ basis
+    assert _projected(basis, operator).dtype == basis.dtype
+    assert np.abs(_projected(basis, operator) - expected).max() <= 1e-12 * np.abs(expected).max()
+    assert np.abs(_adjoint_product(basis, inputs) - basis.conj().T @ inputs).max() <= 1e-12 * n
