@@ -13,11 +13,12 @@ reach the body's equations, since ``ḣ = s h`` and ``θ' = s θ`` (MODEL.md §7
 and for each (lift and moment rows) the script prints the **fine structure**: the deviation of
 the midpoint from the straight line through its two neighbours, ``|g(ω−h) − 2g(ω) + g(ω+h)| / 2``,
 relative to the largest ``|g|`` on the window (median and maximum over the grid), which is what an
-interpolant between samples ``2h`` apart must resolve. A smooth ``G`` (scale ~1 in ω) gives about
-``h²/2``; structure on a scale ``P`` of relative amplitude ``A`` gives about ``A (πh/P)²``... up
-to ``A``. It also prints the strongest delay ``τ`` of that structure (the ``τ`` maximising
-``|Σ r(ω) e^{iωτ}|`` for the residual ``r`` of a cubic fit): a feature ``e^{−iωτ}`` is what a
-perturbation travelling for a time ``τ`` before it acts on the body leaves in ``G``.
+interpolant between samples ``2h`` apart must resolve. A ``G`` varying on the scale of 1 in ω
+gives about ``h²/2``; a ripple of relative amplitude ``A`` and period ``P`` gives
+``2A sin²(πh/P)``, about ``2A (πh/P)²`` for ``P ≫ h``. It also prints the strongest delay ``τ``
+of that structure (the ``τ`` maximising ``|Σ r(ω) e^{iωτ}|`` for the residual ``r`` of a cubic
+fit): a feature ``e^{−iωτ}`` is what a perturbation travelling for a time ``τ`` before it acts on
+the body leaves in ``G``; a window of width ``W`` resolves ``τ`` to about ``2π/W``.
 
 With ``--real-shift A --blocks N`` it also builds the reduced model
 (:func:`fsistab.reduced_model.krylov_model`) at the real shift ``s₀ = A`` (a real basis, one real
