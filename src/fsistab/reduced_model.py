@@ -180,19 +180,19 @@ def krylov_model(
 
 
 def _adjoint_product(basis: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """``Vᴴ X`` by BLAS with the conjugate transpose as a flag: no conjugated copy of the basis
-    (on the default mesh a 205-vector basis is 1.4 GB)."""
+    """``Vᴴ X`` as ``conj(Vᵀ conj(X))``: ``Vᵀ`` is a view, so only the thin ``X`` is conjugated,
+    not the basis (on the default mesh a 205-vector basis is 1.4 GB). NumPy's product releases the
+    GIL, which SciPy's BLAS wrappers do not: the map builds its models beside the exact samples."""
     if not np.iscomplexobj(basis):
         return basis.T @ other
-    gemm = sla.get_blas_funcs("gemm", (basis,))
-    return gemm(1.0, basis, np.asarray(other, dtype=basis.dtype), trans_a=2)
+    return (basis.T @ np.conj(other)).conj()
 
 
 def _projected(basis: np.ndarray, operator) -> np.ndarray:
     """``Vᴴ A V`` for a sparse ``A``, ``PROJECTION_COLUMNS`` columns of ``A V`` at a time: the
     product is never held whole (another copy of the basis's size). A real ``A`` multiplies the
-    real and imaginary parts of a complex basis separately (SciPy would otherwise convert ``A`` to
-    complex and do twice the arithmetic)."""
+    real and imaginary parts of a complex basis separately: SciPy would otherwise convert ``A`` to
+    complex, twice as slow (3.4 s against 1.7 s for 32 columns, 400 k rows of 30 entries)."""
     size = basis.shape[1]
     result = np.empty((size, size), dtype=basis.dtype)
     for start in range(0, size, PROJECTION_COLUMNS):
