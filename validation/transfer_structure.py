@@ -70,6 +70,11 @@ def main() -> None:
     parser.add_argument("--save", type=Path, help="the samples as .npz (omega, transfer)")
     parser.add_argument("--cache", type=Path, default=None)
     args = parser.parse_args()
+    low, high = args.window
+    if not (args.step > 0 and high - low >= 2 * args.step):
+        parser.error(f"--window {low:g} {high:g} --step {args.step:g}: need W1 - W0 >= 2h > 0")
+    if args.real_shift is not None and args.blocks < 3:
+        parser.error(f"--blocks {args.blocks}: a reduced model needs at least 3 Krylov blocks")
 
     from fsistab.mesh import mesh_spec
     from fsistab.operators import fluid_operators
@@ -94,7 +99,6 @@ def main() -> None:
         f"({time.perf_counter() - started:.0f} s)",
         flush=True,
     )
-    low, high = args.window
     omega = np.arange(round((high - low) / args.step) + 1) * args.step + low
     started = time.perf_counter()
     samples = transfer_samples(fluid, 1j * omega, refine=False)
