@@ -248,6 +248,35 @@ def test_middle_band_refines_the_wake_to_the_outlet():
         mesh_spec(Plate(), "coarse", 100, domain, **sizes, middle_band=(80, -5))
 
 
+def test_far_wake_continues_the_wake_box_with_its_own_size():
+    """``far_wake = (h, end, half-width)``: elements of size ``h`` from the wake box's end to ``end``
+    within the half-width, the middle size beside it; a spec without it keeps its key; an extent
+    that is not positive or a far wake ending before the wake box is refused before any meshing."""
+    from fsistab.mesh import element_sizes
+    from fsistab.params import Domain
+
+    domain = Domain(20, 80, 30)
+    sizes = {"far": 8.0, "middle": 2.0, "middle_box": (10, 20, 10), "middle_band": (80, 8)}
+    plain = mesh_spec(Plate(), "coarse", 100, domain, **sizes)
+    graded = mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60, 1.5))
+    assert "far_wake" not in plain.sizes.key_inputs() and plain.key() != graded.key()
+    mesh = build_mesh(graded)
+    coords = mesh.ngmesh.Coordinates()
+    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
+    centres, h = coords[nodes].mean(axis=1), element_sizes(mesh)
+    far_wake = (centres[:, 0] > 8) & (centres[:, 0] < 59) & (np.abs(centres[:, 1]) < 1.3)
+    beyond = (centres[:, 0] > 65) & (np.abs(centres[:, 1]) < 1.3)
+    beside = (centres[:, 0] > 25) & (centres[:, 0] < 55) & (np.abs(np.abs(centres[:, 1]) - 5) < 2)
+    assert far_wake.sum() > 500 and h[far_wake].max() < 0.4 * 1.6
+    assert h[beyond].max() > 1.2 and h[beside].max() > 1.2
+    with pytest.raises(InputError, match="far wake"):
+        mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60, -1))
+    with pytest.raises(InputError, match="far wake must end beyond"):
+        mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 3, 1))
+    with pytest.raises(InputError, match="far wake"):
+        mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60))
+
+
 def test_middle_size_needs_its_box():
     with pytest.raises(InputError, match="middle"):
         mesh_spec(Plate(), "coarse", 100, middle=1.0)

@@ -60,6 +60,19 @@ def test_estimate_counts_the_middle_box_and_band(cache_dir):
     assert 0.5 < (found[1] - found[0]) / (counts[1] - counts[0]) < 2
 
 
+def test_estimate_counts_the_far_wake(cache_dir):
+    """A far-wake box (the wake's finer elements continued downstream): the estimate adds what the
+    real mesh adds, within a factor 2."""
+    sizes = {"far": 4.0, "middle": 1.0, "middle_box": (10, 20, 10), "middle_band": (60, 5)}
+    domain = Domain(20, 60, 20)
+    plain = mesh_spec(Plate(), "coarse", 2900.0, domain, **sizes)
+    graded = mesh_spec(Plate(), "coarse", 2900.0, domain, **sizes, far_wake=(0.3, 60, 1.5))
+    counts = [mesh_statistics(build_mesh(spec, cache_dir))["ndof"] for spec in (plain, graded)]
+    found = [estimate(spec).unknowns for spec in (plain, graded)]
+    assert counts[1] > counts[0] + 5000
+    assert 0.5 < (found[1] - found[0]) / (counts[1] - counts[0]) < 2
+
+
 @pytest.mark.parametrize("name", list(MESHES))
 def test_taylor_hood_unknowns_follow_from_euler_formula(measured_meshes, name):
     """The estimator's ``ndof = 4.5 T + 2.5 B``: with ``V - E + T = 0`` (one hole) and

@@ -15,6 +15,7 @@ is added instead (test only), ``s`` rising by the same step from 0 at ``X = STAR
 
 Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j] [--count 8]
            [--lateral-sponge 0.2 40] [--viscosity 0.02 40] [--far SIZE] [--sponge SPEC]
+           [--size NAME=VALUE] [--far-wake H END HALF]
            [--reynolds 2900] [--cache DIR]
 
 ``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
@@ -27,6 +28,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from sponge_check import add_size_option, size_overrides  # the sibling script's (run from validation/)
 
 
 def main() -> None:
@@ -46,20 +48,27 @@ def main() -> None:
     )
     parser.add_argument("--reynolds", type=float, default=2900.0)
     parser.add_argument("--cache", type=Path, default=None)
+    add_size_option(parser)
     args = parser.parse_args()
 
     from ngsolve import BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
+    from fsistab.errors import InputError
     from fsistab.mesh import mesh_spec
     from fsistab.operators import _to_scipy, fluid_operators
     from fsistab.params import Flow, Plate, Solid, parse_sponge
     from fsistab.steady import solve_steady
     from fsistab.store import default_cache_dir
 
-    sizes = {} if args.far is None else {"far": args.far}
-    spec = mesh_spec(Plate(), args.preset, args.reynolds, sponge=parse_sponge(args.sponge), **sizes)
+    sizes = size_overrides(args)  # bad input refused before any mesh
+    if args.far is not None:
+        sizes["far"] = args.far
+    try:
+        spec = mesh_spec(Plate(), args.preset, args.reynolds, sponge=parse_sponge(args.sponge), **sizes)
+    except InputError as exc:
+        parser.error(str(exc))
     print(f"Re {args.reynolds:g}, far-field size {spec.sizes.far:g}, sponge: {spec.sponge}")
     steady = solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
     fluid = fluid_operators(steady)

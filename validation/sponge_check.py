@@ -26,14 +26,16 @@ Usage:
     python validation/sponge_check.py [coarse|medium] [--regions all|downstream upstream lateral]
         [--sigma 1.0 ...] [--zone 0.25 ...] [--upstream-zone 0.25] [--lateral-zone 0.3]
         [--mass-ratios 1000 10 30] [--velocity-range LOW HIGH] [--domain UP DOWN LAT] [--far SIZE]
-        [--middle SIZE UP DOWN LAT] [--band END HALF] [--size NAME=VALUE ...] [--slip]
+        [--middle SIZE UP DOWN LAT] [--band END HALF] [--size NAME=VALUE ...]
+        [--far-wake H END HALF] [--slip]
         [--no-baseline | --no-sponge]
         [--library-sponge SIGMA_MAX,ZONE[,FAR_SIGMA,FAR_RAMP]] [--out records.jsonl]
 
 ``--zone`` is ``z_d`` (and ``z_u`` unless ``--upstream-zone`` is given); ``--domain`` overrides the
 preset's domain, ``--far`` its far-field element size, ``--middle`` adds (or replaces) the graded
 far field's middle box (``fsistab.mesh.MeshSizes``), ``--band`` its band behind the body,
-``--size NAME=VALUE`` any other of its sizes (``wall``, ``corner``, ``near``, ``wake``, ...);
+``--size NAME=VALUE`` any other of its sizes (``wall``, ``corner``, ``near``, ``wake``, ...),
+``--far-wake H END HALF`` elements of size ``H`` from the wake box's end to ``END`` (``far_wake``);
 ``--velocity-range`` replaces the default U* range of every sweep (``[2, 10]`` for m ≥ 100,
 ``[1.5, 6]`` below). ``--slip`` imposes only ``U·N = 0`` on the inlet and lateral sides for the
 perturbation (tried once on ``coarse``: the sweeps then need more than 200 samples). Examples
@@ -249,7 +251,8 @@ def size_item(item: str) -> tuple[str, float]:
 
 
 def add_size_option(parser: argparse.ArgumentParser) -> None:
-    """``--size NAME=VALUE`` (repeatable), checked by :func:`size_item`."""
+    """``--size NAME=VALUE`` (repeatable), checked by :func:`size_item`, and ``--far-wake H END
+    HALF`` (:func:`size_overrides`)."""
     parser.add_argument(
         "--size",
         action="append",
@@ -257,6 +260,22 @@ def add_size_option(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="another of the preset's sizes (fsistab.mesh.MeshSizes: wall, corner, near, wake, ...)",
     )
+    parser.add_argument(
+        "--far-wake",
+        type=float,
+        nargs=3,
+        metavar=("H", "END", "HALF"),
+        help="elements of size H from the wake box's end to END chords, half-width HALF (far_wake)",
+    )
+
+
+def size_overrides(args) -> dict:
+    """The sizes of ``--size`` (checked by :func:`size_item`) and ``--far-wake`` (checked by
+    :class:`fsistab.mesh.MeshSizes` when the spec is made, before any mesh)."""
+    sizes = dict(size_item(item) for item in args.size)
+    if args.far_wake is not None:
+        sizes["far_wake"] = tuple(args.far_wake)
+    return sizes
 
 
 def build_spec(args) -> MeshSpec:
@@ -267,9 +286,7 @@ def build_spec(args) -> MeshSpec:
         sizes["middle"], sizes["middle_box"] = args.middle[0], tuple(args.middle[1:])
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
-    for item in args.size:
-        name, value = size_item(item)
-        sizes[name] = value
+    sizes.update(size_overrides(args))
     domain = Domain(*args.domain) if args.domain else None
     # its own sponges only, unless the library's is asked for (then it is the baseline's)
     sponge = parse_sponge(args.library_sponge) if args.library_sponge else None

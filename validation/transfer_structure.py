@@ -27,7 +27,7 @@ window: whether one model off the axis can stand for the samples of the low band
 
 Usage: python validation/transfer_structure.py [--preset quick] [--window 0.4 0.8] [--step 0.005]
            [--domain 80 240 80 --band 240 20 --sponge 0.2,0.25,0.2,10] [--sponge 0.2,0.5,0.2,10]
-           [--size wake_length=80] [--real-shift 0.5 --blocks 120]
+           [--size wake_length=80] [--far-wake 0.25 160 1.5] [--real-shift 0.5 --blocks 120]
            [--save FILE.npz]
 """
 
@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from sponge_check import add_size_option, size_item  # the sibling script's (run from validation/)
+from sponge_check import add_size_option, size_overrides  # the sibling script's (run from validation/)
 
 
 def fine_structure(values: np.ndarray) -> tuple[float, float]:
@@ -76,6 +76,7 @@ def main() -> None:
     if args.real_shift is not None and args.blocks < 3:
         parser.error(f"--blocks {args.blocks}: a reduced model needs at least 3 Krylov blocks")
 
+    from fsistab.errors import InputError
     from fsistab.mesh import mesh_spec
     from fsistab.operators import fluid_operators
     from fsistab.params import Domain, Flow, Plate, parse_sponge
@@ -84,11 +85,14 @@ def main() -> None:
     from fsistab.store import default_cache_dir
     from fsistab.transfer import transfer_samples
 
-    sizes = dict(size_item(item) for item in args.size)  # bad input refused before any mesh
+    sizes = size_overrides(args)  # bad input refused before any mesh
     if args.band is not None:
         sizes["middle_band"] = tuple(args.band)
     domain = Domain(*args.domain) if args.domain else None
-    spec = mesh_spec(Plate(), args.preset, args.reynolds, domain, parse_sponge(args.sponge), **sizes)
+    try:
+        spec = mesh_spec(Plate(), args.preset, args.reynolds, domain, parse_sponge(args.sponge), **sizes)
+    except InputError as exc:
+        parser.error(str(exc))
     started = time.perf_counter()
     steady = solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
     fluid = fluid_operators(steady)

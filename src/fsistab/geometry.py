@@ -82,9 +82,18 @@ def middle_band_extent(domain: Domain, sizes) -> tuple[float, float]:
     return min(end, domain.downstream), min(half_width, domain.lateral - 1.0)
 
 
+def far_wake_extent(domain: Domain, sizes) -> tuple[float, float, float]:
+    """``(start, end, half-width)`` of the far-wake box: from the wake box's end to ``sizes.far_wake``'s
+    end (the outlet at most), one body length inside the lateral sides."""
+    _, end, half_width = sizes.far_wake
+    start = min(sizes.wake_length, domain.downstream - 1.0)
+    return start, min(end, domain.downstream), min(half_width, domain.lateral - 1.0)
+
+
 def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
-    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box, a wake box and, if
-    ``sizes.middle`` is set, a middle box grading the far field.
+    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box, a wake box, if
+    ``sizes.far_wake`` is set a far-wake box continuing it, and if ``sizes.middle`` is set a middle
+    box grading the far field.
 
     The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
     :func:`fsistab.mesh.build_mesh`), so that it is exactly symmetric: a symmetric flow then has
@@ -111,13 +120,20 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     wake_region.maxh = sizes.wake
     regions = [wake_region, near_region]
     inner = wake
+    if sizes.far_wake is not None:  # the wake box continued to far_wake's end with larger elements
+        start, end, half_width = far_wake_extent(domain, sizes)
+        far_wake = _box(start, end, half_width)
+        far_wake_region = far_wake - wake
+        far_wake_region.maxh = sizes.far_wake[0]
+        regions.insert(0, far_wake_region)
+        inner = wake + far_wake
     if sizes.middle is not None:
         up, down, lateral = middle_box_extent(domain, sizes)
         middle = _box(-up, down, lateral)
         if sizes.middle_band is not None:  # the wake's band of middle-sized elements, to the outlet
             end, half_width = middle_band_extent(domain, sizes)
             middle = middle + _box(0.0, end, half_width)
-        middle_region = middle - wake
+        middle_region = middle - inner
         middle_region.maxh = sizes.middle
         regions.insert(0, middle_region)
         inner = middle

@@ -47,7 +47,9 @@ class MeshSizes:
     in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
     ``wake_length`` downstream with half-width ``wake_half_width``, ``middle`` (if given) in the box
     ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)`` and, if ``middle_band = (e, w)`` is given,
-    also in the band ``[0, e] × [-w, w]`` behind the body, ``far`` elsewhere. The middle box grades the
+    also in the band ``[0, e] × [-w, w]`` behind the body, ``far_wake = (h, e, w)`` (if given) size
+    ``h`` in the box ``[wake end, e] × [-w, w]`` that continues the wake box to ``e``, ``far``
+    elsewhere. The middle box grades the
     far field, so that a larger domain costs little; measured on the plate (docs/discretisation.md),
     4-chord elements beyond a 1-chord box on ``[-40, 80] × [-40, 40]`` reproduce the uniform 1-chord
     mesh's flutter point, while 8-chord elements, or 4-chord ones out to 80 chords, bring weakly
@@ -69,6 +71,7 @@ class MeshSizes:
     middle: float | None = None
     middle_box: tuple[float, float, float] | None = None
     middle_band: tuple[float, float] | None = None
+    far_wake: tuple[float, float, float] | None = None
 
     def __post_init__(self):
         for name in (
@@ -101,13 +104,24 @@ class MeshSizes:
             if len(band) != 2:
                 raise InputError(f"the middle band is (downstream end, half-width), got {self.middle_band}")
             object.__setattr__(self, "middle_band", band)
+        if self.far_wake is not None:
+            box = tuple(float(_positive("far wake size and extent", v)) for v in self.far_wake)
+            if len(box) != 3:
+                raise InputError(f"the far wake is (size, downstream end, half-width), got {self.far_wake}")
+            if box[1] <= self.wake_length:
+                raise InputError(
+                    f"the far wake must end beyond the wake box ({self.wake_length:g}), got {box[1]:g}"
+                )
+            object.__setattr__(self, "far_wake", box)
 
     def key_inputs(self) -> dict:
-        """The sizes as the mesh key sees them: without ``middle_band`` when there is none, so that
-        the meshes made before the band existed keep their keys (and their cached steady states)."""
+        """The sizes as the mesh key sees them: without ``middle_band`` or ``far_wake`` when there is
+        none, so that the meshes made before they existed keep their keys (and their cached steady
+        states)."""
         inputs = asdict(self)
-        if inputs["middle_band"] is None:
-            del inputs["middle_band"]
+        for name in ("middle_band", "far_wake"):
+            if inputs[name] is None:
+                del inputs[name]
         return inputs
 
 

@@ -80,7 +80,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsistab.errors import InputError
-from fsistab.geometry import middle_band_extent, middle_box_extent
+from fsistab.geometry import far_wake_extent, middle_band_extent, middle_box_extent
 from fsistab.mesh import MeshSpec
 from fsistab.params import Plate
 
@@ -154,6 +154,10 @@ class _SizeField:
             0.0,
             min(sizes.wake_half_width, 0.9 * domain.lateral),
         )
+        self.far_wake = None
+        if sizes.far_wake is not None:
+            start, end, half_width = far_wake_extent(domain, sizes)
+            self.far_wake = (start, end, 0.0, half_width)
         self.middle = None
         self.band = None
         if sizes.middle is not None:
@@ -175,6 +179,8 @@ class _SizeField:
             h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.middle))
         if self.band is not None:
             h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.band))
+        if self.far_wake is not None:
+            h = np.minimum(h, sizes.far_wake[0] + s * _rectangle_distance(x, y, *self.far_wake))
         h = np.minimum(h, sizes.wake + s * _rectangle_distance(x, y, *self.wake))
         h = np.minimum(h, sizes.near + s * _rectangle_distance(x, y, *self.near))
         h = np.minimum(h, sizes.wall + s * self.body_distance(x, y))
