@@ -194,17 +194,23 @@ def test_near_body_sizes_scale_further_above_re_2900_only():
     assert fine.corner == pytest.approx(0.0015 * 0.29)
 
 
+def _centres_and_sizes(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's centroid and longest edge."""
+    from fsistab.mesh import element_sizes
+
+    coords = mesh.ngmesh.Coordinates()
+    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
+    return coords[nodes].mean(axis=1), element_sizes(mesh)
+
+
 def test_middle_box_grades_the_far_field():
     """With a middle box (MeshSizes.middle), elements inside it are as small as those of a uniform
     far field of the middle size, and the far field beyond it is coarser: the domain grows at
     little cost (a third of the uniform mesh's triangles here)."""
-    from fsistab.mesh import element_sizes
     from fsistab.params import Domain
 
     def inside_and_outside(mesh):
-        coords = mesh.ngmesh.Coordinates()
-        nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
-        centres, sizes = coords[nodes].mean(axis=1), element_sizes(mesh)
+        centres, sizes = _centres_and_sizes(mesh)
         inside = (centres[:, 0] > -9) & (centres[:, 0] < 19) & (np.abs(centres[:, 1]) < 9)
         return sizes[inside].max(), sizes[~inside].max()
 
@@ -226,7 +232,6 @@ def test_middle_band_refines_the_wake_to_the_outlet():
     """``middle_band = (end, half-width)``: middle-sized elements also in ``[0, end] × [-w, w]``
     behind the body, the far-field size beside it; a spec without a band keeps the key it had
     before the band existed (its sizes' key inputs have no ``middle_band``)."""
-    from fsistab.mesh import element_sizes
     from fsistab.params import Domain
 
     domain = Domain(20, 80, 30)
@@ -234,10 +239,7 @@ def test_middle_band_refines_the_wake_to_the_outlet():
     plain = mesh_spec(Plate(), "coarse", 100, domain, **sizes)
     banded = mesh_spec(Plate(), "coarse", 100, domain, **sizes, middle_band=(80, 5))
     assert "middle_band" not in plain.sizes.key_inputs() and plain.key() != banded.key()
-    mesh = build_mesh(banded)
-    coords = mesh.ngmesh.Coordinates()
-    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
-    centres, h = coords[nodes].mean(axis=1), element_sizes(mesh)
+    centres, h = _centres_and_sizes(build_mesh(banded))
     band = (centres[:, 0] > 25) & (centres[:, 0] < 78) & (np.abs(centres[:, 1]) < 4)
     beside = (centres[:, 0] > 25) & (np.abs(centres[:, 1]) > 12)
     assert band.sum() > 100 and h[band].max() < 1.6
@@ -252,7 +254,6 @@ def test_far_wake_continues_the_wake_box_with_its_own_size():
     """``far_wake = (h, end, half-width)``: elements of size ``h`` from the wake box's end to ``end``
     within the half-width, the middle size beside it; a spec without it keeps its key; an extent
     that is not positive or a far wake ending before the wake box is refused before any meshing."""
-    from fsistab.mesh import element_sizes
     from fsistab.params import Domain
 
     domain = Domain(20, 80, 30)
@@ -260,10 +261,7 @@ def test_far_wake_continues_the_wake_box_with_its_own_size():
     plain = mesh_spec(Plate(), "coarse", 100, domain, **sizes)
     graded = mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60, 1.5))
     assert "far_wake" not in plain.sizes.key_inputs() and plain.key() != graded.key()
-    mesh = build_mesh(graded)
-    coords = mesh.ngmesh.Coordinates()
-    nodes = mesh.ngmesh.Elements2D().NumPy()["nodes"][:, :3].astype(np.int64) - 1
-    centres, h = coords[nodes].mean(axis=1), element_sizes(mesh)
+    centres, h = _centres_and_sizes(build_mesh(graded))
     far_wake = (centres[:, 0] > 8) & (centres[:, 0] < 59) & (np.abs(centres[:, 1]) < 1.3)
     beyond = (centres[:, 0] > 65) & (np.abs(centres[:, 1]) < 1.3)
     beside = (centres[:, 0] > 25) & (centres[:, 0] < 55) & (np.abs(np.abs(centres[:, 1]) - 5) < 2)

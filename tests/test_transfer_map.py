@@ -228,7 +228,8 @@ def test_bad_input_is_refused_before_any_factorisation(fluid, tmp_path):
 
 def test_a_curve_crossing_the_whole_mass_range_between_two_frequencies_is_flagged():
     """Resultant tracks (v, m): a root going from m < 0 to m > 4e4 (through ∞), or from below to
-    above the band, or a pair born in between, flags the interval; staying on one side or being in
+    above the band, or a pair born in between, flags the interval, whether or not the root keeps
+    its v (a curve near-vertical in ω moves fast in v as well); staying on one side or being in
     the band at one end (the tangent matching's business) does not."""
     band = (0.25, 4e4)
     assert _swept(np.array([[1.5, -3.0]]), np.array([[1.52, 1e6]]), band)
@@ -236,7 +237,29 @@ def test_a_curve_crossing_the_whole_mass_range_between_two_frequencies_is_flagge
     assert _swept(np.array([[1.5, -3.0]]), np.array([[0.4, -1.0], [1.5, -2.0], [2.0, 5.0]]), band)
     assert not _swept(np.array([[1.5, -3.0]]), np.array([[1.51, -1e3]]), band)
     assert not _swept(np.array([[1.5, 10.0]]), np.array([[1.51, 1e6]]), band)
-    assert not _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 1e6]]), band)  # not the same root
+    # the one real root at each end changed side, its v doubled: bisected, whichever way it went
+    assert _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 1e6]]), band)
+    assert not _swept(np.array([[1.5, 0.01]]), np.array([[3.0, 0.02]]), band)
+
+
+def test_a_root_that_changes_side_with_a_jump_in_v_is_a_sweep():
+    """The plate at Re 2900 with a resolved far wake (``medium``, ``far_wake=(0.25, 160, 1.5)``),
+    resultant tracks at ω = 11.25139 and 11.26877: a VIV curve crosses the whole mass range within
+    ω 11.25–11.26, its root going from v = 1.214, m = −36.8 to v = 2.30, m = 0.913 (through
+    m = ∞), while another root moves from v = 1.100 to 1.034, nearer the first's v at both ends
+    than the first's own. Matching each root by nearest v pairs both with 1.034 and missed the
+    curve; the sides of the roots outside the band (two, then one, below 0) flag it."""
+    band = (0.25, 4e4)
+    left = np.array([[0.6215, -1.334], [1.100, -8.89], [1.214, -36.77]])
+    right = np.array([[0.6264, -1.311], [1.034, -5.957], [2.300, 0.9132]])
+    assert _swept(left, right, band) and _swept(right, left, band)
+    # the same tracks with the third root staying negative: nothing crossed the band
+    assert not _swept(left, np.array([[0.6264, -1.311], [1.034, -5.957], [2.300, -0.9132]]), band)
+    # the default mesh at ω = 0.028614 and 0.028704: a root entering the band across its upper
+    # edge (m = 4.002e4 → 3.977e4) is the band's matching's business, not a sweep
+    left = np.array([[0.503, -3.014e4], [1.239, 4.002e4], [1.248, 455.4]])
+    right = np.array([[0.5038, -2.998e4], [1.239, 3.977e4], [1.248, 452.6]])
+    assert not _swept(left, right, band) and not _swept(right, left, band)
 
 
 def test_at_the_finest_step_a_pole_or_a_birth_outside_the_band_is_not_a_sweep():

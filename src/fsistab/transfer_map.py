@@ -89,6 +89,7 @@ time ``L/U∞`` (MODEL.md §2, §10); ``m``, ``U*`` as in :class:`fsistab.params
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -397,7 +398,9 @@ def _born(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
 def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settled: bool = False) -> bool:
     """Whether a pair of real resultant roots is born or dies between two frequencies, or a root
     (matched by nearest ``v``) passes from one side of ``band`` to the other, or through
-    ``m = 0``/``∞``, without being in the band at either frequency. ``settled``: the two
+    ``m = 0``/``∞``, without being in the band at either frequency, or (unless ``settled``) a root
+    changed sides other than across an edge of the band, matched or not (:func:`_side_jump`).
+    ``settled``: the two
     frequencies are ``SWEEP_STEP`` apart, too close for a root to go round through the band, so a
     root that changes sign beyond the band at both (``|m| > band[1]``) passes through ``m = ∞``,
     one below it at both (``|m| < band[0]``) through ``m = 0``, and roots born or dying all on one
@@ -410,6 +413,12 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
         sides = {_side(m, band) for m in longer[free, 1]}
         if len(sides) > 1 or 1 in sides:
             return True
+    elif not settled and _side_jump(left, right, band):
+        # a root changed sides other than across an edge of the band, matched below or not: a
+        # curve near-vertical in ω moves fast in v too (on the plate at Re 2900 with a resolved far
+        # wake, from v = 1.21, m = −36.8 to v = 2.30, m = 0.91 in 0.017 of ω, through m = ∞ and
+        # the whole band: a VIV curve within ω 11.25–11.26)
+        return True
     for v, m in left:
         if not len(right):
             return False
@@ -423,6 +432,21 @@ def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settl
                 continue  # through ∞ or 0 next to where it was: a pole of the neutral mass
             return True
     return False
+
+
+def _side_jump(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether the sides (:func:`_side`) of two frequencies' resultant roots differ by more than
+    roots entering or leaving ``band`` across its edges (below ↔ in, in ↔ above), whichever root is
+    whose: a root that went from ``m < 0`` into the band, or from one side of it to the other, went
+    through ``m = 0`` or ``∞`` and may have crossed the whole band."""
+    lost = Counter(_side(m, band) for m in left[:, 1])
+    gained = Counter(_side(m, band) for m in right[:, 1])
+    lost, gained = lost - gained, gained - lost
+    for a, b in ((0, 1), (1, 0), (1, 2), (2, 1)):  # across an edge: the band's roots are matched
+        k = min(lost[a], gained[b])
+        lost[a] -= k
+        gained[b] -= k
+    return bool(+lost or +gained)
 
 
 def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
