@@ -271,8 +271,9 @@ def test_far_wake_continues_the_wake_box_with_its_own_size():
         mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60, -1))
     with pytest.raises(InputError, match="far wake must end beyond"):
         mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 3, 1))
-    with pytest.raises(InputError, match="far wake"):
-        mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=(0.4, 60))
+    for wrong in ((0.4, 60), 0.4):  # a pair, a number: named as the far wake, not an unknown size
+        with pytest.raises(InputError, match=r"the far wake is \(size"):
+            mesh_spec(Plate(), "coarse", 100, domain, **sizes, far_wake=wrong)
 
 
 def test_middle_size_needs_its_box():

@@ -105,9 +105,9 @@ class MeshSizes:
                 raise InputError(f"the middle band is (downstream end, half-width), got {self.middle_band}")
             object.__setattr__(self, "middle_band", band)
         if self.far_wake is not None:
-            box = tuple(float(_positive("far wake size and extent", v)) for v in self.far_wake)
-            if len(box) != 3:
+            if not isinstance(self.far_wake, tuple | list) or len(self.far_wake) != 3:
                 raise InputError(f"the far wake is (size, downstream end, half-width), got {self.far_wake}")
+            box = tuple(float(_positive("far wake size and extent", v)) for v in self.far_wake)
             if box[1] <= self.wake_length:
                 raise InputError(
                     f"the far wake must end beyond the wake box ({self.wake_length:g}), got {box[1]:g}"
