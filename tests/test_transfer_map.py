@@ -248,7 +248,8 @@ def test_a_root_that_changes_side_with_a_jump_in_v_is_a_sweep():
     ω 11.25–11.26, its root going from v = 1.214, m = −36.8 to v = 2.30, m = 0.913 (through
     m = ∞), while another root moves from v = 1.100 to 1.034, nearer the first's v at both ends
     than the first's own. Matching each root by nearest v pairs both with 1.034 and missed the
-    curve; the sides of the roots outside the band (two, then one, below 0) flag it."""
+    curve; the sides flag it: three roots below 0, then two below 0 and one in the band, which a
+    root cannot reach from m < 0 across an edge of the band."""
     band = (0.25, 4e4)
     left = np.array([[0.6215, -1.334], [1.100, -8.89], [1.214, -36.77]])
     right = np.array([[0.6264, -1.311], [1.034, -5.957], [2.300, 0.9132]])
