@@ -23,6 +23,7 @@ from fsistab.reduced_model import relative_error
 from fsistab.store import ResumableTable
 from fsistab.transfer import characteristic_matrix, exact_transfer
 from fsistab.transfer_map import (
+    RESONANCE_TOLERANCE,
     SAMPLE_FIELDS,
     AxisSample,
     _born_outside,
@@ -166,10 +167,13 @@ def test_map_thresholds_agree_with_newton_and_counts_with_the_eigen_solver(fluid
     """A map over m ∈ [300, 3000], ω ∈ [0.05, 0.5]: U*_F(1000) equal to the augmented Newton's
     (continuation method) to 1e-6, U*_D to the static Newton's, the number of unstable modes between
     and beyond them equal to the eigen-solver's; a second run from the saved samples factorises
-    nothing, and a damaged samples file is reported and not used."""
+    nothing, and a damaged samples file is reported and not used. Exact samples only
+    (``resonance_blocks=0``: no model at s = 0), one factorisation per frequency."""
     path = tmp_path / "samples.nc"
     counter = FactorCounter()
-    settings_ = dict(mass_range=(300.0, 3000.0), omega_range=(0.05, 0.5), initial=16, samples_path=path)
+    settings_ = dict(
+        mass_range=(300.0, 3000.0), omega_range=(0.05, 0.5), initial=16, samples_path=path, resonance_blocks=0
+    )
     tmap = transfer_neutral_map(fluid, Solid(), counter=counter, **settings_)
     assert counter.count == tmap.factorisations == len(tmap.frequencies)  # ω = 0 included
     start = Solid(mass_ratio=1000, reduced_velocity=4.7)
@@ -650,6 +654,35 @@ def test_a_curve_leaving_the_lowest_frequency_is_followed_below_it(fluid, tmp_pa
     assert [u for u, _, kind in fixed.crossings_at(6000.0) if kind == "flutter"] == [flutter[0][0]]
     assert unstable_counts(fixed, 6000.0, velocities[1:]).tolist() == [2]
     assert [(u.low, u.high) for u in fixed.unresolved if u.reason == "range"] == [(0.0, 0.01)]
+
+
+def test_the_lowest_frequencies_come_from_one_real_model_at_zero(fluid, tmp_path):
+    """With exact samples and a range starting below ``LOW_MODEL_REACH``, ``G(0)`` and the lowest
+    frequencies come from one real reduced model at s = 0 (one factorisation): its ``G(0)`` and
+    ``dG/ds`` equal an exact sample's within the models' tolerance (1e-7; measured 2e-10 and
+    4e-9), the divergence lines to 1e-8; every frequency in its certified interval is free (not an
+    exact sample: measured ω ≤ 0.055 of 0.01-0.2), and the map has the crossings of the map with
+    exact samples only (``resonance_blocks=0``) to 1e-7 in U* (measured 1e-11) for fewer
+    factorisations (7 against 12). A rerun reads the model back: no factorisation."""
+    settings_ = dict(mass_range=(3000.0, 8000.0), omega_range=(0.01, 0.2), initial=8)
+    counter, alone = FactorCounter(), FactorCounter()
+    tmap = transfer_neutral_map(fluid, Solid(), counter=counter, samples_path=tmp_path / "s.nc", **settings_)
+    exact = transfer_neutral_map(fluid, Solid(), counter=alone, resonance_blocks=0, **settings_)
+    assert tmap.resonance_models == 1 and exact.resonance_models == 0
+    saved = read_samples(samples_table(tmp_path / "s.nc", fluid))
+    static = _sample(fluid, 0.0)
+    assert saved[0.0].reduced
+    assert relative_error(saved[0.0].transfer, static.transfer) < RESONANCE_TOLERANCE
+    assert relative_error(saved[0.0].rate, static.rate) < RESONANCE_TOLERANCE
+    assert tmap.divergence_lambdas == pytest.approx(exact.divergence_lambdas, rel=1e-8)
+    free = [w for w in tmap.frequencies if w > 0 and saved[w].reduced]
+    assert free and min(tmap.frequencies[1:]) in free  # the lowest frequencies cost nothing
+    assert counter.count == tmap.factorisations < exact.factorisations == alone.count
+    assert tmap.factorisations == 1 + sum(not saved[w].reduced for w in tmap.frequencies if w > 0)
+    _assert_same_crossings(tmap, exact, (3000.0, 6000.0, 8000.0), 1, rel=1e-7)
+    again = FactorCounter()
+    rerun = transfer_neutral_map(fluid, Solid(), counter=again, samples_path=tmp_path / "s.nc", **settings_)
+    assert again.count == 0 and rerun.resonance_models == 1
 
 
 def _assert_same_crossings(tmap, reference, masses, least: int, rel: float):

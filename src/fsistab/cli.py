@@ -619,9 +619,9 @@ MAP_OPTIONS = {
             int | None,
             typer.Option(
                 "--reduced-blocks",
-                help="transfer: Krylov blocks of the reduced fluid models (0: exact samples, and one "
-                "model at a sharp resonance such as the wake mode; default 60 below 100 000 fluid "
-                "unknowns, 0 from there)",
+                help="transfer: Krylov blocks of the reduced fluid models (0: exact samples, one "
+                "model at a sharp resonance such as the wake mode and one at ω = 0; default 60 below "
+                "100 000 fluid unknowns, 0 from there)",
             ),
         ],
         None,

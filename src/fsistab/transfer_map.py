@@ -63,7 +63,10 @@ that shows it, between two initial frequencies (:func:`sharp_resonance`: the wak
 by a reduced fluid model at its pole instead (:mod:`fsistab.reduced_model`, ``RESONANCE_BLOCKS``
 Krylov blocks, one factorisation), whose certified interval then costs no factorisation: at Re 2900
 on the default mesh one model certifies ω ∈ [10.29, 11.54], where the VIV curves had taken 56 exact
-samples. Elsewhere, a run of such intervals is refined on with a rational fit of the
+samples. Likewise ``G(0)`` and the lowest frequencies, out to the nearest weakly damped poles,
+come from one real reduced model at ``s = 0`` (at Re 2900 on the default mesh it certifies ω ∈ [0,
+0.045], where the initial grid and the restabilisation branch took 12 factorisations). Elsewhere,
+a run of intervals that exact samples leave unresolved is refined on with a rational fit of the
 exact samples around it, certified there out of sample and against the samples' exact ``dG/ds``
 (:mod:`fsistab.rational_fit`), down to ``FIT_MIN_STEP``, with no factorisation. Such a fit is tried
 first, before any exact bisection (``fit_first``): wherever the samples already certify one, the
@@ -150,6 +153,13 @@ RESONANCE_TOLERANCE = 1e-7
 # models built at them certified only ±0.04-0.05 in ω (its modes are dense there)
 SHARP_RESONANCE = 0.1
 SHARP_SHARE = 0.02
+# with exact samples and a frequency range that starts below this, G(0) and the lowest frequencies
+# come from one real reduced model at s = 0 (RESONANCE_BLOCKS, one real factorisation), built beside
+# the initial exact samples above this reach (those below wait for it): at Re 2900 on the default
+# mesh 40 blocks (205 real vectors, 64 s on one core) certify ω ∈ [0, 0.045] to 1e-7 (true error
+# 4e-12-5e-9 against the exact samples there), where the initial grid and the restabilisation
+# branch took 12 factorisations (G(0) and 11 complex samples, 12.7 s of one core each)
+LOW_MODEL_REACH = 0.1
 # the default frequency range is extended down, by halving, while a curve leaves it inside the mass
 # range (the flutter curve's restabilisation branch: ω ∝ 1/U* falls as m grows), down to this
 LOWEST_FREQUENCY = 1e-4
@@ -666,7 +676,7 @@ class TransferMap:
     unresolved: tuple[UnresolvedInterval, ...]
     rational_fits: int = 0  # certified rational fits that refined the sampling below min_step
     interpolated: int = 0  # frequencies sampled from them
-    resonance_models: int = 0  # reduced fluid models at resonances (exact samples elsewhere)
+    resonance_models: int = 0  # reduced fluid models at resonances and at s = 0 (exact samples elsewhere)
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
         # λ is the static load slope per unit inertia r_θ² (MODEL.md §8): U*_D = √(m · 1 / λ)
@@ -875,7 +885,9 @@ def transfer_neutral_map(
     resonance at its pole's frequency (:func:`unresolved_resonance`) — with exact samples, a sharp
     one (:func:`sharp_resonance`) by a reduced fluid model of ``resonance_blocks`` Krylov blocks
     built there (0: an exact sample), whose certified interval is then sampled at no factorisation
-    (saved next to ``samples_path`` and reused) — and bisects every interval
+    (saved next to ``samples_path`` and reused); with exact samples and a range that starts below
+    ``LOW_MODEL_REACH``, ``G(0)`` and the lowest frequencies likewise come from one real model at
+    s = 0, built beside the initial exact samples — and bisects every interval
     whose roots are not matched within ``tolerance`` (in ``log m``, ``log U*``) by their tangents,
     down to a relative step ``min_step``. With exact samples, a run of intervals still unresolved
     there (not a fold in ``ω``) goes on with a certified rational fit of the exact samples around
@@ -969,9 +981,10 @@ def transfer_neutral_map(
         return any(f.covers(w0) and f.covers(w1) for f in (*models, *fits))
 
     def resonance_model(omega: float) -> TransferFit | None:
-        """A reduced model at the resonance ``omega`` (``resonance_blocks``, plain solves: their
-        residual, 5e-13, is far below the model's tolerance), whose certified interval is then
-        sampled at no factorisation; None if it certifies nothing."""
+        """A reduced model at the resonance ``omega`` (or at s = 0 for ``omega`` = 0, real;
+        ``resonance_blocks``, plain solves: their residual, 5e-13, is far below the model's
+        tolerance), whose certified interval is then sampled at no factorisation; None if it
+        certifies nothing."""
         try:
             model = resonances.build(omega)
         except ConvergenceError as error:  # no certified interval: exact samples there
@@ -1068,11 +1081,21 @@ def transfer_neutral_map(
         tracks[omega] = resultant_tracks(loads, omega, template)
         roots[omega] = _roots_on_tracks(tracks[omega], loads, rate, omega, template, wide)
 
-    static = sample(0.0)
     lowest = LOWEST_FREQUENCY if follow else omega_range[0]
     saved = [w for w in stored if lowest <= w <= omega_range[1]]  # free: use them all
     first = sorted({*initial_frequencies(omega_range, initial, wake_frequency).tolist(), *saved})
-    prefetch(first)
+    if (
+        resonances is not None
+        and omega_range[0] < LOW_MODEL_REACH
+        and 0.0 not in stored
+        and fitted(0.0) is None
+    ):
+        # G is smooth near ω = 0 out to the nearest weakly damped fluid poles: one real model at
+        # s = 0 gives G(0) (to round-off) and the lowest frequencies (LOW_MODEL_REACH)
+        prefetch_beside_models(first, [(0.0, LOW_MODEL_REACH, 0.0)])
+    else:
+        prefetch(first)
+    static = sample(0.0)
     for omega in first:
         add(float(omega))
     unresolved: dict[tuple[float, float], str] = {}  # interval -> reason (UNRESOLVED_REASONS)

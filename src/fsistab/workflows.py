@@ -400,7 +400,7 @@ def stability_map(
     attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
     result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say)
     map_attrs = {**attrs, "method": settings.method}
-    # the reduced models of the map, or with exact samples those built at sharp resonances
+    # the reduced models of the map, or with exact samples those built at sharp resonances and s = 0
     models = len(reduced.models) if reduced else tmap.resonance_models if tmap is not None else 0
     if tmap is not None:
         map_attrs["frequencies"] = len(tmap.frequencies)
