@@ -119,9 +119,8 @@ def main() -> None:
         print(f"transfer: turning points       {len(turning)}")
         onsets = [round(u, 5) for u, rate, _ in tmap.crossings_at(1000.0) if rate > 0]
         print(f"transfer: onsets at m = 1000   {onsets}")
-        models = (
-            len(reduced.models) if reduced else tmap.resonance_models
-        )  # exact: at sharp resonances, s = 0
+        # with exact samples: the models at sharp resonances and at s = 0
+        models = len(reduced.models) if reduced else tmap.resonance_models
         print(f"transfer: factorisations       {counter.count} ({models} reduced models, rest exact)")
         if reduced:
             print(f"transfer: reduced model sizes  {sorted({m.size for m in reduced.models})}")

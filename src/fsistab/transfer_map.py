@@ -1091,7 +1091,8 @@ def transfer_neutral_map(
         and fitted(0.0) is None
     ):
         # G is smooth near ω = 0 out to the nearest weakly damped fluid poles: one real model at
-        # s = 0 gives G(0) (to round-off) and the lowest frequencies (LOW_MODEL_REACH)
+        # s = 0 gives G(0) (to 1e-10) and every frequency up to its certified edge; the initial
+        # frequencies below LOW_MODEL_REACH wait for it, the others are sampled meanwhile
         prefetch_beside_models(first, [(0.0, LOW_MODEL_REACH, 0.0)])
     else:
         prefetch(first)
