@@ -37,7 +37,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def run(args: argparse.Namespace) -> None:
-    from fsistab.neutral import map_curves
+    from fsistab.neutral_map import map_curves
     from fsistab.params import Case, MapSettings, solid_for
     from fsistab.plots import plot_map
     from fsistab.store import default_cache_dir

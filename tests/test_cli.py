@@ -367,7 +367,7 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
     """The table of `fsistab neutral` (the map computation replaced by a hand-made map): curves,
     the divergence law U*_D = √(r_θ²/(dC_M/dθ)) √m = 0.289/√1.562 √m = 0.2312 √m, crossings."""
     from fsistab import workflows
-    from fsistab.neutral import (
+    from fsistab.neutral_map import (
         CurveCrossing,
         MapCrossing,
         MapCurve,

@@ -15,7 +15,7 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
 from fsistab.frequency_sweep import sweep_thresholds, velocity_roots
 from fsistab.linalg import FactorCounter
-from fsistab.neutral import VIV_FOLLOWING
+from fsistab.neutral_map import VIV_FOLLOWING
 from fsistab.params import Solid
 from fsistab.transfer import transfer_flutter_point, transfer_sample
 from fsistab.transfer_map import AxisSample, characteristic_function, second_order_loads

@@ -9,7 +9,9 @@ from fsistab.coupled import CoupledSystem
 from fsistab.critical import flutter_point, mass_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
-from fsistab.neutral import continue_neutral_curve, divergence_curve, divergence_velocity
+from fsistab.neutral import continue_neutral_curve
+from fsistab.neutral_map import divergence_curve
+from fsistab.neutral_point import divergence_velocity
 from fsistab.params import Solid
 
 
@@ -138,7 +140,7 @@ def test_crossing_of_a_flutter_line_with_the_divergence_curve():
     """``U*_D = r_θ √(m/s)`` is ``(r_θ/√s) e^{μ/2}`` in μ = log m: it meets ``U* = 4`` at
     ``μ* = 2 log(4 √s / r_θ)``. The chord of the convex curve lies above it, so the interpolated
     crossing comes early, by at most ``h²/8 · max U_D'' / U_D' = h²/16`` (× e^{h/2}) on a grid h."""
-    from fsistab.neutral import curve_crossings
+    from fsistab.neutral_map import curve_crossings
 
     slope, r_theta, level, h = math.pi / 2, 0.289, 4.0, 0.1
     exact = 2 * math.log(level * math.sqrt(slope) / r_theta)
@@ -167,7 +169,7 @@ def test_crossing_of_a_flutter_line_with_the_divergence_curve():
 
 def test_a_folded_curve_crosses_twice_and_failed_refinements_are_kept():
     from fsistab.errors import ConvergenceError
-    from fsistab.neutral import curve_crossings
+    from fsistab.neutral_map import curve_crossings
 
     folded = [[2.0, 1.0], [0.0, 2.0], [2.0, 3.0]]  # turns back in log m at (0, 2)
     line = [[1.0, 0.0], [1.0, 4.0]]  # log m = 1
@@ -182,7 +184,8 @@ def test_a_folded_curve_crosses_twice_and_failed_refinements_are_kept():
 
 
 def test_turning_points_are_stored_with_the_curve(tmp_path):
-    from fsistab.neutral import TurningPoint, curve_table, saved_turning_points
+    from fsistab.neutral import curve_table, saved_turning_points
+    from fsistab.neutral_map import TurningPoint
     from fsistab.store import read_dataset
 
     folds = [TurningPoint(1.9, 4.9, 0.21, 1, True), TurningPoint(2.6, 5.2, 0.22, 4, False)]
@@ -199,7 +202,8 @@ def test_turning_points_are_stored_with_the_curve(tmp_path):
 
 def test_a_threshold_on_a_traced_curve_is_recognised():
     """Seeds that find a curve already traced do not trace it again (1 % in U* at that m)."""
-    from fsistab.neutral import MapCurve, NeutralPoint, _on_traced_curve
+    from fsistab.neutral import _on_traced_curve
+    from fsistab.neutral_map import MapCurve, NeutralPoint
 
     points = tuple(
         NeutralPoint(m, u, 0.2, np.zeros(0), 0) for m, u in ((10.0, 1.0), (100.0, 2.0), (50.0, 3.0))
@@ -218,7 +222,8 @@ def test_map_from_one_seed_resumes_and_saves_everything(plate_operators, tmp_pat
     """One sweep at m = 1000 gives the flutter curve through U*_F, the divergence curve from the
     static moment slope; a second call reads the curves back (no new curve factorisations)."""
     from fsistab.linalg import FactorCounter
-    from fsistab.neutral import Seed, neutral_map_dataset, trace_neutral_map
+    from fsistab.neutral import Seed, trace_neutral_map
+    from fsistab.neutral_map import neutral_map_dataset
     from fsistab.slopes import static_slopes
 
     seed = Seed(1000.0, tuple(np.geomspace(4.0, 5.0, 3)))
@@ -307,7 +312,7 @@ def test_determinant_formulation_points_and_curve():
 
 
 def _curve(kind, pairs, frequencies):
-    from fsistab.neutral import MapCurve, NeutralPoint
+    from fsistab.neutral_map import MapCurve, NeutralPoint
 
     points = tuple(
         NeutralPoint(m, u, w, np.zeros(0), 0) for (m, u), w in zip(pairs, frequencies, strict=True)
@@ -322,7 +327,7 @@ def test_crossings_of_known_lines_are_found_at_the_analytic_points():
     1 + μ/4 = r_θ e^{μ/2}/√s; a curve folded in m (a V opening to larger m) crosses divergence
     twice; a loop crosses itself. Each crossing carries both kinds' frequencies, interpolated
     (0 on divergence)."""
-    from fsistab.neutral import map_crossings
+    from fsistab.neutral_map import map_crossings
 
     slope, r_theta = math.pi / 2, 0.289
     masses = np.geomspace(1.0, 1e7, 40)  # a coarse grid: the refinement puts crossings on the formula
@@ -367,7 +372,7 @@ def test_unstable_sides_follow_the_role_through_a_turning_point():
     (an onset: unstable above it), the sides from the role are, at every point, the change of the
     number of unstable modes (1 where Re σ > 0) across the curve along U*: −1 on the upper branch,
     +1 on the lower one."""
-    from fsistab.neutral import sides_from_role
+    from fsistab.neutral_map import sides_from_role
 
     velocities = np.linspace(3.5, 0.5, 31)
     velocities = velocities[np.abs(velocities - 2) > 1e-9]  # not the turning point itself
@@ -392,7 +397,7 @@ def test_curve_kind_needs_no_wake_frequency():
     following 1); a VIV window stays at the wake frequency while U* grows by 30 % (following 0.1);
     a lock-in boundary at constant U* whose frequency moves by 1 % while m grows by 60 % is VIV
     through ½ Δ log m (0.04); the threshold is 1/2; one point cannot be measured: flutter."""
-    from fsistab.neutral import curve_kind, frequency_following
+    from fsistab.neutral_map import curve_kind, frequency_following
 
     m = np.geomspace(100.0, 1e4, 10)
     u = 0.2 * np.sqrt(m)
@@ -420,7 +425,7 @@ def test_map_outputs_carry_kinds_sides_crossings_and_unresolved_intervals():
     and frequency following, per crossing both kinds and frequencies, per unresolved interval its
     range and reason, and their count; a map with none says so."""
     from fsistab import workflows
-    from fsistab.neutral import NeutralMap, map_crossings, neutral_map_dataset
+    from fsistab.neutral_map import NeutralMap, map_crossings, neutral_map_dataset
     from fsistab.params import MapSettings
 
     mu = np.linspace(0.0, 8.0, 5)

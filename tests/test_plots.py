@@ -221,7 +221,7 @@ def test_stability_map_axes_are_the_mass_range_even_where_a_line_runs_beyond_it(
 
 
 def _map_dataset():
-    from fsistab.neutral import neutral_map_dataset
+    from fsistab.neutral_map import neutral_map_dataset
 
     return neutral_map_dataset(
         _map_result(), {"r_theta": 0.289, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}
@@ -229,7 +229,7 @@ def _map_dataset():
 
 
 def _map_result():
-    from fsistab.neutral import (
+    from fsistab.neutral_map import (
         CurveCrossing,
         MapCrossing,
         MapCurve,
@@ -361,7 +361,7 @@ def test_map_figure_legend_names_the_kinds_and_bands_the_unstable_sides(tmp_path
 
 
 def _sided_map_dataset(sides, unresolved=()):
-    from fsistab.neutral import NeutralMap, neutral_map_dataset
+    from fsistab.neutral_map import NeutralMap, neutral_map_dataset
 
     ds = _map_dataset()
     result = NeutralMap(

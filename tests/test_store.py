@@ -438,7 +438,7 @@ def test_damaged_reduced_models_are_rebuilt(cylinder_fluid, tmp_path, caplog, ki
 
 
 def _curve_points():
-    from fsistab.neutral import NeutralPoint
+    from fsistab.neutral_map import NeutralPoint
 
     mode = np.array([1 + 2j, -0.5j, 3.0])
     return [NeutralPoint(m, 5.0 + m / 100, 0.2, mode * m, 2) for m in (10.0, 20.0, 30.0)]
@@ -479,10 +479,11 @@ def test_an_interrupted_curve_continues_from_its_last_point(tmp_path, monkeypatc
     last step, for the points still wanted; its turning points are numbered along the whole curve
     and the table ends complete with the new stop."""
     import fsistab.neutral as neutral
+    import fsistab.neutral_map as neutral_map
 
     path, attrs = tmp_path / "curve.nc", {"case": "a"}
     points = _curve_points()
-    fold = neutral.TurningPoint(9.0, 5.05, 0.2, 0, True)
+    fold = neutral_map.TurningPoint(9.0, 5.05, 0.2, 0, True)
     _saved_curve(path, attrs, points, folds=[fold])
     calls = []
 
@@ -491,8 +492,8 @@ def test_an_interrupted_curve_continues_from_its_last_point(tmp_path, monkeypatc
 
     def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
         calls.append((start, options))
-        on_fold(neutral.TurningPoint(35.0, 5.4, 0.2, 1, False))
-        on_point(neutral.NeutralPoint(40.0, 5.4, 0.2, start.mode * 2, 3))
+        on_fold(neutral_map.TurningPoint(35.0, 5.4, 0.2, 1, False))
+        on_point(neutral_map.NeutralPoint(40.0, 5.4, 0.2, start.mode * 2, 3))
         return Curve()
 
     monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)
@@ -513,6 +514,7 @@ def test_an_interrupted_curve_continues_from_its_last_point(tmp_path, monkeypatc
 def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeypatch, kind):
     """The damaged file is not resumed: tracing restarts from the given start point."""
     import fsistab.neutral as neutral
+    import fsistab.neutral_map as neutral_map
     from fsistab.critical import CriticalPoint
 
     path = tmp_path / "curve.nc"
@@ -527,7 +529,7 @@ def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeyp
 
     def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
         started.append(start)
-        on_point(neutral.NeutralPoint(start.mass_ratio * 2, 6.0, 0.3, start.mode, 1))
+        on_point(neutral_map.NeutralPoint(start.mass_ratio * 2, 6.0, 0.3, start.mode, 1))
         return Curve()
 
     monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)

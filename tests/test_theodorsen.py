@@ -444,7 +444,7 @@ def test_cli_bad_input_one_line_error(tmp_path, args, message):
 def _write_viscous_curves(out, factor):
     """Stand-in for `fsistab neutral` output (its map dataset, written by either method): the
     Theodorsen flutter boundary × factor."""
-    from fsistab.neutral import MapCurve, NeutralMap, NeutralPoint, neutral_map_dataset
+    from fsistab.neutral_map import MapCurve, NeutralMap, NeutralPoint, neutral_map_dataset
     from fsistab.store import write_dataset
 
     attrs = {"reynolds": 2900.0, "alpha0_deg": 0.0, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}

@@ -427,7 +427,7 @@ def test_unstable_sides_agree_with_the_eigenvalue_count():
     points, the continuation method), the unstable side is the change of the number of unstable
     eigenvalues of the quartic between U*(1 − 1e-6) and U*(1 + 1e-6) at that m; the curves, whose
     frequency follows the solid's (ω U* ≈ const), are flutter."""
-    from fsistab.neutral import MapCurve, characterised
+    from fsistab.neutral_map import MapCurve, characterised
     from fsistab.transfer_map import as_neutral_map
 
     solid = Solid()
@@ -467,7 +467,7 @@ def test_a_family_whose_crossings_do_not_add_up_is_left_unshaded_and_reported(tm
     from dataclasses import replace as replaced
 
     from fsistab import workflows
-    from fsistab.neutral import neutral_map_dataset, unshaded_families
+    from fsistab.neutral_map import neutral_map_dataset, unshaded_families
     from fsistab.params import MapSettings
     from fsistab.transfer_map import TransferCurve, as_neutral_map
 
@@ -507,7 +507,7 @@ def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
     VIV (frequency locked near the wake mode's while U* varies) in the map, the NetCDF dataset and
     the JSON; every unresolved interval has a reason, serialised."""
     from fsistab import workflows
-    from fsistab.neutral import neutral_map_dataset
+    from fsistab.neutral_map import neutral_map_dataset
     from fsistab.params import MapSettings
     from fsistab.reduced_model import ReducedModels
     from fsistab.transfer_map import UNRESOLVED_REASONS, as_neutral_map

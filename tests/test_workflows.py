@@ -11,7 +11,7 @@ import xarray as xr
 
 from fsistab import workflows
 from fsistab.flow_neutral import flow_curves, stack_flow_curves
-from fsistab.neutral import (
+from fsistab.neutral_map import (
     CurveCrossing,
     MapCrossing,
     MapCurve,

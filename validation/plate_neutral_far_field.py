@@ -18,7 +18,8 @@ from pathlib import Path
 from fsistab.critical import wake_mode_near
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
-from fsistab.neutral import map_seeds, neutral_map_dataset, trace_neutral_map
+from fsistab.neutral import map_seeds, trace_neutral_map
+from fsistab.neutral_map import neutral_map_dataset
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Plate, Solid
 from fsistab.plots import plot_stability_map

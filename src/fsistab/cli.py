@@ -677,7 +677,7 @@ def neutral(opts):
 
 
 def _neutral_report(ds, p: dict, settings, out: Path) -> list:
-    from fsistab.neutral import map_curve_names
+    from fsistab.neutral_map import map_curve_names
     from fsistab.workflows import divergence_coefficient
 
     rows = []

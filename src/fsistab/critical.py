@@ -29,6 +29,7 @@ from fsistab.continuation import CurveProblem, SquareProblem, newton
 from fsistab.coupled import CoupledSystem, active_states, solid_stiffness, velocity_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
+from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
 from fsistab.neutral_point import STATIC_FREQUENCY, divergence_velocity, unit_index
 from fsistab.operators import FluidOperators, fluid_operators
@@ -439,7 +440,6 @@ def find_thresholds(
             fluid, solid, velocities, wake_shift=wake_shift, counter=counter, progress=progress,
             static_factor=static_factor,
         )  # fmt: skip
-    from fsistab.frequency_sweep import sweep_thresholds
 
     wake = None
     if wake_shift is not None:

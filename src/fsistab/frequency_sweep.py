@@ -33,7 +33,7 @@ the point (m and U* varying, the other solid parameters fixed;
 ``|d log ω / d log U*|`` (:func:`local_following`): the threshold is ``viv``
 (the fixed body's wake mode locked onto a solid frequency, its frequency held while the solid's
 scale ``1/U*`` moves) when that is below ``VIV_FOLLOWING`` = 1/2, ``flutter`` otherwise: the rule
-that labels the curves of a map (:func:`fsistab.neutral.curve_kind`), taken at the point rather
+that labels the curves of a map (:func:`fsistab.neutral_map.curve_kind`), taken at the point rather
 than over the curve's range (without its mass term, :func:`local_following`), with no hint of the
 wake frequency. Divergence (``ω = 0``) comes from
 ``G(0)`` exactly, ``U*_D = √(m/λ)`` (:func:`fsistab.transfer_map.divergence_lines`), one real
@@ -67,7 +67,8 @@ import numpy.polynomial.polynomial as npoly
 
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
-from fsistab.neutral import following_kind, following_ratio
+from fsistab.neutral_map import following_kind, following_ratio
+from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.transfer import (
@@ -530,9 +531,9 @@ def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np
 
 def local_following(root: NeutralRoot) -> float:
     """The frequency following of the neutral curve through ``root``, at that point:
-    ``|d log ω / d log U*|`` along its exact tangent (:func:`fsistab.neutral.following_ratio` with
+    ``|d log ω / d log U*|`` along its exact tangent (:func:`fsistab.neutral_map.following_ratio` with
     ``d log ω/dω = 1/ω`` and no mass term): how far the threshold's frequency moves with the solid's
-    frequency scale ``1/U*``. The ranges over a whole curve (:func:`fsistab.neutral.frequency_following`)
+    frequency scale ``1/U*``. The ranges over a whole curve (:func:`fsistab.neutral_map.frequency_following`)
     add ``½ |Δ log m|`` to the denominator, for flat curves whose U* and ω barely change over m;
     at one point the derivatives stay finite and the mass term would call ``viv`` a flutter curve
     where m swings at nearly fixed U* (the zig-zags of the coarse plate's flutter curve below
@@ -552,7 +553,6 @@ def _static_sample(fluid, static_factor) -> TransferSample:
 def _divergence_velocities(static: TransferSample, solid: Solid, fluid) -> list[tuple[float, float]]:
     """``(U*_D, crossing rate)`` of each divergence line at ``solid.mass_ratio``: ``U*_D = √(m/λ)``
     (:func:`fsistab.transfer_map.divergence_lines`); none for a heave-only body."""
-    from fsistab.neutral_point import divergence_velocity
 
     if "pitch" not in solid.dofs:
         return []

@@ -773,7 +773,7 @@ def plot_stability_map(
     (kind ``flutter`` or ``viv``, red and blue, numbered as in the tables when there are several), in
     order of arclength; ``divergence``: ``(mass_ratios, reduced_velocities)``, static instability
     above it (grey). ``sides``: per curve, the unstable side of each point (+1: larger U*, −1:
-    smaller, 0: unknown; :class:`fsistab.neutral.MapCurve`), shaded as a narrow band along the curve
+    smaller, 0: unknown; :class:`fsistab.neutral_map.MapCurve`), shaded as a narrow band along the curve
     on that side (:func:`_side_bands`): exact, and readable however many curves cross. ``unstable =
     (m, U*, count)`` (1-D, 1-D, len(U*) × len(m)), when known
     (:func:`fsistab.transfer_map.unstable_grid`), shades the exact unstable regions, darker with more
@@ -1061,7 +1061,7 @@ def plot_map(ds, path: Path, title: str = "") -> Path:
     :func:`plot_stability_map`: curves (legend by kind: flutter, viv), divergence, turning points,
     codimension-two points (★), unstable-side bands and, for the transfer method, the unstable
     regions of ``unstable_count`` and the unresolved frequency intervals."""
-    from fsistab.neutral import map_curves, unshaded_families
+    from fsistab.neutral_map import map_curves, unshaded_families
 
     unstable = None
     if "unstable_count" in ds:

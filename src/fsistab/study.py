@@ -641,7 +641,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
 def _map(case: Case, settings: StudySettings, cache_dir: Path | None, counter, say) -> dict:
     """The point's ``(m, U*)`` map (:func:`fsistab.workflows.stability_map`), its dynamic curves
     flattened along ``map_point`` and the divergence law ``U*_D/√m``."""
-    from fsistab.neutral import map_curves
+    from fsistab.neutral_map import map_curves
     from fsistab.store import default_cache_dir
     from fsistab.workflows import divergence_coefficient, stability_map
 

@@ -80,7 +80,7 @@ The side that is unstable follows from the crossing rate ``∂(Re σ)/∂(log U*
 (``dσ = −F_u du / F_s``): positive is an onset of instability as U* grows, negative a
 restabilisation. Counting crossings along U* from a U* where the coupled system is stable gives the
 number of unstable modes in every region (:func:`unstable_counts`). Each curve is labelled
-``flutter`` or ``viv`` from its own roots (:func:`fsistab.neutral.curve_kind`: a VIV curve's
+``flutter`` or ``viv`` from its own roots (:func:`fsistab.neutral_map.curve_kind`: a VIV curve's
 frequency stays locked at the wake mode's while the solid's frequency scale ``1/U*`` varies), the
 same rule as the continuation method's, with no wake-frequency hint; intervals of ω left unresolved
 are reported with their reason (:class:`UnresolvedInterval`).
@@ -106,6 +106,16 @@ from fsistab.continuation import newton
 from fsistab.coupled import active_states
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
+from fsistab.neutral_map import (
+    MapCurve,
+    NeutralMap,
+    NeutralPoint,
+    TurningPoint,
+    curve_kind,
+    divergence_curve,
+    frequency_following,
+    map_crossings,
+)
 from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import MAX_FREQUENCY, Solid
@@ -877,7 +887,7 @@ def transfer_neutral_map(
     ``LOWEST_FREQUENCY``): the flutter curve's restabilisation branch, whose frequency falls as m
     grows. A curve that leaves the final range inside the mass range is reported as an unresolved
     interval of reason ``range`` beyond that end. Each curve is labelled ``flutter`` or ``viv``
-    from its own roots (:func:`fsistab.neutral.curve_kind`); ``wake_frequency``, if given, is only
+    from its own roots (:func:`fsistab.neutral_map.curve_kind`); ``wake_frequency``, if given, is only
     a guess that adds initial frequencies around it (:func:`initial_frequencies`) and widens the
     default range (:func:`default_frequency_range`).
 
@@ -1268,8 +1278,7 @@ def _assemble(
 ) -> list[TransferCurve]:
     """Chain matched roots of adjacent frequencies into curves, join the two branches of a fold in
     ``ω`` (:func:`_fold_links`), keep the curves that enter ``mass_range``, each labelled by
-    :func:`fsistab.neutral.curve_kind` from its roots in the mass range."""
-    from fsistab.neutral import curve_kind
+    :func:`fsistab.neutral_map.curve_kind` from its roots in the mass range."""
 
     grid = sorted(roots)
     successor: dict[tuple[float, int], tuple[float, int]] = {}
@@ -1300,7 +1309,7 @@ def _assemble(
 
 
 def _points_of(roots: Sequence[NeutralRoot]) -> tuple[list[float], list[float], list[float]]:
-    """``(m, U*, ω)`` of roots, as :func:`fsistab.neutral.curve_kind` takes them."""
+    """``(m, U*, ω)`` of roots, as :func:`fsistab.neutral_map.curve_kind` takes them."""
     return [r.mass_ratio for r in roots], [r.reduced_velocity for r in roots], [r.frequency for r in roots]
 
 
@@ -1354,23 +1363,14 @@ def _join_folds(chains: list[list[NeutralRoot]], links: dict) -> list[tuple[list
 
 
 def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
-    """The transfer map in the form of :class:`fsistab.neutral.NeutralMap` (same dataset, figure and
+    """The transfer map in the form of :class:`fsistab.neutral_map.NeutralMap` (same dataset, figure and
     JSON as the continuation method): each curve's exact roots inside the mass range (and the next
     one outside, so that lines reach the edges) with, per root, the unstable side (the sign of its
-    crossing rate), and its frequency following (:func:`fsistab.neutral.frequency_following`, on
+    crossing rate), and its frequency following (:func:`fsistab.neutral_map.frequency_following`, on
     the roots in the mass range, as its kind), turning points from the Hermite
     interpolants, the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope =
     λ r_θ²``: the torsional formula's slope), crossings of all curves and the unresolved
     intervals."""
-    from fsistab.neutral import (
-        MapCurve,
-        NeutralMap,
-        NeutralPoint,
-        TurningPoint,
-        divergence_curve,
-        frequency_following,
-        map_crossings,
-    )
 
     low, high = tmap.mass_range
     curves = []

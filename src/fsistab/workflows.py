@@ -71,7 +71,7 @@ def _steady_progress(say: Callable[[str], None]):
 
 def _divergence_velocity(moment_slope, r_theta, mass_ratio):
     """``U*_D = √(m r_θ²/(dC_M/dθ))`` (MODEL.md §8), inf where there is no divergence."""
-    from fsistab.neutral import divergence_velocity
+    from fsistab.neutral_point import divergence_velocity
 
     return divergence_velocity(moment_slope, r_theta, mass_ratio)
 
@@ -368,7 +368,7 @@ def stability_map(
     """
     from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
-    from fsistab.neutral import neutral_map_dataset
+    from fsistab.neutral_map import neutral_map_dataset
     from fsistab.reduced_model import ReducedModels
     from fsistab.store import write_dataset
 
@@ -431,7 +431,7 @@ def shading_velocities(curve_velocities, divergence_velocities, points: int = 15
 
 
 def _map_details(ds: xr.Dataset, result, tmap, settings: MapSettings) -> xr.Dataset:
-    """What the JSON and the figure need beyond :func:`fsistab.neutral.neutral_map_dataset`."""
+    """What the JSON and the figure need beyond :func:`fsistab.neutral_map.neutral_map_dataset`."""
     from fsistab.transfer_map import unstable_grid
 
     curves = result.curves
@@ -632,7 +632,7 @@ def viscous_map_curves(out: Path, tag: str, section):
     wanted["r_theta"] = solid.r_theta
     if any(not math.isclose(float(ds.attrs.get(k, math.nan)), v) for k, v in wanted.items()):
         return None, f"{path.name} has other solid parameters: no viscous comparison"
-    from fsistab.neutral import map_curves
+    from fsistab.neutral_map import map_curves
 
     flutter = [(m, u) for kind, m, u, _ in map_curves(ds) if kind == "flutter" and len(m)]
     divergence = (ds.mass_ratio.values, ds.divergence_reduced_velocity.values)
@@ -804,7 +804,7 @@ def _critical_payload(ds):
 
 
 def _neutral_payload(ds):
-    from fsistab.neutral import map_curve_names, map_curves, unshaded_families
+    from fsistab.neutral_map import map_curve_names, map_curves, unshaded_families
 
     names = map_curve_names(ds)
     curves = []
