@@ -21,11 +21,12 @@ import time
 import numpy as np
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.critical import find_thresholds
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
 

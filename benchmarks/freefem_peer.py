@@ -38,12 +38,13 @@ REYNOLDS, SHIFT = 2900.0, 11.2
 
 def ours(preset: str, nev: int, cache: str) -> dict:
     """fsistab's run (in a child process, so that its peak memory is its own)."""
+    from fsistab.bodies import Plate
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
     from fsistab.linalg import FactorCounter
     from fsistab.mesh import mesh_spec
     from fsistab.operators import fluid_operators
-    from fsistab.params import Flow, Plate, Solid
+    from fsistab.params import Flow, Solid
     from fsistab.steady import solve_steady
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -119,8 +120,8 @@ def main() -> None:
     if args.ours:
         print(json.dumps(ours(args.preset, args.nev, args.ours)))
         return
+    from fsistab.bodies import Plate
     from fsistab.mesh import build_mesh, mesh_path, mesh_spec
-    from fsistab.params import Plate
 
     env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     with tempfile.TemporaryDirectory() as scratch:

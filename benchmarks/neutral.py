@@ -24,12 +24,13 @@ from pathlib import Path
 
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.critical import wake_mode_near
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.reduced_model import ReducedModels
 from fsistab.steady import solve_steady
 from fsistab.transfer_map import nearest_on_map, transfer_neutral_map

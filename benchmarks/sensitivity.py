@@ -19,13 +19,14 @@ from dataclasses import replace
 import numpy as np
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.sensitivity import (
     AdjointSolver,
     adjoint_mode,

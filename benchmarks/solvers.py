@@ -35,9 +35,10 @@ def run_one(preset: str, shift: complex, solver: str) -> dict:
     from ngsolve import SetNumThreads
 
     from fsistab import umfpack
+    from fsistab.bodies import Plate
     from fsistab.mesh import mesh_spec
     from fsistab.operators import fluid_operators, shifted_fluid_matrix
-    from fsistab.params import Flow, Plate
+    from fsistab.params import Flow
     from fsistab.steady import solve_steady
     from fsistab.store import default_cache_dir
 

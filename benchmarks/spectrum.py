@@ -15,11 +15,12 @@ import numpy as np
 import scipy.sparse.linalg as spla
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver, shift_invert_operator
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.steady import solve_steady
 
 

@@ -17,8 +17,9 @@ import time
 
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics
-from fsistab.params import Flow, Plate
+from fsistab.params import Flow
 from fsistab.steady import solve_steady
 
 

@@ -9,9 +9,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import pytest  # noqa: E402
 
+from fsistab.bodies import Cylinder, Plate  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.operators import fluid_operators  # noqa: E402
-from fsistab.params import Cylinder, Flow, Plate  # noqa: E402
+from fsistab.params import Flow  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402
 
 

@@ -6,13 +6,14 @@ import math
 import numpy as np
 import pytest
 
+from fsistab.bodies import Cylinder, Plate
 from fsistab.coupled import CoupledResidual, CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FluidFactor, ShiftedSolver
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators, wall_coefficients, wall_coefficients_jacobian
-from fsistab.params import Cylinder, Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.steady import solve_steady
 
 

@@ -174,9 +174,10 @@ def test_thresholds_at_re_100_hold_each_point_once(tmp_path):
     branch's frequency falls to zero at divergence: its sign change used to be refined into a
     second, "flutter" copy of the divergence point (ω ≈ -1.7e-13). Every threshold is reported
     once, the static one as divergence only."""
+    from fsistab.bodies import Plate
     from fsistab.critical import find_thresholds
     from fsistab.mesh import mesh_spec
-    from fsistab.params import Flow, Plate
+    from fsistab.params import Flow
     from fsistab.steady import solve_steady
 
     spec = mesh_spec(Plate(), "coarse", 100.0)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from damage import KINDS, damage
 
+from fsistab.bodies import Cylinder, Plate
 from fsistab.errors import CacheError, InputError
 from fsistab.mesh import (
-    _PRESET_TABLE,
     build_mesh,
     high_reynolds_factor,
     mesh_path,
@@ -16,7 +16,6 @@ from fsistab.mesh import (
     mesh_statistics,
     preset_sizes,
 )
-from fsistab.params import Cylinder, Plate
 from fsistab.store import sidecar_path, verify_sidecar, write_sidecar
 
 
@@ -176,16 +175,16 @@ def test_near_body_sizes_scale_further_above_re_2900_only():
             for reynolds in (10, 100, 1000, 2900):
                 sizes = preset_sizes(body, preset, reynolds)
                 # up to Re 2900 exactly the table (the cache keys of every stored result)
-                assert sizes.near == _PRESET_TABLE[(body.kind, preset)][3]
+                assert sizes.near == body.mesh_presets[preset][3]
                 assert sizes.wall == min(
-                    _PRESET_TABLE[(body.kind, preset)][0],
-                    _PRESET_TABLE[(body.kind, preset)][1] / math.sqrt(reynolds),
+                    body.mesh_presets[preset][0],
+                    body.mesh_presets[preset][1] / math.sqrt(reynolds),
                 )
             at_2900 = preset_sizes(body, preset, 2900)
             for reynolds in (5000, 10000, 40000):
                 sizes, factor = preset_sizes(body, preset, reynolds), math.sqrt(2900 / reynolds)
                 assert sizes.near == pytest.approx(at_2900.near * factor)  # Re^-1/2
-                floor, k = _PRESET_TABLE[(body.kind, preset)][:2]
+                floor, k = body.mesh_presets[preset][:2]
                 assert sizes.wall == pytest.approx(min(floor, k / math.sqrt(reynolds)) * factor**2)
     assert high_reynolds_factor(2900) == 1.0
     assert high_reynolds_factor(10000) == pytest.approx(math.sqrt(0.29))
@@ -288,7 +287,7 @@ def test_converged_presets_take_their_own_domain_and_graded_far_field():
     (docs/discretisation.md): domain [-80, 160] x [-80, 80], 1-chord elements in [-40, 80] x [-40, 40]
     and in the band [0, 160] x [-20, 20], 2-chord ones beyond, a 20-chord wake box; coarse and the
     cylinder keep the body's default domain, and a domain given explicitly wins."""
-    from fsistab.params import DEFAULT_DOMAINS, Domain
+    from fsistab.params import Domain
 
     for preset in ("medium", "fine"):
         spec = mesh_spec(Plate(), preset, 2900)
@@ -297,10 +296,10 @@ def test_converged_presets_take_their_own_domain_and_graded_far_field():
         assert spec.sizes.middle_band == (160, 20)
         assert spec.sizes.far == 2.0 and spec.sizes.wake_length == 20.0
         assert mesh_spec(Plate(), preset, 2900, Domain(20, 40, 20)).domain == Domain(20, 40, 20)
-    assert mesh_spec(Plate(), "coarse", 2900).domain == DEFAULT_DOMAINS["plate"]
+    assert mesh_spec(Plate(), "coarse", 2900).domain == Domain(*Plate.domain_presets[None])
     assert mesh_spec(Plate(), "coarse", 2900).sizes.middle is None
     for preset in ("coarse", "medium", "fine"):
-        assert mesh_spec(Cylinder(), preset, 40).domain == DEFAULT_DOMAINS["cylinder"]
+        assert mesh_spec(Cylinder(), preset, 40).domain == Domain(*Cylinder.domain_presets[None])
 
 
 def test_the_quick_preset_is_medium_with_coarser_wake_elements():

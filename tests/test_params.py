@@ -4,8 +4,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from fsistab.bodies import Plate, make_body
 from fsistab.errors import InputError
-from fsistab.params import Domain, Flow, Plate, Solid, make_body
+from fsistab.params import Domain, Flow, Solid
 
 bad_numbers = st.one_of(
     st.floats(max_value=0.0, allow_nan=False), st.just(math.nan), st.just(math.inf), st.just(-math.inf)

@@ -11,11 +11,12 @@ import xarray as xr
 from matplotlib.quiver import Quiver
 
 from fsistab import plots
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.plots import mode_pressure, plot_branches, plot_mode_snapshot, plot_solid_motion, solid_motion
 from fsistab.steady import solve_steady
 

@@ -13,12 +13,13 @@ Every expected value comes from the docs (section cited beside it), never from a
 import numpy as np
 import pytest
 
+from fsistab.bodies import Plate
 from fsistab.critical import divergence_point, find_thresholds, wake_mode_near
 from fsistab.forces import aerodynamic_coefficients
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.slopes import static_slopes
 
 REYNOLDS = 2900.0

@@ -9,10 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fsistab import resources
+from fsistab import bodies, resources
+from fsistab.bodies import Cylinder, Plate
 from fsistab.errors import InputError
 from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics
-from fsistab.params import Cylinder, Domain, Plate
+from fsistab.params import Domain
 from fsistab.resources import Estimate, check_fits, estimate
 
 FACTOR = 1.25  # the accuracy stated in the module docstring
@@ -83,7 +84,7 @@ def test_taylor_hood_unknowns_follow_from_euler_formula(measured_meshes, name):
 
 def test_disc_area_in_rectangles_is_exact():
     """The cylinder's area in a quadtree cell (inclusion-exclusion of quadrant areas)."""
-    corner = resources._disc_corner_area
+    corner = bodies.disc_corner_area
     r = 0.5
 
     def in_rectangle(x0, x1, y0, y1):
@@ -187,7 +188,8 @@ import resource, sys
 from fsistab.linalg import FluidFactor
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate
+from fsistab.params import Flow
+from fsistab.bodies import Plate
 from fsistab.steady import solve_steady
 
 steady = solve_steady(mesh_spec(Plate(), "coarse", 100.0), Flow(100.0))

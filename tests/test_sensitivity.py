@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from fsistab import umfpack
+from fsistab.bodies import Cylinder
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import divergence_point, flutter_point
 from fsistab.eigen import eigenpairs_near
@@ -23,7 +24,7 @@ from fsistab.forces import recirculation_length
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Cylinder, Flow, Solid
+from fsistab.params import Flow, Solid
 from fsistab.sensitivity import (
     CONTROL_DIAMETER,
     PARAMETERS,

@@ -4,11 +4,12 @@ import math
 
 import pytest
 
+from fsistab.bodies import Plate
 from fsistab.forces import aerodynamic_coefficients
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate
+from fsistab.params import Flow
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 

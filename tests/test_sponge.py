@@ -10,11 +10,12 @@ import ngsolve
 import numpy as np
 import pytest
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledResidual, CoupledSystem
 from fsistab.errors import InputError
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators, rotation_target, sponge_coefficient
-from fsistab.params import Case, Domain, Plate, Solid, Sponge, parse_sponge
+from fsistab.params import Case, Domain, Solid, Sponge, parse_sponge
 from fsistab.sensitivity import AdjointMode, base_flow_gradient
 from fsistab.steady import steady_key
 from fsistab.transfer import flow_identity

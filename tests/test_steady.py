@@ -7,10 +7,11 @@ import pytest
 from damage import KINDS, damage
 
 from fsistab import store
+from fsistab.bodies import Cylinder, Plate
 from fsistab.errors import CacheError
 from fsistab.forces import aerodynamic_coefficients, recirculation_length, surface_coefficients
 from fsistab.mesh import mesh_spec
-from fsistab.params import Cylinder, Flow, Plate
+from fsistab.params import Flow
 from fsistab.steady import load_steady, solve_steady, steady_key, steady_path
 
 

@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Cylinder
 from fsistab.mesh import mesh_spec
 from fsistab.onset import critical_onset, onset_dataset
-from fsistab.params import Cylinder, Domain, Flow
+from fsistab.params import Domain, Flow
 from fsistab.store import default_cache_dir, json_attr, write_dataset
 
 REFERENCE = {"reynolds": (46.6, 46.8), "frequency": (0.733, 0.744)}  # REFERENCE.md §A

@@ -10,11 +10,12 @@ import time
 
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Cylinder
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Cylinder, Domain, Flow, Solid
+from fsistab.params import Domain, Flow, Solid
 from fsistab.steady import solve_steady
 
 REFERENCE = {

@@ -13,9 +13,10 @@ from pathlib import Path
 
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Cylinder
 from fsistab.forces import aerodynamic_coefficients, recirculation_length, surface_coefficients
 from fsistab.mesh import mesh_spec
-from fsistab.params import Cylinder, Domain, Flow
+from fsistab.params import Domain, Flow
 from fsistab.steady import solve_steady
 
 

@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError
@@ -43,7 +44,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import fluid_operators
-from fsistab.params import PRESET_SPONGES, Domain, Flow, Plate, Solid, Sponge
+from fsistab.params import Domain, Flow, Solid, Sponge, default_sponge
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -140,9 +141,9 @@ def variant_spec(name: str, reynolds: float = REYNOLDS):
     """The mesh of a variant, fitted to ``reynolds``: its preset's 0.3 sizes (``BASE``) with the
     variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium` preset's)
     only on the ``-sponge`` variants, with the far-field layer of today's preset
-    (:data:`fsistab.params.PRESET_SPONGES`) on the ``-layer`` ones."""
+    (:func:`fsistab.params.default_sponge`) on the ``-layer`` ones."""
     preset, sizes, (up, down, lateral) = VARIANTS[name]
-    sponge = {"-sponge": Sponge(), "-layer": PRESET_SPONGES[("plate", "medium")]}.get(name[name.rfind("-") :])
+    sponge = {"-sponge": Sponge(), "-layer": default_sponge(Plate(), "medium")}.get(name[name.rfind("-") :])
     return mesh_spec(
         Plate(),
         preset,

@@ -53,12 +53,13 @@ def main() -> None:
 
     from ngsolve import BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
+    from fsistab.bodies import Plate
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
     from fsistab.errors import InputError
     from fsistab.mesh import mesh_spec
     from fsistab.operators import _to_scipy, fluid_operators
-    from fsistab.params import Flow, Plate, Solid, parse_sponge
+    from fsistab.params import Flow, Solid, parse_sponge
     from fsistab.steady import solve_steady
     from fsistab.store import default_cache_dir
 

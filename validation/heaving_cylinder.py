@@ -30,12 +30,13 @@ import numpy as np
 import xarray as xr
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Cylinder
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import Eigenpair, eigenpairs_near, label_mode
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Cylinder, Flow, Solid
+from fsistab.params import Flow, Solid
 from fsistab.plots import plot_branches
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir, json_attr, write_dataset

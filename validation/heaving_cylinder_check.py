@@ -25,11 +25,12 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 from ngsolve import SetNumThreads  # noqa: E402
 
+from fsistab.bodies import Cylinder
 from fsistab.coupled import CoupledSystem  # noqa: E402
 from fsistab.eigen import eigenpairs_near  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.operators import fluid_operators  # noqa: E402
-from fsistab.params import Cylinder, Flow, Solid  # noqa: E402
+from fsistab.params import Flow, Solid  # noqa: E402
 from fsistab.plots import save_figure  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402
 from fsistab.store import default_cache_dir, json_attr, write_dataset  # noqa: E402

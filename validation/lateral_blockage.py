@@ -25,10 +25,11 @@ from pathlib import Path
 from ngsolve import SetNumThreads
 from sponge_check import add_size_option, size_item  # the sibling script's (run from validation/)
 
+from fsistab.bodies import Plate
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Domain, Flow, Plate, default_sponge
+from fsistab.params import Domain, Flow, default_sponge
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -67,7 +68,7 @@ def main() -> None:
             if (reynolds, lateral, args.preset, far_label, *shape, str(changed)) in done:
                 continue
             domain = Domain(args.upstream, args.downstream, lateral)
-            sponge = default_sponge("plate", args.preset) if args.sponge else None
+            sponge = default_sponge(Plate(), args.preset) if args.sponge else None
             spec = mesh_spec(Plate(), args.preset, reynolds, domain, sponge, **sizes)
             t0 = time.perf_counter()
             fluid = fluid_operators(solve_steady(spec, Flow(reynolds), cache_dir=cache))

@@ -22,11 +22,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from fsistab.bodies import Plate
 from fsistab.critical import critical_points_along_flow  # noqa: E402
 from fsistab.errors import ConvergenceError  # noqa: E402
 from fsistab.linalg import FactorCounter  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
-from fsistab.params import Flow, Plate, Solid  # noqa: E402
+from fsistab.params import Flow, Solid  # noqa: E402
 from fsistab.plots import save_figure  # noqa: E402
 from fsistab.store import default_cache_dir, write_dataset  # noqa: E402
 

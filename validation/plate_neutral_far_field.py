@@ -15,13 +15,14 @@ import argparse
 import time
 from pathlib import Path
 
+from fsistab.bodies import Plate
 from fsistab.critical import wake_mode_near
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral import map_seeds, trace_neutral_map
 from fsistab.neutral_map import neutral_map_dataset
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.plots import plot_stability_map
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir, write_dataset

@@ -27,9 +27,10 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 from ngsolve import SetNumThreads  # noqa: E402
 
+from fsistab.bodies import Plate  # noqa: E402
 from fsistab.mesh import mesh_spec  # noqa: E402
 from fsistab.operators import fluid_operators  # noqa: E402
-from fsistab.params import Flow, Plate  # noqa: E402
+from fsistab.params import Flow  # noqa: E402
 from fsistab.plots import save_figure  # noqa: E402
 from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes  # noqa: E402
 from fsistab.steady import solve_steady  # noqa: E402

@@ -20,12 +20,13 @@ from pathlib import Path
 import numpy as np
 from ngsolve import SetNumThreads
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near, spectrum_dataset
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.plots import plot_mode_snapshot, plot_solid_motion, plot_spectrum
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir, write_dataset

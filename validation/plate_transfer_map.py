@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import wake_mode_near
 from fsistab.eigen import eigenpairs_near
@@ -31,7 +32,7 @@ from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Plate, Solid
+from fsistab.params import Flow, Solid
 from fsistab.plots import plot_stability_map
 from fsistab.reduced_model import ReducedModels
 from fsistab.steady import solve_steady

@@ -53,12 +53,13 @@ import math
 import time
 from dataclasses import dataclass, fields, replace
 
+from fsistab.bodies import Plate
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter
 from fsistab.mesh import MeshSizes, MeshSpec, mesh_spec
 from fsistab.operators import FluidOperators, _to_scipy, fluid_operators, rotation_target
-from fsistab.params import Domain, Flow, Plate, Solid, parse_sponge
+from fsistab.params import Domain, Flow, Solid, parse_sponge
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
 

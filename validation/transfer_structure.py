@@ -76,10 +76,11 @@ def main() -> None:
     if args.real_shift is not None and args.blocks < 3:
         parser.error(f"--blocks {args.blocks}: a reduced model needs at least 3 Krylov blocks")
 
+    from fsistab.bodies import Plate
     from fsistab.errors import InputError
     from fsistab.mesh import mesh_spec
     from fsistab.operators import fluid_operators
-    from fsistab.params import Domain, Flow, Plate, parse_sponge
+    from fsistab.params import Domain, Flow, parse_sponge
     from fsistab.reduced_model import krylov_model, relative_error
     from fsistab.steady import solve_steady
     from fsistab.store import default_cache_dir

@@ -329,7 +329,7 @@ def _threshold_sweep(opts, velocity_range, points, wake_shift, what: str, method
     """``(case, sweep, solid)`` of a command that finds every threshold along U* at one mass ratio
     (the body's default when ``--mass-ratio`` is not given); ``what`` names it in the error."""
     case = opts.case()
-    mass = params.DEFAULT_MASS_RATIO[case.kind] if opts.mass_ratio is None else opts.mass_ratio
+    mass = case.body.default_mass_ratio if opts.mass_ratio is None else opts.mass_ratio
     wake = None if wake_shift is None else params.parse_complex("wake shift", wake_shift)
     sweep = params.SweepSettings(velocity_range, points, wake, mass, method)
     solid = opts.solid(case.kind, reduced_velocity=sweep.velocity_range[0])

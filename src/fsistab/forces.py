@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsistab.geometry import WALL
+from fsistab.bodies import WALL
 from fsistab.steady import SteadyProblem, SteadyState, wall_velocity
 
 RIGID_MOTIONS = ("x", "y", "rotation")

@@ -8,53 +8,19 @@ names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = 
 
 from __future__ import annotations
 
-from netgen.occ import Circle, Glue, MoveTo, OCCGeometry, WorkPlane, X, Y
+from netgen.occ import Glue, MoveTo, OCCGeometry, X, Y
 
-from fsistab.params import Body, Cylinder, Domain, Plate
+from fsistab.bodies import Body
+from fsistab.params import Domain
 
-WALL = "wall"
 SYMMETRY = "symmetry"  # internal line Y = 0 where the mirrored halves meet
 FAR_FIELD = "inlet|lateral"  # U = 0 (fluid at rest in the laboratory)
 DIRICHLET = "inlet|lateral|wall"
 
 
-def plate_face(plate: Plate, wall_size: float, corner_size: float):
-    """Rounded rectangle of chord 1 and thickness 1/aspect_ratio (MODEL.md §1).
-
-    Corners are ``Arc`` segments of a ``WorkPlane`` path (``MakeFillet`` fails on 2D faces).
-    """
-    e = plate.thickness
-    r = plate.corner_radius * e
-    wp = WorkPlane().MoveTo(-0.5 + r, -e / 2)
-    if r > 0:
-        wp.Line(1 - 2 * r).Arc(r, 90).Line(e - 2 * r).Arc(r, 90).Line(1 - 2 * r).Arc(r, 90)
-        wp.Line(e - 2 * r).Arc(r, 90)
-    else:
-        wp.Line(1).Rotate(90).Line(e).Rotate(90).Line(1).Rotate(90).Line(e)
-    face = wp.Face()
-    for i, edge in enumerate(face.edges):
-        edge.name = WALL
-        # path order: long side, corner, short side, corner, ... (or long, short, ... if r = 0);
-        # the corners and the short sides (leading and trailing edges) get the corner size
-        is_long_side = i % (4 if r > 0 else 2) == 0
-        edge.maxh = wall_size if is_long_side else corner_size
-    return face
-
-
-def cylinder_face(wall_size: float):
-    face = Circle((0, 0), 0.5).Face()
-    for edge in face.edges:
-        edge.name = WALL
-        edge.maxh = wall_size
-    return face
-
-
 def body_face(body: Body, wall_size: float, corner_size: float):
-    if isinstance(body, Plate):
-        return plate_face(body, wall_size, corner_size)
-    if isinstance(body, Cylinder):
-        return cylinder_face(wall_size)
-    raise TypeError(f"unknown body {body!r}")
+    """The body's wall as a netgen.occ face (its own shape: :meth:`fsistab.bodies.Plate.face`)."""
+    return body.face(wall_size, corner_size)
 
 
 def _box(x0: float, x1: float, height: float):
@@ -106,7 +72,7 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     outer.edges.Min(Y).name = SYMMETRY
 
     margin = sizes.near_margin
-    half_height = body.thickness / 2 if isinstance(body, Plate) else 0.5
+    half_height = body.half_height
     near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral))
     wake_end = min(sizes.wake_length, domain.downstream - 1.0)
     wake = _box(
@@ -147,25 +113,6 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
 
 
 def wall_projection(body: Body):
-    """Closest point on the exact body boundary, as a CoefficientFunction of ``(x, y)``.
-
-    Used to curve the elements at the wall: the cylinder's circle, the plate's corner arcs (its
-    straight sides need no correction).
-    """
-    from ngsolve import CF, IfPos, sqrt, x, y
-
-    if isinstance(body, Cylinder):
-        r = sqrt(x * x + y * y)
-        return CF((0.5 * x / r, 0.5 * y / r))
-    e = body.thickness
-    rc = body.corner_radius * e
-    if rc == 0:
-        return CF((x, y))
-    # centre of the nearest corner arc, then the projection onto it when the point lies in a corner
-    cx = IfPos(x, 0.5 - rc, -(0.5 - rc))
-    cy = IfPos(y, e / 2 - rc, -(e / 2 - rc))
-    dx, dy = x - cx, y - cy
-    dist = sqrt(dx * dx + dy * dy) + 1e-300
-    abs_x, abs_y = IfPos(x, x, -x), IfPos(y, y, -y)
-    in_corner = IfPos(abs_x - (0.5 - rc), IfPos(abs_y - (e / 2 - rc), 1.0, 0.0), 0.0)
-    return CF((x + in_corner * (cx + rc * dx / dist - x), y + in_corner * (cy + rc * dy / dist - y)))
+    """Closest point on the exact body boundary, as a CoefficientFunction of ``(x, y)``: curves the
+    elements at the wall (the body's own, :meth:`fsistab.bodies.Plate.wall_projection`)."""
+    return body.wall_projection()

@@ -23,18 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from fsistab import store
+from fsistab.bodies import WALL, Body
 from fsistab.errors import CacheError, InputError
-from fsistab.geometry import WALL, fluid_half_geometry, wall_projection
-from fsistab.params import (
-    Body,
-    Domain,
-    Plate,
-    Sponge,
-    _positive,
-    default_domain,
-    default_sponge,
-    plate_only_message,
-)
+from fsistab.geometry import fluid_half_geometry, wall_projection
+from fsistab.params import Domain, Sponge, _positive, default_domain, default_sponge, preset_message
 
 PRESETS = ("coarse", "quick", "medium", "fine")
 
@@ -125,42 +117,6 @@ class MeshSizes:
         return inputs
 
 
-# (wall floor, wall coefficient k in min(floor, k/sqrt(Re)), corner, near, wake, far, margin, wake
-#  length, wake half-width); plate sizes in chords, cylinder sizes in diameters. Above Re 2900 the
-#  near size is multiplied by f = sqrt(2900/Re), the wall and corner sizes by f**2
-_PRESET_TABLE = {
-    ("plate", "coarse"): (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
-    # `medium` with 0.1-chord elements in its wake box instead of 0.05 (268 542 unknowns against
-    # 416 871): within 1.4 % of it at m = 10 and 30 and 0.04 % at m = 1000. Until 1 December 2026
-    # `quick` was medium's near body with an 8-chord wake box on [-20, 160] x [-20, 20] (111 506),
-    # 3.8 % off at m = 10: the lateral extent and the wake box length decide the low-m thresholds
-    # (docs/discretisation.md, "A quick preset")
-    ("plate", "quick"): (0.015, 0.5, 0.003, 0.025, 0.1, 2.0, 0.25, 20.0, 1.0),
-    ("plate", "medium"): (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
-    ("plate", "fine"): (0.008, 0.25, 0.0015, 0.012, 0.04, 2.0, 0.25, 20.0, 1.0),
-    ("cylinder", "coarse"): (0.1, 0.6, 0.1, 0.15, 0.35, 4.0, 0.75, 10.0, 2.0),
-    ("cylinder", "medium"): (0.04, 0.3, 0.04, 0.07, 0.15, 3.0, 1.0, 20.0, 3.0),
-    ("cylinder", "fine"): (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
-}
-
-# Graded far field (middle size, middle box (upstream, downstream, lateral), middle band (downstream
-# end, half-width)): 1-chord elements up to 40 chords from the body (80 downstream) and in the wake's
-# band |Y| < 20 to the outlet, the table's far size beyond (2 chords on the plate's medium and fine),
-# to the preset's domain. Measured on the plate at Re 2900 (docs/discretisation.md): 4-chord
-# elements from 20 chords on move the flutter speed by 1.5-2 % (weakly damped free-stream modes
-# next to the flutter mode); from 40 chords on, on a domain twice as large, they agree with the
-# uniform 1-chord mesh at m = 1000, but 4-chord elements across the wake beyond 80 chords fold the
-# neutral curves at low mass ratio (spurious pairs of crossings at m = 10 and 100-450); the band
-# removes them. Beside the band the 4-chord elements still carried weakly damped modes of the free
-# stream (damping 0.007, folds below m = 80): 2-chord elements there and the far-field layer of the
-# preset's sponge (fsistab.params.PRESET_SPONGES) remove them.
-_PRESET_MIDDLE = {
-    ("plate", "quick"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
-    ("plate", "medium"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
-    ("plate", "fine"): (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
-}
-
-
 HIGH_REYNOLDS = 2900.0  # above it the near-body sizes shrink further (high_reynolds_factor)
 
 
@@ -177,18 +133,16 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
     and above Re 2900 the near size times ``f = √(2900/Re)``, the wall and corner sizes times ``f²``."""
     if preset not in PRESETS:
         raise InputError(f"unknown mesh preset {preset!r}: choose one of {', '.join(PRESETS)}")
-    if (body.kind, preset) not in _PRESET_TABLE:
-        raise InputError(plate_only_message(preset))
+    if preset not in body.mesh_presets:
+        raise InputError(preset_message(body, preset))
     reynolds = _positive("Reynolds number", reynolds)
-    floor, k, corner, near, wake, far, margin, wake_length, wake_half = _PRESET_TABLE[(body.kind, preset)]
+    floor, k, corner, near, wake, far, margin, wake_length, wake_half = body.mesh_presets[preset]
     wall = min(floor, k / math.sqrt(reynolds))
     if reynolds > HIGH_REYNOLDS:  # a branch, so that the sizes up to Re 2900 are the table's, bit for bit
         factor = high_reynolds_factor(reynolds)
         wall, corner, near = wall * factor**2, corner * factor**2, near * factor
-    if isinstance(body, Plate):
-        corner = min(corner, wall, body.corner_radius * body.thickness if body.corner_radius else wall)
-        corner = max(corner, wall / 8)
-    middle, middle_box, middle_band = _PRESET_MIDDLE.get((body.kind, preset), (None, None, None))
+    corner = body.corner_size(corner, wall)
+    middle, middle_box, middle_band = body.middle_presets.get(preset, (None, None, None))
     return MeshSizes(
         wall=wall,
         corner=min(corner, wall),
@@ -266,12 +220,12 @@ def mesh_spec(
         base = replace(base, **sizes)
     except TypeError as exc:
         raise InputError(f"unknown mesh size parameter: {exc}") from None
-    own_domain = default_domain(body.kind, preset)
+    own_domain = default_domain(body, preset)
     domain = domain or own_domain
     if isinstance(sponge, str):
         if sponge != "preset":
             raise InputError(f"sponge must be a Sponge, None or 'preset', got {sponge!r}")
-        sponge = default_sponge(body.kind, preset) if domain == own_domain else None
+        sponge = default_sponge(body, preset) if domain == own_domain else None
     return MeshSpec(body=body, domain=domain, sizes=base, preset=preset, sponge=sponge)
 
 

@@ -17,99 +17,11 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Literal
 
+from fsistab.bodies import BODY_TYPES, Body, Plate, body_type
 from fsistab.errors import InputError
-
-CONVENTIONS = {
-    "plate": "chord-based: length c, time c/U, coefficients F/(0.5 rho U^2 c s); "
-    "h up, theta counter-clockwise, alpha = -theta (MODEL.md §1-§4)",
-    "cylinder": "diameter-based: length D, time D/U, coefficients F/(0.5 rho U^2 D s) (MODEL.md §10)",
-}
-
-
-def _finite(name: str, value: float) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(value):
-        raise InputError(f"{name} must be finite, got {value}")
-    return value
-
-
-def _positive(name: str, value: float) -> float:
-    value = _finite(name, value)
-    if value <= 0:
-        raise InputError(f"{name} must be positive, got {value}")
-    return value
-
-
-def _non_negative(name: str, value: float) -> float:
-    value = _finite(name, value)
-    if value < 0:
-        raise InputError(f"{name} must be non-negative, got {value}")
-    return value
-
-
-@dataclass(frozen=True)
-class Plate:
-    """Thin rectangular plate with rounded corners (MODEL.md §1), chord = 1.
-
-    ``aspect_ratio`` is chord/thickness (default 20); ``corner_radius`` is relative to the
-    thickness (default 1/10, i.e. radius e/10).
-    """
-
-    aspect_ratio: float = 20.0
-    corner_radius: float = 0.1
-    kind: Literal["plate"] = "plate"
-
-    def __post_init__(self):
-        ar = _finite("chord/thickness ratio", self.aspect_ratio)
-        if ar <= 1:
-            raise InputError(f"chord/thickness ratio must be > 1, got {ar}")
-        rc = _finite("corner radius (relative to the thickness)", self.corner_radius)
-        if not 0 <= rc < 0.5:
-            raise InputError(f"corner radius must be in [0, 0.5) times the thickness, got {rc}")
-        object.__setattr__(self, "aspect_ratio", ar)
-        object.__setattr__(self, "corner_radius", rc)
-
-    @property
-    def thickness(self) -> float:
-        return 1.0 / self.aspect_ratio
-
-    @property
-    def rear(self) -> float:
-        """Abscissa of the rear (trailing edge) in the body frame."""
-        return 0.5
-
-    @property
-    def radius_of_gyration(self) -> float:
-        """``r_θ = sqrt((1 + (e/c)²)/12)`` of a homogeneous rectangle about its centre."""
-        return math.sqrt((1 + self.thickness**2) / 12)
-
-
-@dataclass(frozen=True)
-class Cylinder:
-    """Circular cylinder of diameter 1 (MODEL.md §10)."""
-
-    kind: Literal["cylinder"] = "cylinder"
-
-    @property
-    def rear(self) -> float:
-        return 0.5
-
-
-Body = Plate | Cylinder
-
-
-def make_body(kind: str, **kwargs) -> Body:
-    """Body from its name (``plate`` or ``cylinder``) and shape parameters."""
-    if kind == "plate":
-        return Plate(**kwargs)
-    if kind == "cylinder":
-        if kwargs:
-            raise InputError(f"the cylinder takes no shape parameters, got {sorted(kwargs)}")
-        return Cylinder()
-    raise InputError(f"unknown body {kind!r}: choose 'plate' or 'cylinder'")
+from fsistab.validate import finite as _finite
+from fsistab.validate import non_negative as _non_negative
+from fsistab.validate import positive as _positive
 
 
 @dataclass(frozen=True)
@@ -238,44 +150,17 @@ def parse_sponge(text: str) -> Sponge | None | Literal["preset"]:
     return Sponge(*(_finite(name, part) for name, part in zip(names, parts, strict=False)))
 
 
-# The presets' sponges (issue 14): on the plate's converged presets, whose 160-chord domain carries
-# weakly damped convective modes (the outlet layer) and whose outer elements beside the wake band
-# carry weakly damped free-stream modes (the far-field layer); not on `coarse`, whose spurious modes
-# come from its far-field elements, which no outlet layer removes (docs/discretisation.md).
-PRESET_SPONGES = {
-    ("plate", "quick"): Sponge(far_sigma=0.2, far_ramp=10.0),  # `medium`'s far field (fsistab.mesh)
-    ("plate", "medium"): Sponge(far_sigma=0.2, far_ramp=10.0),
-    ("plate", "fine"): Sponge(far_sigma=0.2, far_ramp=10.0),
-}
+def default_sponge(body: Body, preset: str) -> Sponge | None:
+    """The outlet and far-field layers of a mesh preset when none is chosen (the body's
+    ``sponge_presets``), else none."""
+    arguments = body.sponge_presets.get(preset)
+    return None if arguments is None else Sponge(**arguments)
 
 
-def default_sponge(kind: str, preset: str) -> Sponge | None:
-    """The sponge of a mesh preset when none is chosen: :data:`PRESET_SPONGES`, else none."""
-    return PRESET_SPONGES.get((kind, preset))
-
-
-DEFAULT_DOMAINS = {
-    "plate": Domain(upstream=20.0, downstream=40.0, lateral=20.0),
-    # blockage: [-25, 50] x [-25, 25] raises the wake-mode frequency by 1.2 %, this one by 0.13 %
-    "cylinder": Domain(upstream=50.0, downstream=100.0, lateral=50.0),
-}
-
-# Presets whose domain differs from the body's default. The plate's flutter point moves by 1.5 %
-# from [-20, 40] x [-20, 20] to [-40, 80] x [-40, 40] (the shed vorticity of one flutter period is
-# about 35 chords long; docs/discretisation.md); the presets meant to be converged reach twice as far,
-# with 1-chord elements up to [-40, 80] x [-40, 40] (fsistab.mesh).
-PRESET_DOMAINS = {
-    # `medium`'s: the narrower [-20, 160] x [-20, 20] of `quick` until 1 December 2026 moved the
-    # flutter onset at m = 10 by 3.8 % (docs/discretisation.md, "A quick preset")
-    ("plate", "quick"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
-    ("plate", "medium"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
-    ("plate", "fine"): Domain(upstream=80.0, downstream=160.0, lateral=80.0),
-}
-
-
-def default_domain(kind: str, preset: str) -> Domain:
-    """The domain of a mesh preset when none is given: :data:`PRESET_DOMAINS`, else the body's."""
-    return PRESET_DOMAINS.get((kind, preset), DEFAULT_DOMAINS[kind])
+def default_domain(body: Body, preset: str) -> Domain:
+    """The domain of a mesh preset when none is given (the body's ``domain_presets``)."""
+    extents = body.domain_presets
+    return Domain(*extents.get(preset, extents[None]))
 
 
 SOLID_DOFS = ("heave", "pitch")
@@ -341,14 +226,17 @@ def as_dict(obj) -> dict:
 # --- what a command computes: validated before any work --------------------------------------------
 
 MESH_PRESETS = ("coarse", "quick", "medium", "fine")  # the presets of fsistab.mesh (checked there too)
-PLATE_ONLY_PRESETS = ("quick",)  # fitted to the plate (docs/how-to/meshes.md)
 
 
-def plate_only_message(preset: str) -> str:
-    return f"the {preset} mesh preset is defined for the plate only: choose coarse, medium or fine"
+def preset_message(body: Body, preset: str) -> str:
+    """Why ``preset`` is refused for ``body``: the bodies it is fitted to, and the body's presets."""
+    owners = [kind for kind, cls in BODY_TYPES.items() if preset in cls.mesh_presets]
+    return (
+        f"the {preset} mesh preset is defined for the {' and '.join(owners)} only: "
+        f"choose {', '.join(body.mesh_presets)}"
+    )
 
 
-BODIES = ("plate", "cylinder")
 # finite bounds on what a command accepts: beyond them a run is meaningless or unbounded in time
 MAX_REYNOLDS = 1e7  # a 2-D laminar model; the machine's limit (fsistab.resources) is lower
 MAX_MASS_RATIO = 1e9
@@ -356,9 +244,6 @@ MAX_REDUCED_VELOCITY = 1e6
 MAX_FREQUENCY = 1e4  # in units U∞/L
 MAX_SWEEP_POINTS = 500
 MAX_CURVE_POINTS = 10_000
-DEFAULT_MASS_RATIO = {"plate": 1000.0, "cylinder": 20.0}  # MODEL.md §2, §10
-DEFAULT_REDUCED_VELOCITY = {"plate": 4.7, "cylinder": 8.0}
-DEFAULT_DOFS = {"plate": ("heave", "pitch"), "cylinder": ("heave",)}
 
 
 def _count(name: str, value: int, low: int, high: int) -> int:
@@ -428,8 +313,8 @@ class Case:
             raise InputError(f"sponge must be a Sponge, None or 'preset', got {self.sponge!r}")
         if self.preset not in MESH_PRESETS:
             raise InputError(f"unknown mesh preset {self.preset!r}: choose one of {', '.join(MESH_PRESETS)}")
-        if self.preset in PLATE_ONLY_PRESETS and self.body.kind != "plate":
-            raise InputError(plate_only_message(self.preset))
+        if self.preset not in self.body.mesh_presets:
+            raise InputError(preset_message(self.body, self.preset))
         if self.flow.reynolds > MAX_REYNOLDS:
             raise InputError(f"Reynolds number must be at most {MAX_REYNOLDS:g}, got {self.flow.reynolds:g}")
 
@@ -447,11 +332,10 @@ class Case:
     ) -> Case:
         """From the command-line options. The plate's shape is checked for every body: a value
         that makes no sense is refused even where it is not used."""
-        if body not in BODIES:
-            raise InputError(f"unknown body {body!r}: choose 'plate' or 'cylinder'")
+        cls_body = body_type(body)
         plate = Plate(aspect_ratio=aspect_ratio, corner_radius=corner_radius)
         return cls(
-            body=plate if body == "plate" else Cylinder(),
+            body=plate if cls_body is Plate else cls_body(),
             flow=Flow(reynolds, alpha0_deg),
             preset=preset,
             domain=Domain(*domain) if domain is not None else None,
@@ -468,14 +352,15 @@ class Case:
         return f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
 
     def require_plate(self, what: str) -> None:
-        if self.kind != "plate":
+        if "pitch" not in self.body.allowed_dofs:
             raise InputError(f"{what} are implemented for the plate (heave and pitch)")
 
 
 def parse_dofs(text: str | None, kind: str) -> tuple[str, ...]:
     """``heave,pitch`` | ``heave`` | ``pitch`` | ``none``; None is the body's default."""
+    body = body_type(kind)
     if text is None:
-        return DEFAULT_DOFS[kind]
+        return body.default_dofs
     if text.strip() == "none":
         return ()
     names = tuple(d.strip() for d in text.split(",") if d.strip())
@@ -484,9 +369,15 @@ def parse_dofs(text: str | None, kind: str) -> tuple[str, ...]:
     bad = [d for d in names if d not in SOLID_DOFS]
     if bad or len(set(names)) != len(names):
         raise InputError(f"--dofs must be distinct names among heave, pitch (or none), got {text!r}")
-    if kind == "cylinder" and "pitch" in names:
-        raise InputError("the cylinder has no pitch degree of freedom: use --dofs heave or none")
+    _check_dofs(body, names)
     return names
+
+
+def _check_dofs(body: type[Body], names: tuple[str, ...]) -> None:
+    extra = [d for d in names if d not in body.allowed_dofs]
+    if extra:
+        choices = " or ".join([*body.allowed_dofs, "none"])
+        raise InputError(f"the {body.kind} has no {extra[0]} degree of freedom: use --dofs {choices}")
 
 
 def solid_for(
@@ -499,14 +390,16 @@ def solid_for(
     r_theta: float = 0.289,
     dofs: tuple[str, ...] | None = None,
 ) -> Solid:
-    """Solid parameters in the body's conventions (plate MODEL.md §2, cylinder §10), None meaning
-    the body's default (never a falsy value: ``0`` is refused, not replaced). Every value is
+    """Solid parameters in the body's conventions (plate docs/model.md §2, cylinder §10), None
+    meaning the body's default (never a falsy value: ``0`` is refused, not replaced), returned in
+    the generic form of §3 (:meth:`fsistab.bodies.Cylinder.generic_solid`). Every value is
     checked, also those the cylinder ignores (Ω, ζ_θ, r_θ)."""
+    body = body_type(kind)
     mass = (
-        DEFAULT_MASS_RATIO[kind] if mass_ratio is None else _bounded("mass ratio", mass_ratio, MAX_MASS_RATIO)
+        body.default_mass_ratio if mass_ratio is None else _bounded("mass ratio", mass_ratio, MAX_MASS_RATIO)
     )
     velocity = (
-        DEFAULT_REDUCED_VELOCITY[kind]
+        body.default_reduced_velocity
         if reduced_velocity is None
         else _bounded("reduced velocity", reduced_velocity, MAX_REDUCED_VELOCITY)
     )
@@ -517,27 +410,23 @@ def solid_for(
         zeta_h=zeta_h,
         zeta_theta=zeta_theta,
         r_theta=_bounded("radius of gyration", r_theta, 1e3),
-        dofs=DEFAULT_DOFS[kind] if dofs is None else dofs,
+        dofs=body.default_dofs if dofs is None else dofs,
     )
     for name, value in (("heave damping ratio", checked.zeta_h), ("pitch damping ratio", checked.zeta_theta)):
         if value > 100:
             raise InputError(f"{name} must be at most 100, got {value:g}")
-    if kind == "cylinder":
-        if "pitch" in checked.dofs:
-            raise InputError("the cylinder has no pitch degree of freedom: use --dofs heave or none")
-        solid = Solid.cylinder(mass, velocity, zeta=checked.zeta_h)
-        return Solid(**{**asdict(solid), "dofs": checked.dofs})
-    return checked
+    _check_dofs(body, checked.dofs)
+    return body.generic_solid(checked)
 
 
 def body_mass_ratio(kind: str, solid: Solid) -> float:
-    """The mass ratio in the body's own convention (inverse of :meth:`Solid.cylinder`)."""
-    return 2 * solid.mass_ratio / math.pi if kind == "cylinder" else solid.mass_ratio
+    """The mass ratio in the body's own convention (inverse of ``generic_solid``)."""
+    return body_type(kind).own_mass_ratio(solid)
 
 
 def body_velocity_scale(kind: str) -> float:
-    """Body-convention U* over the generic one: ``2π`` for the cylinder (MODEL.md §10), else 1."""
-    return 2 * math.pi if kind == "cylinder" else 1.0
+    """Body-convention U* over the generic one (the body's ``velocity_scale``, docs/model.md §10)."""
+    return body_type(kind).velocity_scale
 
 
 @dataclass(frozen=True)

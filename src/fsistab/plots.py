@@ -182,7 +182,7 @@ class SampledMesh(NamedTuple):
 def _wall_edges(mesh) -> np.ndarray:
     from ngsolve import BND
 
-    from fsistab.geometry import WALL
+    from fsistab.bodies import WALL
 
     return np.array(
         [[v.nr for v in e.vertices] for e in mesh.Elements(BND) if e.mat == WALL], dtype=np.int64

@@ -79,10 +79,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsistab.bodies import interval_overlap, rectangle_distance
 from fsistab.errors import InputError
 from fsistab.geometry import far_wake_extent, middle_band_extent, middle_box_extent
 from fsistab.mesh import MeshSpec
-from fsistab.params import Plate
 
 # fitted constants (see the module docstring)
 # triangles per h² of area: above the 2.31 of equilateral triangles of side h, as each quadtree
@@ -123,13 +123,6 @@ def _gigabytes(n: float) -> str:
     return f"{n / 1e9:.1f} GB" if n < 1e12 else f"{n / 1e12:.1f} TB"
 
 
-def _rectangle_distance(x, y, x0, x1, y0, y1):
-    """Distance from ``(x, y)`` to the rectangle ``[x0, x1] × [y0, y1]`` (0 inside)."""
-    dx = np.maximum(np.maximum(x0 - x, x - x1), 0.0)
-    dy = np.maximum(np.maximum(y0 - y, y - y1), 0.0)
-    return np.hypot(dx, dy)
-
-
 class _SizeField:
     """``h(x, y)`` on the upper half ``y ≥ 0`` of the domain of ``spec`` (the mesh is its mirror)."""
 
@@ -137,8 +130,8 @@ class _SizeField:
         body, domain, sizes = spec.body, spec.domain, spec.sizes
         self.sizes = sizes
         self.slope = GRADING_SLOPE * sizes.grading
-        self.is_plate = isinstance(body, Plate)
-        self.half_height = body.thickness / 2 if self.is_plate else 0.5
+        self.body = body
+        self.half_height = body.half_height
         # the refinement boxes of fsistab.geometry.fluid_half_geometry
         margin = sizes.near_margin
         self.near = (
@@ -168,56 +161,24 @@ class _SizeField:
                 self.band = (0.0, end, 0.0, half_width)
 
     def body_distance(self, x, y):
-        if self.is_plate:
-            return _rectangle_distance(x, y, -0.5, 0.5, -self.half_height, self.half_height)
-        return np.maximum(np.hypot(x, y) - 0.5, 0.0)
+        return self.body.distance(x, y)
 
     def __call__(self, x, y):
         s, sizes = self.slope, self.sizes
         h = np.full_like(x, sizes.far)
         if self.middle is not None:
-            h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.middle))
+            h = np.minimum(h, sizes.middle + s * rectangle_distance(x, y, *self.middle))
         if self.band is not None:
-            h = np.minimum(h, sizes.middle + s * _rectangle_distance(x, y, *self.band))
+            h = np.minimum(h, sizes.middle + s * rectangle_distance(x, y, *self.band))
         if self.far_wake is not None:
-            h = np.minimum(h, sizes.far_wake[0] + s * _rectangle_distance(x, y, *self.far_wake))
-        h = np.minimum(h, sizes.wake + s * _rectangle_distance(x, y, *self.wake))
-        h = np.minimum(h, sizes.near + s * _rectangle_distance(x, y, *self.near))
+            h = np.minimum(h, sizes.far_wake[0] + s * rectangle_distance(x, y, *self.far_wake))
+        h = np.minimum(h, sizes.wake + s * rectangle_distance(x, y, *self.wake))
+        h = np.minimum(h, sizes.near + s * rectangle_distance(x, y, *self.near))
         h = np.minimum(h, sizes.wall + s * self.body_distance(x, y))
-        if self.is_plate:
-            # the leading and trailing edges (short sides and rounded corners) carry the corner size
-            e = self.half_height
-            ends = np.minimum(
-                _rectangle_distance(x, y, -0.5, -0.5, -e, e), _rectangle_distance(x, y, 0.5, 0.5, -e, e)
-            )
+        ends = self.body.corner_distance(x, y)  # the parts of the wall with the corner size, if any
+        if ends is not None:
             h = np.minimum(h, sizes.corner + s * ends)
         return h
-
-
-def _overlap(a0, a1, b0, b1):
-    """Length of ``[a0, a1] ∩ [b0, b1]``."""
-    return np.maximum(np.minimum(a1, b1) - np.maximum(a0, b0), 0.0)
-
-
-def _disc_corner_area(x, y, radius: float):
-    """Area of the disc ``|X| ≤ radius`` (centred at 0) with ``X ≤ x`` and ``Y ≤ y``.
-
-    ``∫ (s(t) + clamp(y, -s(t), s(t))) dt`` over ``t ≤ x``, ``s(t) = √(radius² - t²)``: where
-    ``|t| > w = √(radius² - y²)`` the chord lies wholly below ``y`` (``y ≥ 0``) or above it."""
-    r = radius
-    x = np.clip(x, -r, r)
-    y = np.clip(y, -r, r)
-
-    def primitive(a):  # ∫_{-r}^{a} s(t) dt
-        return (
-            0.5 * (a * np.sqrt(np.maximum(r * r - a * a, 0.0)) + r * r * np.arcsin(a / r)) + np.pi * r * r / 4
-        )
-
-    w = np.sqrt(np.maximum(r * r - y * y, 0.0))
-    m = np.minimum(x, w)
-    band = np.where(x > -w, primitive(m) - primitive(-w), 0.0)  # ∫ s over |t| ≤ w, t ≤ x
-    width = np.where(x > -w, m + w, 0.0)
-    return np.where(y >= 0, 2 * primitive(x) - band + y * width, band + y * width)
 
 
 class _Cells:
@@ -240,15 +201,10 @@ def _fluid_area(field: _SizeField, domain, cells: _Cells):
     """Exact area of fluid (inside the half domain, outside the body) in each cell: additive, so
     a cell's area is the sum of its children's."""
     x0, y0, x1, y1 = cells.x0, cells.y0, cells.x0 + cells.width, cells.y0 + cells.width
-    area = _overlap(x0, x1, -domain.upstream, domain.downstream) * _overlap(y0, y1, 0.0, domain.lateral)
-    if field.is_plate:
-        solid = _overlap(x0, x1, -0.5, 0.5) * _overlap(y0, y1, -field.half_height, field.half_height)
-    else:
-        corner = _disc_corner_area
-        solid = np.zeros_like(area)
-        near = (x1 > -0.5) & (x0 < 0.5) & (y0 < 0.5)  # cells that may meet the disc
-        a0, a1, b0, b1 = x0[near], x1[near], y0[near], y1[near]
-        solid[near] = corner(a1, b1, 0.5) - corner(a0, b1, 0.5) - corner(a1, b0, 0.5) + corner(a0, b0, 0.5)
+    area = interval_overlap(x0, x1, -domain.upstream, domain.downstream) * interval_overlap(
+        y0, y1, 0.0, domain.lateral
+    )
+    solid = field.body.solid_area(x0, x1, y0, y1)
     return np.maximum(area - solid, 0.0)
 
 
@@ -268,7 +224,7 @@ def _area_over_h2(field: _SizeField, domain) -> tuple[float, bool]:
     ix = np.arange(math.floor(-domain.upstream / width), math.ceil(domain.downstream / width))
     iy = np.arange(0, math.ceil(domain.lateral / width))
     if ix.size * iy.size > _MAX_LEAVES:  # h ≤ far everywhere: the fluid area over far² is a lower bound
-        solid = field.half_height if field.is_plate else math.pi / 8
+        solid = field.body.half_area
         area = (domain.upstream + domain.downstream) * domain.lateral - solid
         return area / (width + field.slope * width / math.sqrt(2)) ** 2, True
     gx, gy = np.meshgrid(ix * width, iy * width)
@@ -292,10 +248,7 @@ def _area_over_h2(field: _SizeField, domain) -> tuple[float, bool]:
 def _boundary_edges(spec: MeshSpec) -> float:
     """Edges on the body and the outer boundary (whole domain): lengths over local sizes."""
     body, domain, sizes = spec.body, spec.domain, spec.sizes
-    if isinstance(body, Plate):
-        on_body = 2 / sizes.wall + 2 * body.thickness / sizes.corner
-    else:
-        on_body = math.pi / sizes.wall
+    on_body = body.wall_edges(sizes.wall, sizes.corner)
     outer = 2 * (domain.upstream + domain.downstream) + 4 * domain.lateral
     return on_body + outer / sizes.far
 

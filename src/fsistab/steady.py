@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from fsistab import store
+from fsistab.bodies import WALL
 from fsistab.errors import CacheError, ConvergenceError, InputError
-from fsistab.geometry import DIRICHLET, WALL
+from fsistab.geometry import DIRICHLET
 from fsistab.mesh import MeshSpec, build_mesh
 from fsistab.params import Flow
 

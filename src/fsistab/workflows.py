@@ -1033,7 +1033,6 @@ def fixed_body_onset(
     and factorisations in attributes; saved as
     ``onset_{body}_{parameter}_{Re or a}{value}_{preset}.nc``, its path in attribute ``data``."""
     from fsistab.onset import check_onset, critical_onset, fitted_case, onset_dataset
-    from fsistab.params import CONVENTIONS
     from fsistab.store import json_attr, write_dataset
 
     say = _say(progress)
@@ -1057,7 +1056,7 @@ def fixed_body_onset(
             "mesh": json_attr(spec.describe()),
             "mesh_key": spec.key(),
             "ndof": result.iterates[-1].unknowns,
-            "conventions": CONVENTIONS[case.kind],
+            "conventions": case.body.conventions,
         },
     )
     where = f"a{case.flow.alpha0_deg:g}" if parameter == "reynolds" else f"Re{case.flow.reynolds:g}"
@@ -1129,7 +1128,6 @@ def sensitivity(
     from fsistab import sensitivity as adjoint
     from fsistab.coupled import CoupledSystem
     from fsistab.critical import wake_mode_near
-    from fsistab.params import CONVENTIONS
     from fsistab.store import write_dataset
 
     say = _say(progress)
@@ -1176,7 +1174,7 @@ def sensitivity(
         "velocity_range": list(sweep.velocity_range),
         "points": sweep.points,
         "factorisations": counter.count,
-        "conventions": CONVENTIONS[case.kind] + "; alpha0 derivatives per degree",
+        "conventions": case.body.conventions + "; alpha0 derivatives per degree",
     }
     ds = adjoint.sensitivity_dataset(thresholds, results, adjoint.PARAMETERS, attrs)
     # the body's conventions: U* = scale U*_g, and the cylinder's m = 2 m_g / π (MODEL.md §10)

@@ -1,0 +1,370 @@
+"""Bodies: each class owns its shape and every convention that depends on it (docs/model.md §1, §10).
+
+A body is an immutable, validated description of the section's shape (its dataclass fields, which
+enter the cache keys) plus class-level conventions that the rest of fsistab asks for instead of
+testing the body's name:
+
+* units: the length unit (``length_unit``: the plate's chord, the cylinder's diameter), the
+  body's convention of the mass ratio and the reduced velocity against the generic solid equations
+  of docs/model.md §3 (``generic_solid``, ``own_mass_ratio``, ``velocity_scale``), the
+  ``conventions`` string every result carries;
+* defaults: solid parameters, degrees of freedom, the spectrum's shifts and the wake mode's shift;
+* discretisation: the mesh presets' element sizes, refinement boxes, domains and outlet layers
+  (what a preset means for this body), the wall as a netgen.occ face and its exact projection
+  (curved elements), and the shape queries of the mesh-size estimate (:mod:`fsistab.resources`);
+* figures: the windows of flow and mode plots.
+
+A new section (an airfoil, a shape from a file) is one more class with the same attributes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import ClassVar, Literal
+
+import numpy as np
+
+from fsistab.errors import InputError
+from fsistab.validate import finite
+
+WALL = "wall"  # the boundary name of the body's surface
+
+# A mesh preset's element sizes for one body: (wall floor, wall coefficient k in min(floor, k/√Re),
+# corner, near, wake, far, margin, wake length, wake half-width), in body lengths. Above Re 2900 the
+# near size is multiplied by f = √(2900/Re), the wall and corner sizes by f² (fsistab.mesh).
+PresetRow = tuple[float, float, float, float, float, float, float, float, float]
+# A graded far field: (middle size, middle box (upstream, downstream, lateral), middle band
+# (downstream end, half-width)) (fsistab.mesh.MeshSizes).
+MiddleRow = tuple[float, tuple[float, float, float], tuple[float, float]]
+Window = tuple[tuple[float, float], tuple[float, float]]
+
+
+def rectangle_distance(x, y, x0, x1, y0, y1):
+    """Distance from ``(x, y)`` to the rectangle ``[x0, x1] × [y0, y1]`` (0 inside)."""
+    dx = np.maximum(np.maximum(x0 - x, x - x1), 0.0)
+    dy = np.maximum(np.maximum(y0 - y, y - y1), 0.0)
+    return np.hypot(dx, dy)
+
+
+def interval_overlap(a0, a1, b0, b1):
+    """Length of ``[a0, a1] ∩ [b0, b1]``."""
+    return np.maximum(np.minimum(a1, b1) - np.maximum(a0, b0), 0.0)
+
+
+def disc_corner_area(x, y, radius: float):
+    """Area of the disc ``|X| ≤ radius`` (centred at 0) with ``X ≤ x`` and ``Y ≤ y``.
+
+    ``∫ (s(t) + clamp(y, -s(t), s(t))) dt`` over ``t ≤ x``, ``s(t) = √(radius² - t²)``: where
+    ``|t| > w = √(radius² - y²)`` the chord lies wholly below ``y`` (``y ≥ 0``) or above it."""
+    r = radius
+    x = np.clip(x, -r, r)
+    y = np.clip(y, -r, r)
+
+    def primitive(a):  # ∫_{-r}^{a} s(t) dt
+        return (
+            0.5 * (a * np.sqrt(np.maximum(r * r - a * a, 0.0)) + r * r * np.arcsin(a / r)) + np.pi * r * r / 4
+        )
+
+    w = np.sqrt(np.maximum(r * r - y * y, 0.0))
+    m = np.minimum(x, w)
+    band = np.where(x > -w, primitive(m) - primitive(-w), 0.0)  # ∫ s over |t| ≤ w, t ≤ x
+    width = np.where(x > -w, m + w, 0.0)
+    return np.where(y >= 0, 2 * primitive(x) - band + y * width, band + y * width)
+
+
+@dataclass(frozen=True)
+class Plate:
+    """Thin rectangular plate with rounded corners (docs/model.md §1), chord = 1.
+
+    ``aspect_ratio`` is chord/thickness (default 20); ``corner_radius`` is relative to the
+    thickness (default 1/10, i.e. radius e/10). Lengths in chords, time ``c/U∞``.
+    """
+
+    aspect_ratio: float = 20.0
+    corner_radius: float = 0.1
+    kind: Literal["plate"] = "plate"
+
+    length_unit: ClassVar[str] = "chord"
+    conventions: ClassVar[str] = (
+        "chord-based: length c, time c/U, coefficients F/(0.5 rho U^2 c s); "
+        "h up, theta counter-clockwise, alpha = -theta (docs/model.md §1-§4)"
+    )
+    velocity_scale: ClassVar[float] = 1.0  # the body's U* over the generic one (docs/model.md §2)
+    allowed_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
+    default_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
+    default_mass_ratio: ClassVar[float] = 1000.0  # docs/model.md §2
+    default_reduced_velocity: ClassVar[float] = 4.7
+    spectrum_shifts: ClassVar[tuple[complex, ...]] = (0.05 + 0.2j,)
+    wake_shifts: ClassVar[tuple[complex, ...]] = ()  # no default wake-mode shift: it depends on Re
+    flow_window: ClassVar[Window] = ((-1.0, 3.0), (-0.8, 0.8))
+    mode_window: ClassVar[Window] = ((-1.0, 2.0), (-0.75, 0.75))
+    sensitivity_window: ClassVar[Window] = ((-1.0, 2.5), (-0.8, 0.8))
+
+    # What the presets mean for the plate (docs/how-to/meshes.md, docs/discretisation.md): `quick`
+    # is `medium` with 0.1-chord elements in its wake box; `medium` and `fine` reach [-80, 160] ×
+    # [-80, 80] with 1-chord elements to 40 chords and across the wake to the outlet, 2-chord ones
+    # beyond, and absorbing layers at the outlet and over the outer elements.
+    mesh_presets: ClassVar[dict[str, PresetRow]] = {
+        "coarse": (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
+        "quick": (0.015, 0.5, 0.003, 0.025, 0.1, 2.0, 0.25, 20.0, 1.0),
+        "medium": (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
+        "fine": (0.008, 0.25, 0.0015, 0.012, 0.04, 2.0, 0.25, 20.0, 1.0),
+    }
+    middle_presets: ClassVar[dict[str, MiddleRow]] = {
+        "quick": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
+        "medium": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
+        "fine": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
+    }
+    # (upstream, downstream, lateral) of each preset's domain; None: every other preset's
+    domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = {
+        None: (20.0, 40.0, 20.0),
+        "quick": (80.0, 160.0, 80.0),
+        "medium": (80.0, 160.0, 80.0),
+        "fine": (80.0, 160.0, 80.0),
+    }
+    # the presets' outlet and far-field layers (fsistab.params.Sponge arguments); none on `coarse`,
+    # whose spurious modes come from its far-field elements, which no outlet layer removes
+    sponge_presets: ClassVar[dict[str, dict[str, float]]] = {
+        "quick": {"far_sigma": 0.2, "far_ramp": 10.0},
+        "medium": {"far_sigma": 0.2, "far_ramp": 10.0},
+        "fine": {"far_sigma": 0.2, "far_ramp": 10.0},
+    }
+
+    def __post_init__(self):
+        ar = finite("chord/thickness ratio", self.aspect_ratio)
+        if ar <= 1:
+            raise InputError(f"chord/thickness ratio must be > 1, got {ar}")
+        rc = finite("corner radius (relative to the thickness)", self.corner_radius)
+        if not 0 <= rc < 0.5:
+            raise InputError(f"corner radius must be in [0, 0.5) times the thickness, got {rc}")
+        object.__setattr__(self, "aspect_ratio", ar)
+        object.__setattr__(self, "corner_radius", rc)
+
+    @property
+    def thickness(self) -> float:
+        return 1.0 / self.aspect_ratio
+
+    @property
+    def rear(self) -> float:
+        """Abscissa of the rear (trailing edge) in the body frame."""
+        return 0.5
+
+    @property
+    def half_height(self) -> float:
+        """Half the body's extent in ``Y``."""
+        return self.thickness / 2
+
+    @property
+    def half_area(self) -> float:
+        """Area of the body's upper half (the mesh is built on ``Y ≥ 0`` and mirrored)."""
+        return self.half_height
+
+    @property
+    def radius_of_gyration(self) -> float:
+        """``r_θ = sqrt((1 + (e/c)²)/12)`` of a homogeneous rectangle about its centre."""
+        return math.sqrt((1 + self.thickness**2) / 12)
+
+    def corner_size(self, corner: float, wall: float) -> float:
+        """A preset's corner size fitted to the corner arcs: at most the wall size and the arcs'
+        radius, at least an eighth of the wall size."""
+        corner = min(corner, wall, self.corner_radius * self.thickness if self.corner_radius else wall)
+        return max(corner, wall / 8)
+
+    @classmethod
+    def generic_solid(cls, solid):
+        """The solid in the generic form of docs/model.md §3: the plate's own."""
+        return solid
+
+    @classmethod
+    def own_mass_ratio(cls, solid) -> float:
+        """The mass ratio in the body's convention (inverse of :meth:`generic_solid`)."""
+        return solid.mass_ratio
+
+    def face(self, wall_size: float, corner_size: float):
+        """Rounded rectangle of chord 1 and thickness 1/aspect_ratio as a netgen.occ face; the
+        long sides carry ``wall_size``, the corner arcs and short sides ``corner_size``.
+
+        Corners are ``Arc`` segments of a ``WorkPlane`` path (``MakeFillet`` fails on 2D faces).
+        """
+        from netgen.occ import WorkPlane
+
+        e = self.thickness
+        r = self.corner_radius * e
+        wp = WorkPlane().MoveTo(-0.5 + r, -e / 2)
+        if r > 0:
+            wp.Line(1 - 2 * r).Arc(r, 90).Line(e - 2 * r).Arc(r, 90).Line(1 - 2 * r).Arc(r, 90)
+            wp.Line(e - 2 * r).Arc(r, 90)
+        else:
+            wp.Line(1).Rotate(90).Line(e).Rotate(90).Line(1).Rotate(90).Line(e)
+        face = wp.Face()
+        for i, edge in enumerate(face.edges):
+            edge.name = WALL
+            # path order: long side, corner, short side, corner, ... (or long, short, ... if r = 0)
+            is_long_side = i % (4 if r > 0 else 2) == 0
+            edge.maxh = wall_size if is_long_side else corner_size
+        return face
+
+    def wall_projection(self):
+        """Closest point on the corner arcs, as a CoefficientFunction of ``(x, y)`` (the straight
+        sides need no correction): curves the elements at the wall."""
+        from ngsolve import CF, IfPos, sqrt, x, y
+
+        e = self.thickness
+        rc = self.corner_radius * e
+        if rc == 0:
+            return CF((x, y))
+        # centre of the nearest corner arc, then the projection onto it when the point lies in a corner
+        cx = IfPos(x, 0.5 - rc, -(0.5 - rc))
+        cy = IfPos(y, e / 2 - rc, -(e / 2 - rc))
+        dx, dy = x - cx, y - cy
+        dist = sqrt(dx * dx + dy * dy) + 1e-300
+        abs_x, abs_y = IfPos(x, x, -x), IfPos(y, y, -y)
+        in_corner = IfPos(abs_x - (0.5 - rc), IfPos(abs_y - (e / 2 - rc), 1.0, 0.0), 0.0)
+        return CF((x + in_corner * (cx + rc * dx / dist - x), y + in_corner * (cy + rc * dy / dist - y)))
+
+    def distance(self, x, y):
+        """Distance from ``(x, y)`` to the body (its bounding rectangle; 0 inside)."""
+        e = self.half_height
+        return rectangle_distance(x, y, -0.5, 0.5, -e, e)
+
+    def corner_distance(self, x, y):
+        """Distance to the parts of the wall meshed with the corner size (the leading and trailing
+        edges: short sides and rounded corners)."""
+        e = self.half_height
+        return np.minimum(
+            rectangle_distance(x, y, -0.5, -0.5, -e, e), rectangle_distance(x, y, 0.5, 0.5, -e, e)
+        )
+
+    def solid_area(self, x0, x1, y0, y1):
+        """Area of the body inside each cell ``[x0, x1] × [y0, y1]`` (arrays)."""
+        return interval_overlap(x0, x1, -0.5, 0.5) * interval_overlap(
+            y0, y1, -self.half_height, self.half_height
+        )
+
+    def wall_edges(self, wall_size: float, corner_size: float) -> float:
+        """Number of element edges on the wall: lengths over local sizes."""
+        return 2 / wall_size + 2 * self.thickness / corner_size
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """Circular cylinder of diameter 1 (docs/model.md §10): lengths in diameters, time ``D/U∞``,
+    heave only, its own mass ratio and reduced velocity (:meth:`generic_solid`)."""
+
+    kind: Literal["cylinder"] = "cylinder"
+
+    length_unit: ClassVar[str] = "diameter"
+    conventions: ClassVar[str] = (
+        "diameter-based: length D, time D/U, coefficients F/(0.5 rho U^2 D s) (docs/model.md §10)"
+    )
+    velocity_scale: ClassVar[float] = 2 * math.pi  # U* = U∞/(f_n D) against the generic U∞/(ω D)
+    allowed_dofs: ClassVar[tuple[str, ...]] = ("heave",)
+    default_dofs: ClassVar[tuple[str, ...]] = ("heave",)
+    default_mass_ratio: ClassVar[float] = 20.0  # docs/model.md §10
+    default_reduced_velocity: ClassVar[float] = 8.0
+    spectrum_shifts: ClassVar[tuple[complex, ...]] = (0.75j,)
+    wake_shifts: ClassVar[tuple[complex, ...]] = (0.75j,)  # the wake mode near onset (Re 40-100)
+    flow_window: ClassVar[Window] = ((-2.0, 6.0), (-2.0, 2.0))
+    mode_window: ClassVar[Window] = ((-2.0, 8.0), (-2.5, 2.5))
+    sensitivity_window: ClassVar[Window] = ((-2.0, 8.0), (-2.5, 2.5))
+
+    mesh_presets: ClassVar[dict[str, PresetRow]] = {
+        "coarse": (0.1, 0.6, 0.1, 0.15, 0.35, 4.0, 0.75, 10.0, 2.0),
+        "medium": (0.04, 0.3, 0.04, 0.07, 0.15, 3.0, 1.0, 20.0, 3.0),
+        "fine": (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
+    }
+    middle_presets: ClassVar[dict[str, MiddleRow]] = {}
+    # blockage: [-25, 50] x [-25, 25] raises the wake-mode frequency by 1.2 %, this one by 0.13 %
+    domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = {None: (50.0, 100.0, 50.0)}
+    sponge_presets: ClassVar[dict[str, dict[str, float]]] = {}
+
+    @property
+    def rear(self) -> float:
+        return 0.5
+
+    @property
+    def half_height(self) -> float:
+        return 0.5
+
+    @property
+    def half_area(self) -> float:
+        return math.pi / 8
+
+    def corner_size(self, corner: float, wall: float) -> float:
+        """No corners: the table's corner size."""
+        return corner
+
+    @classmethod
+    def generic_solid(cls, solid):
+        """The heave-only cylinder ``h'' + (2π/U*)² h = 2 C_L/(π m)`` (docs/model.md §10) in the
+        generic form ``h'' + (Ω/U*_g)² h = C_L/m_g``: ``m_g = π m/2``, ``U*_g = U*/(2π)``, ``Ω = 1``;
+        the pitch parameters are unused (ζ_θ = 0, r_θ = 1)."""
+        return replace(
+            solid,
+            mass_ratio=math.pi * solid.mass_ratio / 2,
+            reduced_velocity=solid.reduced_velocity / (2 * math.pi),
+            freq_ratio=1.0,
+            zeta_theta=0.0,
+            r_theta=1.0,
+        )
+
+    @classmethod
+    def own_mass_ratio(cls, solid) -> float:
+        return 2 * solid.mass_ratio / math.pi
+
+    def face(self, wall_size: float, corner_size: float):
+        """The circle of diameter 1 as a netgen.occ face, every edge of size ``wall_size``."""
+        from netgen.occ import Circle
+
+        face = Circle((0, 0), 0.5).Face()
+        for edge in face.edges:
+            edge.name = WALL
+            edge.maxh = wall_size
+        return face
+
+    def wall_projection(self):
+        """Closest point on the circle, as a CoefficientFunction of ``(x, y)``."""
+        from ngsolve import CF, sqrt, x, y
+
+        r = sqrt(x * x + y * y)
+        return CF((0.5 * x / r, 0.5 * y / r))
+
+    def distance(self, x, y):
+        return np.maximum(np.hypot(x, y) - 0.5, 0.0)
+
+    def corner_distance(self, x, y):
+        """No part of the wall has its own size."""
+        return None
+
+    def solid_area(self, x0, x1, y0, y1):
+        corner = disc_corner_area
+        solid = np.zeros_like(x0 * y0)
+        near = (x1 > -0.5) & (x0 < 0.5) & (y0 < 0.5)  # cells that may meet the disc
+        a0, a1, b0, b1 = x0[near], x1[near], y0[near], y1[near]
+        solid[near] = corner(a1, b1, 0.5) - corner(a0, b1, 0.5) - corner(a1, b0, 0.5) + corner(a0, b0, 0.5)
+        return solid
+
+    def wall_edges(self, wall_size: float, corner_size: float) -> float:
+        return math.pi / wall_size
+
+
+Body = Plate | Cylinder
+BODY_TYPES: dict[str, type[Plate] | type[Cylinder]] = {"plate": Plate, "cylinder": Cylinder}
+BODIES = tuple(BODY_TYPES)
+
+
+def body_type(kind: str) -> type[Plate] | type[Cylinder]:
+    """The class of the body named ``kind`` (``plate``, ``cylinder``)."""
+    try:
+        return BODY_TYPES[kind]
+    except KeyError:
+        raise InputError(f"unknown body {kind!r}: choose {' or '.join(repr(k) for k in BODIES)}") from None
+
+
+def make_body(kind: str, **kwargs) -> Body:
+    """Body from its name and shape parameters."""
+    cls = body_type(kind)
+    if kwargs and cls is Cylinder:
+        raise InputError(f"the cylinder takes no shape parameters, got {sorted(kwargs)}")
+    return cls(**kwargs)
