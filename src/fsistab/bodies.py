@@ -14,7 +14,9 @@ testing the body's name:
   (curved elements), and the shape queries of the mesh-size estimate (:mod:`fsistab.resources`);
 * figures: the windows of flow and mode plots.
 
-A new section (an airfoil, a shape from a file) is one more class with the same attributes.
+A new section (an airfoil, a shape from a file) is one more class with the same attributes. NumPy
+and NGSolve are imported where a method needs them, so that the command line reads its options
+(and pins BLAS threads) before any numerical package loads.
 """
 
 from __future__ import annotations
@@ -22,8 +24,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
-
-import numpy as np
 
 from fsistab.errors import InputError
 from fsistab.validate import finite
@@ -42,6 +42,8 @@ Window = tuple[tuple[float, float], tuple[float, float]]
 
 def rectangle_distance(x, y, x0, x1, y0, y1):
     """Distance from ``(x, y)`` to the rectangle ``[x0, x1] × [y0, y1]`` (0 inside)."""
+    import numpy as np
+
     dx = np.maximum(np.maximum(x0 - x, x - x1), 0.0)
     dy = np.maximum(np.maximum(y0 - y, y - y1), 0.0)
     return np.hypot(dx, dy)
@@ -49,6 +51,8 @@ def rectangle_distance(x, y, x0, x1, y0, y1):
 
 def interval_overlap(a0, a1, b0, b1):
     """Length of ``[a0, a1] ∩ [b0, b1]``."""
+    import numpy as np
+
     return np.maximum(np.minimum(a1, b1) - np.maximum(a0, b0), 0.0)
 
 
@@ -57,6 +61,8 @@ def disc_corner_area(x, y, radius: float):
 
     ``∫ (s(t) + clamp(y, -s(t), s(t))) dt`` over ``t ≤ x``, ``s(t) = √(radius² - t²)``: where
     ``|t| > w = √(radius² - y²)`` the chord lies wholly below ``y`` (``y ≥ 0``) or above it."""
+    import numpy as np
+
     r = radius
     x = np.clip(x, -r, r)
     y = np.clip(y, -r, r)
@@ -231,6 +237,8 @@ class Plate:
     def corner_distance(self, x, y):
         """Distance to the parts of the wall meshed with the corner size (the leading and trailing
         edges: short sides and rounded corners)."""
+        import numpy as np
+
         e = self.half_height
         return np.minimum(
             rectangle_distance(x, y, -0.5, -0.5, -e, e), rectangle_distance(x, y, 0.5, 0.5, -e, e)
@@ -331,6 +339,8 @@ class Cylinder:
         return CF((0.5 * x / r, 0.5 * y / r))
 
     def distance(self, x, y):
+        import numpy as np
+
         return np.maximum(np.hypot(x, y) - 0.5, 0.0)
 
     def corner_distance(self, x, y):
@@ -338,6 +348,8 @@ class Cylinder:
         return None
 
     def solid_area(self, x0, x1, y0, y1):
+        import numpy as np
+
         corner = disc_corner_area
         solid = np.zeros_like(x0 * y0)
         near = (x1 > -0.5) & (x0 < 0.5) & (y0 < 0.5)  # cells that may meet the disc
