@@ -5,12 +5,12 @@ computes, with the library's own functions and one thread:
 
 * the steady state (cached): unknowns, drag coefficient, recirculation length;
 * the static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (one real factorisation), hence the divergence
-  velocity ``U*_D = √(m r_θ²/(dC_M/dθ))`` at m = 1000 (MODEL.md §8, §9);
+  velocity ``U*_D = √(m r_θ²/(dC_M/dθ))`` at m = 1000 (docs/model.md §8, §9);
 * the fixed plate's wake mode (shift-invert Arnoldi near ``11.2i``; of the 8 nearest
   eigenvalues the one with the largest kinetic-energy share in the wake box ``WAKE_BOX``);
-* the flutter point at m = 1000 (Newton on ``det T(iω; U*) = 0``, MODEL.md §8) from a guess.
+* the flutter point at m = 1000 (Newton on ``det T(iω; U*) = 0``, docs/model.md §8) from a guess.
 
-Solid parameters are the defaults of MODEL.md (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289, pitch
+Solid parameters are the defaults of docs/model.md §2 (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289, pitch
 axis at mid-chord); units chord-based. One JSON line per variant is appended to ``--out`` (a
 variant already there is skipped, so a rerun resumes), with wall and CPU times and factorisations.
 

@@ -7,7 +7,7 @@ the eigenvalues nearest each ``--shift`` of the fixed body (shift-invert Arnoldi
 ``½∫|û|²`` in regions of the domain: the band ``|Y| < 20``, ``20 < |Y| < 40`` and ``|Y| > 40``,
 each split along X, and within 5 chords of the body's centre (``r<5``: how much of the mode the
 body feels). With ``--lateral-sponge SIGMA START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff``
-first (test only; MODEL.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
+first (test only; docs/model.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
 boundary by the smooth step ``3t² − 2t³`` in
 ``t = (Y² − START²)/(l² − START²)``. With ``--viscosity NU START`` the term ``NU ∫ s(X) ∇u:∇v``
 is added instead (test only), ``s`` rising by the same step from 0 at ``X = START`` to 1 at

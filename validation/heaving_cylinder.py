@@ -1,6 +1,6 @@
 """Heaving spring-mounted cylinder (REFERENCE.md §B): fluid and solid eigenvalue branches along U*.
 
-Re = 60, m = 20, heave only (MODEL.md §10 scalings, ``Solid.cylinder``). Both branches start at
+Re = 60, m = 20, heave only (docs/model.md §10 scalings, ``Solid.cylinder``). Both branches start at
 the lowest U* from the fixed-cylinder mode and from ``iω_n √(m/(m+1))`` and are followed by
 nearest-eigenvalue continuation: the next eigenvalue is predicted from the previous ones (secant
 in σ for the fluid branch, in σU* for the solid branch, whose frequency scales with 1/U*) and

@@ -2,8 +2,8 @@
 
 For each Reynolds number and lateral half-width ``L`` (domain ``[-U, D] × [-L, L]`` chords,
 ``--upstream U`` and ``--downstream D``, default 20 and 40; ``U = 0`` on the lateral sides,
-MODEL.md §4) the steady state and one real factorisation give ``dC_L/dα`` and ``d(-C_M)/dα``
-about mid-chord (MODEL.md §9), on the preset's sizes fitted to that Re (``--preset``, default
+docs/model.md §4) the steady state and one real factorisation give ``dC_L/dα`` and ``d(-C_M)/dα``
+about mid-chord (docs/model.md §9), on the preset's sizes fitted to that Re (``--preset``, default
 ``medium``) with the far-field size ``--far`` (the preset's own sizes, middle box and wake band
 included, with ``--far preset``), and any scalar size changed by ``--size NAME=VALUE`` (as in
 ``sponge_check.py``; the point's record keeps them under ``sizes``). ``--sponge`` gives every

@@ -1,6 +1,6 @@
-"""Neutral curves of the plate in the (Re, U*) and (α0, U*) planes at fixed m (MODEL.md §8).
+"""Neutral curves of the plate in the (Re, U*) and (α0, U*) planes at fixed m (docs/model.md §8).
 
-Plate, MODEL.md solid defaults (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289), m = 1000 by default.
+Plate, solid defaults of docs/model.md §2 (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289), m = 1000 by default.
 Starting from the flutter onset at Re = 2900, α0 = 0 (Newton on det T(iω; U*) = 0 from a guess near
 the reference U*_F ≈ 4.5, ω ≈ 0.18), the flutter and divergence thresholds are continued along
 decreasing Re and along increasing α0 on one mesh (fitted to Re = 2900) with

@@ -6,7 +6,7 @@ mesh's far field; its steady state cached), optionally with another domain (``--
 LAT``) or sponge (``--sponge``, fsistab's values): exact samples of the aerodynamic transfer
 matrix ``G`` (:func:`fsistab.transfer.transfer_samples`, one factorisation each) on the grid
 ``ω = W0, W0 + h, …, W1`` (``--window W0 W1 --step h``). Only two combinations of ``G``'s columns
-reach the body's equations, since ``ḣ = s h`` and ``θ' = s θ`` (MODEL.md §7)::
+reach the body's equations, since ``ḣ = s h`` and ``θ' = s θ`` (docs/model.md §7)::
 
     G_heave = G_h + s G_ḣ,        G_pitch = G_θ + s G_θ'
 

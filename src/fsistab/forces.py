@@ -1,4 +1,4 @@
-"""Aerodynamic coefficients and wake measures of a steady state (MODEL.md §4).
+"""Aerodynamic coefficients and wake measures of a steady state (docs/model.md §4).
 
 Forces are "reaction forces" of the discrete equations: the weak momentum residual tested with a
 discrete field ``ℓ`` equal to a rigid motion on the wall and zero at every other dof. Since
@@ -54,7 +54,7 @@ def reaction_loads(steady: SteadyState) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Coefficients:
-    """Lift, drag and moment coefficients in the laboratory axes (MODEL.md §4).
+    """Lift, drag and moment coefficients in the laboratory axes (docs/model.md §4).
 
     ``lift`` along ``e_y``, ``drag`` along ``e_x`` (the free-stream direction in the body frame),
     ``moment`` about G, counter-clockwise positive (nose-down for the plate; nose-up is ``C_M < 0``).
@@ -66,7 +66,7 @@ class Coefficients:
 
 
 def aerodynamic_coefficients(steady: SteadyState) -> Coefficients:
-    """``C_L = 2{R(θ0)F}·e_y``, ``C_D = 2{R(θ0)F}·e_x``, ``C_M = 2M`` (MODEL.md §4)."""
+    """``C_L = 2{R(θ0)F}·e_y``, ``C_D = 2{R(θ0)F}·e_x``, ``C_M = 2M`` (docs/model.md §4)."""
     loads = reaction_loads(steady)
     theta = steady.flow.theta0
     fx, fy = loads["force_x"], loads["force_y"]

@@ -116,7 +116,7 @@ class FluidFactor:
         right-hand side at a time is all it does (the Krylov blocks of the reduced models)."""
         if b.ndim == 2:
             # a zero column has the zero solution: not solved (the heave column of J_fs + s M_fs,
-            # MODEL.md §7: the body-frame equations do not see the heave displacement)
+            # docs/model.md §7: the body-frame equations do not see the heave displacement)
             nonzero = [k for k in range(b.shape[1]) if np.any(b[:, k])]
             result = np.zeros(b.shape, dtype=np.result_type(b.dtype, self.dtype))
             columns = [b[:, k] for k in nonzero]

@@ -1,10 +1,10 @@
-"""Linear operators of the fluid at a steady state (MODEL.md §5, §7), exported as SciPy matrices.
+"""Linear operators of the fluid at a steady state (docs/model.md §5, §7), exported as SciPy matrices.
 
 The fluid unknowns ``q_f`` are the free dofs of the Taylor–Hood space (velocity off the Dirichlet
 boundaries, all pressure dofs). The wall velocity dofs are not unknowns: they follow the solid,
 ``u_Γ(q_s) = a_x(θ, ḣ) ℓ_x + a_y(θ, ḣ) ℓ_y + θ' ℓ_rot`` with ``(a_x, a_y) = R(θ)ᵀ(-1, ḣ)ᵀ``
-(MODEL.md §4 wall condition, lifted with the discrete fields ``ℓ`` of :mod:`fsistab.forces`).
-Hence the discrete Jacobian has, besides the shape derivatives ``D_θ, D_ḣ, D_θ'`` of MODEL.md §7,
+(docs/model.md §4 wall condition, lifted with the discrete fields ``ℓ`` of :mod:`fsistab.forces`).
+Hence the discrete Jacobian has, besides the shape derivatives ``D_θ, D_ḣ, D_θ'`` of docs/model.md §7,
 the wall-coupling columns ``A_{fΓ} ∂u_Γ/∂q_s`` and a mass coupling ``M_{fΓ} ∂u_Γ/∂q_s``.
 
 Solid columns are ordered ``SOLID_STATE = (h, θ, ḣ, θ')``; ``h`` never enters the fluid.
@@ -36,7 +36,7 @@ NEAR_RADIUS = 1.0  # body lengths around G
 
 
 def rotation_matrix(theta: float) -> np.ndarray:
-    """``R(θ)`` of MODEL.md §4 (counter-clockwise rotation)."""
+    """``R(θ)`` of docs/model.md §4 (counter-clockwise rotation)."""
     c, s = math.cos(theta), math.sin(theta)
     return np.array([[c, -s], [s, c]])
 
@@ -189,7 +189,7 @@ def far_layer(sponge, sizes):
 
 def rotation_target(steady: SteadyState):
     """``u_θ = (∇U⁰)(−Y, X) − e_z∧U⁰``: the steady field carried by a pitch ``δθ`` when the far
-    field stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (MODEL.md §4,
+    field stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (docs/model.md §4,
     §7). In body axes the steady wake turns by ``−δθ`` when the body pitches, a perturbation growing
     like ``X δθ`` downstream that is kinematics, not shed vorticity: the sponge relaxes towards it."""
     from ngsolve import CF, Grad, x, y
@@ -207,7 +207,7 @@ def _with_sponge(sigma, integrand, u, v):
 
 
 def fluid_operators(steady: SteadyState) -> FluidOperators:
-    """Assemble every fluid block of MODEL.md §7 once at ``steady`` (one real assembly each), with
+    """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each), with
     the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one (:class:`fsistab.params.Sponge`)."""
     from ngsolve import CF, BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
@@ -278,7 +278,7 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
 
 
 def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
-    """``K_ff(s) = J_ff + s M_f`` (MODEL.md §7) as NGSolve's assembled matrix on the whole space
+    """``K_ff(s) = J_ff + s M_f`` (docs/model.md §7) as NGSolve's assembled matrix on the whole space
     (real for a real ``s``) and the mask of the fluid unknowns, ``(form, free dofs)``: the form of
     :func:`fluid_operators`' ``jff`` and ``mff`` assembled in one pass in the arithmetic of ``s``,
     for a factorisation by NGSolve's sparse solvers (:class:`fsistab.linalg.FluidFactor`; SciPy's
@@ -304,7 +304,7 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
 
 
 class FluidResidual:
-    """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (MODEL.md §5).
+    """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (docs/model.md §5).
 
     For finite-difference checks of every block of :func:`fluid_operators`: the wall dofs are set
     from the solid state by the nonlinear lifting, the grid velocity is

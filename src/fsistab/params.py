@@ -1,6 +1,6 @@
 """Immutable, validated parameters and the conventions they carry.
 
-Non-dimensionalisation (MODEL.md §1, §2, §10):
+Non-dimensionalisation (docs/model.md §1, §2, §10):
 
 * plate: length unit the chord ``c``, time unit ``c/U∞``; the plate spans ``X ∈ [-1/2, 1/2]``
   with its leading edge at ``X = -1/2`` (the fluid comes from the left in the body frame);
@@ -26,7 +26,7 @@ from fsistab.validate import positive as _positive
 
 @dataclass(frozen=True)
 class Flow:
-    """Flow parameters that the steady state depends on: ``Re`` and ``α0`` (MODEL.md §6).
+    """Flow parameters that the steady state depends on: ``Re`` and ``α0`` (docs/model.md §6).
 
     ``reynolds = ρ U∞ L / μ`` with ``L`` the body's length unit; ``alpha0_deg`` is the steady
     angle of attack in degrees, positive nose-up (``θ0 = -α0``).
@@ -52,7 +52,7 @@ class Flow:
 class Domain:
     """Rectangular fluid domain ``[-upstream, downstream] × [-lateral, lateral]`` (body lengths).
 
-    ``U = 0`` is imposed upstream and laterally, a stress-free condition downstream (MODEL.md §4).
+    ``U = 0`` is imposed upstream and laterally, a stress-free condition downstream (docs/model.md §4).
     """
 
     upstream: float
@@ -69,7 +69,7 @@ class Domain:
 
 @dataclass(frozen=True)
 class Sponge:
-    """An absorbing layer at the outlet, in the **linearised** momentum equation only (MODEL.md §7):
+    """An absorbing layer at the outlet, in the **linearised** momentum equation only (docs/model.md §7):
 
         ``∫ σ(X) (u − θ u_θ)·v``,   ``σ(X) = σ_max S((X − X_s)/(X_out − X_s))``,   ``S(t) = 3t² − 2t³``
         on ``[0, 1]`` (0 before, 1 after),   ``X_s = (1 − zone) X_out``,
@@ -168,12 +168,12 @@ SOLID_DOFS = ("heave", "pitch")
 
 @dataclass(frozen=True)
 class Solid:
-    """Solid parameters (MODEL.md §2-§3); they change only small blocks of the coupled system.
+    """Solid parameters (docs/model.md §2-§3); they change only small blocks of the coupled system.
 
     ``mass_ratio`` m = m̃/(½ρL²s), ``reduced_velocity`` U* = U∞/(L ω_θ), ``freq_ratio`` Ω = ω_h/ω_θ,
     ``zeta_h``/``zeta_theta`` damping ratios, ``r_theta`` radius of gyration about G in body lengths,
     ``dofs`` the active degrees of freedom among ``heave`` and ``pitch`` (empty: fixed body).
-    For the cylinder (MODEL.md §10) use :meth:`Solid.cylinder`, which converts its diameter-based
+    For the cylinder (docs/model.md §10) use :meth:`Solid.cylinder`, which converts its diameter-based
     ``m = 4m̃/(πρD²s)`` and ``U* = 2πU∞/(Dω_n)`` to this form.
     """
 
@@ -200,7 +200,7 @@ class Solid:
 
     @classmethod
     def cylinder(cls, mass_ratio: float, reduced_velocity: float, zeta: float = 0.0) -> Solid:
-        """Heave-only cylinder in MODEL.md §10 scalings: ``h'' + (2π/U*)² h = 2 C_L/(π m)``.
+        """Heave-only cylinder in docs/model.md §10 scalings: ``h'' + (2π/U*)² h = 2 C_L/(π m)``.
 
         In the generic form ``h'' + (Ω/U*_g)² h = C_L / m_g`` this is ``m_g = π m / 2`` and
         ``Ω/U*_g = 2π/U*`` (with ``Ω = 1``).
@@ -496,7 +496,7 @@ EXACT_SAMPLES_FROM = 100_000
 
 @dataclass(frozen=True)
 class MapSettings:
-    """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, MODEL.md §8).
+    """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, docs/model.md §8).
 
     Every value is checked whichever ``method`` uses it. ``seed_masses`` None means ``m/10`` and
     ``m/100`` of ``start_mass`` within the range; ``tolerance``, ``min_step`` and ``max_frequencies``
@@ -644,7 +644,7 @@ class TheodorsenSettings:
     """``fsistab theodorsen``: the typical section's critical points at ``mass_ratio`` over
     ``velocity_range``, or its neutral curves at ``points`` mass ratios over ``mass_range``, with
     the slopes ``slopes`` (thin airfoil, viscous ``calibrated`` at the case's Re, or ``given``:
-    ``dC_L/dα`` and ``d(-C_M)/dα`` about mid-chord per radian, MODEL.md §9); ``elastic_axis`` and
+    ``dC_L/dα`` and ``d(-C_M)/dα`` about mid-chord per radian, docs/model.md §9); ``elastic_axis`` and
     ``static_unbalance`` in chords (their bounds, which need r_θ, are checked by the section)."""
 
     mass_ratio: float = 1000.0
