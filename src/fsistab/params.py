@@ -82,24 +82,18 @@ class Sponge:
     ``sigma_max`` in units ``U∞/L``; ``zone`` the fraction of ``[0, X_out]`` it covers.
 
     It removes the truncated domain's weakly damped convective modes (perturbations carried to the
-    outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves.
-    Measured on the plate at Re 2900 (docs/discretisation.md, "A sponge layer"): the default
-    (σ_max = 0.2, the last quarter of a 160-chord domain, ``e⁻⁴`` per pass) moves U*_F, ω_F and U*_D
-    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium`` without its wake band, and by
-    +0.001 %, +0.003 % and −0.02 % with it (the static slopes by 0.04 %, the wake mode not at all);
-    it halves the samples of a sweep at m = 10. It must start more than one wake wavelength of the
-    flutter mode (``2π/ω_F ≈ 35`` chords) behind the body, and lie in elements that resolve the wake
-    (the reflection where elements grow is not absorbed by a layer behind it).
+    outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves,
+    while it leaves the thresholds at large mass ratio, the static slopes and the wake mode
+    practically unchanged (docs/discretisation.md, "A sponge layer"). It must start more than one
+    wake wavelength of the flutter mode (``2π/ω_F``) behind the body, and lie in elements that
+    resolve the wake: the reflection where elements grow is not absorbed by a layer behind it.
 
     ``far_sigma > 0`` adds a **far-field layer** outside the mesh's middle box and band
     (:func:`fsistab.operators.far_layer`): ``σ_far = far_sigma S(d / far_ramp)``, ``d`` the distance
     to the nearer of the two, added to the outlet's ``σ``. It damps the weakly damped free-stream
     modes that the outer elements carry, which fold the low-mass-ratio neutral curves. It also acts
-    on the body's own far field at low frequency (on a mesh of 1-chord elements everywhere it moves
-    the restabilisation at m = 10 by −1.5 %), so the presets keep it on elements fine enough to carry
-    that far field: on ``medium`` (2-chord outer elements, ``far_sigma = 0.2``, ``far_ramp = 10``)
-    every sweep is as clean as on the 1-chord mesh and within 0.6 % of it at m = 10, 0.05 % at
-    m = 1000 (docs/discretisation.md, "The far field at low mass ratio").
+    on the body's own far field at low frequency, so the presets keep it on elements fine enough to
+    carry that far field (docs/discretisation.md, "The far field at low mass ratio").
     """
 
     sigma_max: float = 0.2
@@ -481,15 +475,10 @@ MAP_METHODS = ("transfer", "continuation")
 THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 
 
-# The transfer map's reduced fluid models (fsistab.reduced_model) against exact samples, measured
-# (docs/transfer.md, docs/performance.md): on the coarse plate (14 597 unknowns) and fsistab 0.3's
-# medium (110 379) the models took 0.7-1.0x the wall time of exact samples and 10x fewer
-# factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.1 in ω (the
-# band's weakly damped modes) and a model of 305 vectors, costing about 25 exact samples, certifies
-# an interval that exact samples resolve with 20. On the plate's quick preset of the time (111 506) the whole
-# map took 369 s with exact samples (steady state cached); with models it had built 12 (57 s each,
-# certifying ±0.02-0.09 in ω below ω = 3) after 818 s and was stopped. Exact samples from 100 000
-# unknowns on.
+# The transfer map's reduced fluid models (fsistab.reduced_model) of REDUCED_BLOCKS Krylov blocks
+# pay on small meshes; from EXACT_SAMPLES_FROM fluid unknowns on, G(iω) has structure on a scale
+# that a model costs more to certify than exact samples cost to resolve, so the map samples exactly
+# (docs/performance.md, "The whole map"; docs/transfer.md).
 REDUCED_BLOCKS = 60
 EXACT_SAMPLES_FROM = 100_000
 
