@@ -336,10 +336,10 @@ def continuation(
     Secant predictor in the homotopy parameter, step doubled after an easy step and halved after
     a failure; below ``min_step`` a ConvergenceError says where the branch was lost. Newton
     converges to ``path_tol`` on the way and to :data:`NEWTON_TOL` at ``target``. A looser
-    ``path_tol`` (1e-6) saves the last Newton step of most intermediate steps (20 -> 15
-    factorisations for the coarse plate at Re 2900 from rest) but moves the state at the target
-    within the accuracy that NEWTON_TOL gives it (2.7e-11 relative there, 3.6e-8 at Re 10⁴), so the
-    default keeps every step at NEWTON_TOL and the results of earlier versions.
+    ``path_tol`` saves the last Newton step of most intermediate steps, but the state at the target
+    then depends on the path within the accuracy that NEWTON_TOL gives it; the default keeps every
+    step at NEWTON_TOL, so that the target's state, and its cache entry, do not depend on the path's
+    tolerance.
     """
     s, ds = 0.0, first_step
     current = state.vec.CreateVector()
