@@ -125,7 +125,7 @@ def iter_transfer_samples(
     """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
     at most 2; each holds one factorisation in memory), each yielded (and counted) as soon as it is
     done, in the order they finish: a thread that finishes starts the next shift at once instead of
-    waiting for the other (factorisations at different ``s`` take 5–8 s on the default mesh), and a
+    waiting for the other (factorisations at different ``s`` take different times), and a
     caller that saves each sample loses only those under way if interrupted. UMFPACK, called
     through ctypes, runs without the GIL, so threads factorise in parallel; the factorisations of an
     arithmetic share one symbolic analysis, made before them (:func:`fsistab.linalg.shared_analysis`)."""
