@@ -1,5 +1,5 @@
 """Where the fixed plate's weakly damped low-frequency fluid modes live, and what a lateral sponge
-does to them (issue 14: the low-mass-ratio folds of the map).
+does to them (these modes fold the map's low-mass-ratio neutral curves; docs/discretisation.md).
 
 Plate at Re 2900 (``--reynolds``) on a mesh preset (default ``medium``, its steady state cached):
 the eigenvalues nearest each ``--shift`` of the fixed body (shift-invert Arnoldi,
@@ -18,8 +18,8 @@ Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j
            [--size NAME=VALUE] [--far-wake H END HALF]
            [--reynolds 2900] [--cache DIR]
 
-``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
-modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
+``--far 4 --sponge 0.2,0.25`` is an earlier ``medium`` preset (4-chord outer elements, no far-field
+layer), whose modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
 """
 
 import argparse

@@ -1,4 +1,4 @@
-"""Static slopes of the plate against Re on the mesh presets, and their mesh convergence (issue #5).
+"""Static slopes of the plate against Re on the mesh presets, and their mesh convergence (docs/validation.md).
 
 Plate of docs/model.md §1 (chord/thickness 20, corner radius e/10), α0 = 0: steady state, fluid
 operators and one linear solve per (mesh, Re) (docs/model.md §9, :func:`fsistab.slopes.static_slopes`).

@@ -1,5 +1,5 @@
-"""How finely ``G(iω)`` varies on the plate's low-frequency band, and what sets it (issue 15: the
-samples of the default map below ω = 1.3).
+"""How finely ``G(iω)`` varies on the plate's low-frequency band, and what sets it: it decides how
+many samples the default map needs below ω = 1.3 (docs/performance.md, "The whole map").
 
 Plate at Re 2900 (``--reynolds``) on a mesh preset (default ``quick``, which has the default
 mesh's far field; its steady state cached), optionally with another domain (``--domain UP DOWN
