@@ -2,7 +2,7 @@
 
 Plate, solid defaults of docs/model.md §2 (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289), m = 1000 by default.
 Starting from the flutter onset at Re = 2900, α0 = 0 (Newton on det T(iω; U*) = 0 from a guess near
-U*_F ≈ 4.5, ω ≈ 0.18, the values of Moulin & Marquet 2021), the flutter and divergence thresholds
+U*_F ≈ 4.5 (Moulin & Marquet 2021), ω ≈ 0.18), the flutter and divergence thresholds
 are continued along decreasing Re and along increasing α0 on one mesh (fitted to Re = 2900) with
 ``fsistab.critical.critical_points_along_flow``: steady states continued from one flow to the next,
 flutter by the exact-transfer Newton, divergence by the static Newton. Writes NetCDF and a figure,
