@@ -10,7 +10,7 @@ UMFPACK's own iterative refinement in every solve), ``umfpack`` (fsistab.umfpack
 matrix: plain solve, and with one refinement step; a second factorisation at another shift reusing
 the symbolic analysis), ``ngsolve-pardiso`` (needs ``pip install mkl``), ``superlu`` (SciPy).
 MUMPS and PETSc are not among them: neither installs from PyPI as a binary wheel that works with
-NumPy 2 (one install command is the project's rule for a solver).
+NumPy 2.
 
 Usage: python benchmarks/solvers.py [coarse|medium|fine] [--shift 11.2j] [--solvers ...]
 """

@@ -1,11 +1,10 @@
-"""Sparse factorisations of ``K(s) = J + s M`` and the shift-invert operator (ARCHITECTURE `linalg`).
+"""Sparse factorisations of ``K(s) = J + s M`` and the shift-invert operator (the solvers layer).
 
 The fluid block ``K_ff(s) = J_ff + s M_f``, assembled by :func:`fsistab.operators.shifted_fluid_matrix`
 (in complex arithmetic for a complex shift; NGSolve's solvers take no SciPy matrix), is factorised
 once with UMFPACK (faster than SciPy's SuperLU on these matrices: docs/performance.md, "Sparse
-direct solvers compared"); this module writes
-no finite-element form. The few solid unknowns are attached by
-exact block elimination (a bordered solve)::
+direct solvers compared"); this module writes no finite-element form. The few solid unknowns are
+attached by exact block elimination (a bordered solve)::
 
     X = K_ff⁻¹ K_fs,   S = K_ss - K_sf X        (n_s fluid solves per factorisation)
     x_s = S⁻¹ (b_s - K_sf K_ff⁻¹ b_f),   x_f = K_ff⁻¹ b_f - X x_s
