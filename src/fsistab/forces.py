@@ -21,7 +21,8 @@ RIGID_MOTIONS = ("x", "y", "rotation")
 
 
 def wall_liftings(space, mesh) -> dict[str, object]:
-    """Discrete liftings ``ℓ_x, ℓ_y, ℓ_rotation`` of ``e_x``, ``e_y`` and ``(-Y, X)`` on the wall.
+    """Discrete liftings ``ℓ_x, ℓ_y, ℓ_rotation`` of ``e_x``, ``e_y`` and ``(-Y, X)`` on the wall
+    (the liftings of the wall data of docs/model.md §7).
 
     GridFunctions of the Taylor–Hood ``space`` whose velocity equals the rigid motion on the wall
     dofs and vanishes at every other dof (pressure included).
@@ -38,9 +39,8 @@ def wall_liftings(space, mesh) -> dict[str, object]:
 
 
 def reaction_loads(steady: SteadyState) -> dict[str, float]:
-    """Force ``(F_x, F_y)`` in body axes and moment ``M`` about G (counter-clockwise +).
-
-    Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
+    """Force ``(F_x, F_y)`` in body axes and moment ``M`` about G (counter-clockwise +), from the
+    weak-form residual (docs/model.md §4). Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
     """
     problem = SteadyProblem.on(steady.mesh, steady.space)
     problem.set_flow(steady.flow)

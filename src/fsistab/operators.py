@@ -42,13 +42,15 @@ def rotation_matrix(theta: float) -> np.ndarray:
 
 
 def grid_velocity_derivatives(theta: float) -> dict[str, tuple[float, float]]:
-    """Uniform parts of ``∂W/∂θ = R'(θ)ᵀ(-1, 0)ᵀ`` and ``∂W/∂ḣ = R(θ)ᵀ(0, 1)ᵀ`` (at ḣ = θ' = 0)."""
+    """Uniform parts of ``∂W/∂θ = R'(θ)ᵀ(-1, 0)ᵀ`` and ``∂W/∂ḣ = R(θ)ᵀ(0, 1)ᵀ`` (at ḣ = θ' = 0),
+    the ``W_θ`` and ``W_ḣ`` of docs/model.md §7."""
     c, s = math.cos(theta), math.sin(theta)
     return {"theta": (s, c), "hdot": (s, c)}
 
 
 def wall_coefficients(q_solid: np.ndarray) -> np.ndarray:
-    """Coefficients of ``(ℓ_x, ℓ_y, ℓ_rot)`` in ``u_Γ(q_s)``: ``(R(θ)ᵀ(-1, ḣ)ᵀ, θ')``."""
+    """Coefficients of ``(ℓ_x, ℓ_y, ℓ_rot)`` in ``u_Γ(q_s)``: ``(R(θ)ᵀ(-1, ḣ)ᵀ, θ')``, the wall
+    velocity ``W`` of docs/model.md §4."""
     _, theta, hdot, thetadot = q_solid
     ax, ay = rotation_matrix(theta).T @ np.array([-1.0, hdot])
     return np.array([ax, ay, thetadot])
