@@ -40,7 +40,9 @@ def wall_liftings(space, mesh) -> dict[str, object]:
 
 def reaction_loads(steady: SteadyState) -> dict[str, float]:
     """Force ``(F_x, F_y)`` in body axes and moment ``M`` about G (counter-clockwise +), from the
-    weak-form residual (docs/model.md §4). Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
+    weak-form residual (docs/model.md §4).
+
+    Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
     """
     problem = SteadyProblem.on(steady.mesh, steady.space)
     problem.set_flow(steady.flow)
