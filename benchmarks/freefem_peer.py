@@ -1,8 +1,8 @@
-"""The peer comparison of issue 15: fsistab against FreeFEM on the identical mesh.
+"""The peer comparison: fsistab against FreeFEM on the identical mesh (docs/performance.md).
 
 Fixed plate, Re = 2900, the preset's mesh (default ``medium``) with straight-sided wall elements
-(``curve_order = 1``, as FreeFEM's triangles; the curved wall changes the wake mode's growth
-rate by 0.02, NGSOLVE-NOTES.md). Both sides start from rest and compute the steady state, then the
+(``curve_order = 1``, as FreeFEM's triangles: the curved wall alone changes the wake mode's growth
+rate more than the solvers differ). Both sides start from rest and compute the steady state, then the
 10 eigenvalues nearest ``11.2i`` (shift-invert Arnoldi, tolerance 1e-9 in FreeFEM, 1e-10 here),
 one thread each, with no outlet sponge on our side (FreeFEM's script has none):
 

@@ -1,4 +1,4 @@
-"""Benchmark of the adjoint sensitivities (issue 18 item 5): plate, Re = 2900, α0 = 2°, m = 1000.
+"""Benchmark of the adjoint sensitivities: plate, Re = 2900, α0 = 2°, m = 1000.
 
 From a flutter point found by the neutral-point Newton (not timed), measures: the complex
 factorisation of ``K_ff(iω_c)``, a direct and an adjoint (transposed) fluid back-substitution with

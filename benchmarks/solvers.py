@@ -1,4 +1,4 @@
-"""Sparse direct solvers on the plate's fluid Jacobian ``K = J_ff + s M_f`` (issue 15, item 2).
+"""Sparse direct solvers on the plate's fluid Jacobian ``K = J_ff + s M_f`` (docs/performance.md).
 
 Re = 2900, the steady state of the chosen preset (cached), shift ``s`` (``0`` real; ``11.2i``
 complex, the wake mode's frequency). Each solver runs in its own process, so that its peak memory
@@ -9,9 +9,8 @@ Solvers: ``ngsolve-umfpack`` (``Inverse(inverse="umfpack")`` on the form assembl
 UMFPACK's own iterative refinement in every solve), ``umfpack`` (fsistab.umfpack on the SciPy
 matrix: plain solve, and with one refinement step; a second factorisation at another shift reusing
 the symbolic analysis), ``ngsolve-pardiso`` (needs ``pip install mkl``), ``superlu`` (SciPy).
-MUMPS was not measured: the only binary wheel of python-mumps on PyPI (0.0.2) is built against
-NumPy 1 and fails to import with NumPy 2; PETSc/SLEPc from PyPI build from source (not one
-install command).
+MUMPS and PETSc are not among them: neither installs from PyPI as a binary wheel that works with
+NumPy 2.
 
 Usage: python benchmarks/solvers.py [coarse|medium|fine] [--shift 11.2j] [--solvers ...]
 """

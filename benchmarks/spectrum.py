@@ -1,4 +1,4 @@
-"""Benchmark of the eigenvalue path: plate, Re = 2900, m = 1000, U* = 4.7 (MODEL.md defaults).
+"""Benchmark of the eigenvalue path: plate, Re = 2900, m = 1000, U* = 4.7 (docs/model.md §2 defaults).
 
 Prints unknowns, wall time of the steady state (from cache if present), operator assembly, the
 complex factorisation (one per shift), the Arnoldi solve and its matvec count, and peak memory.

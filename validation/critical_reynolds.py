@@ -1,4 +1,7 @@
-"""Critical Reynolds number of the fixed cylinder's wake (REFERENCE.md §A): λ(Re) = 0 by secant.
+"""Critical Reynolds number of the fixed cylinder's wake: λ(Re) = 0 by secant.
+
+Published values (docs/validation.md, "Critical Reynolds number of the wake"): Re_c ≈ 46.6–46.8,
+ω_c ≈ 0.733–0.744 (Sipp & Lebedev 2007; Giannetti & Luchini 2007; StabFem, Fabre et al.).
 
 A thin driver of :func:`fsistab.onset.critical_onset` (the library code of ``fsistab onset``):
 one mesh fitted at Re = ``--fit`` (default 47; medium preset, default domain [-50, 100] × [-50, 50]);
@@ -27,7 +30,7 @@ from fsistab.onset import critical_onset, onset_dataset
 from fsistab.params import Domain, Flow
 from fsistab.store import default_cache_dir, json_attr, write_dataset
 
-REFERENCE = {"reynolds": (46.6, 46.8), "frequency": (0.733, 0.744)}  # REFERENCE.md §A
+REFERENCE = {"reynolds": (46.6, 46.8), "frequency": (0.733, 0.744)}  # the published range above
 
 
 def main() -> None:

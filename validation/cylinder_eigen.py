@@ -1,4 +1,4 @@
-"""Leading wake mode of the fixed cylinder against REFERENCE.md §A (diameter-based units).
+"""Leading wake mode of the fixed cylinder against StabFem's values (diameter-based units).
 
 For Re = 50, 60, 100 and each requested domain, prints the eigenvalue nearest the reference, the
 growth-rate difference and the relative frequency difference, unknowns and wall time.
@@ -18,6 +18,8 @@ from fsistab.operators import fluid_operators
 from fsistab.params import Domain, Flow, Solid
 from fsistab.steady import solve_steady
 
+# σ = λ + iω of the leading global mode (StabFem, Fabre et al.; half domain [-40, 80] × [0, 40],
+# adapted mesh; docs/validation.md, "Fixed cylinder: leading global mode")
 REFERENCE = {
     50: 0.013206 + 0.73761j,
     60: 0.046839 + 0.74518j,

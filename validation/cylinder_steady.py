@@ -1,4 +1,8 @@
-"""Steady flow past the fixed cylinder against REFERENCE.md §A (diameter-based units).
+"""Steady flow past the fixed cylinder against published values (diameter-based units).
+
+Drag coefficient at Re = 40 ≈ 1.50–1.54 (Fornberg; Dennis & Chang), recirculation length from the
+rear ≈ 2.2–2.3 at Re = 40 and 2.9–3.0 at Re = 50 (Giannetti & Luchini 2007); docs/validation.md,
+"Fixed cylinder: steady flow".
 
 Mesh convergence (presets on the default domain) and domain convergence (medium preset): drag
 coefficient at Re = 40 (reaction force and surface integral) and recirculation length at Re = 40

@@ -1,16 +1,16 @@
-"""Discretisation study of the plate at Re = 2900 (issue 14): far field, domain, wake, near body.
+"""Discretisation study of the plate at Re = 2900: far field, domain, wake, near body.
 
-Each variant is a mesh (a preset's sizes with some overridden, a domain) on which the script
-computes, with the library's own functions and one thread:
+Reported in docs/discretisation.md. Each variant is a mesh (a preset's sizes with some overridden,
+a domain) on which the script computes, with the library's own functions and one thread:
 
 * the steady state (cached): unknowns, drag coefficient, recirculation length;
 * the static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (one real factorisation), hence the divergence
-  velocity ``U*_D = √(m r_θ²/(dC_M/dθ))`` at m = 1000 (MODEL.md §8, §9);
+  velocity ``U*_D = √(m r_θ²/(dC_M/dθ))`` at m = 1000 (docs/model.md §8, §9);
 * the fixed plate's wake mode (shift-invert Arnoldi near ``11.2i``; of the 8 nearest
   eigenvalues the one with the largest kinetic-energy share in the wake box ``WAKE_BOX``);
-* the flutter point at m = 1000 (Newton on ``det T(iω; U*) = 0``, MODEL.md §8) from a guess.
+* the flutter point at m = 1000 (Newton on ``det T(iω; U*) = 0``, docs/model.md §8) from a guess.
 
-Solid parameters are the defaults of MODEL.md (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289, pitch
+Solid parameters are the defaults of docs/model.md §2 (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289, pitch
 axis at mid-chord); units chord-based. One JSON line per variant is appended to ``--out`` (a
 variant already there is skipped, so a rerun resumes), with wall and CPU times and factorisations.
 
@@ -53,17 +53,17 @@ from fsistab.transfer import transfer_flutter_point
 REYNOLDS = 2900.0
 MASS_RATIO = 1000.0
 
-# The variants are built on the sizes of fsistab 0.3's presets, which this study measured (medium
-# was then far 2.5, wake box 8 chords, no middle box nor band; the presets since take their values
-# from it).
+# The variants start from the presets' sizes before this study (BASE: `medium` with 2.5-chord
+# far-field elements, an 8-chord wake box, no middle box nor band), so that they are the meshes the
+# study measured; the presets take their values from its results.
 BASE = {"medium": {"far": 2.5, "wake_length": 8.0, "middle": None, "middle_box": None, "middle_band": None}}
 
 CANDIDATE = {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}
 FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 
 # name: (preset, size overrides, domain (upstream, downstream, lateral))
-# the far field of `d1-dom80` (the `medium` preset from the study until 30 November 2026), and the
-# same with a 1-chord band across the wake to the outlet (`medium` since)
+# the far field of `d1-dom80` (the study's first choice of `medium`), and the same with a 1-chord
+# band across the wake to the outlet (its next choice)
 D1_DOM80 = {"wake_length": 20.0, "far": 4.0, "middle": 1.0, "middle_box": (40, 80, 40)}
 BAND20 = {**D1_DOM80, "middle_band": (160, 20)}
 QUICK = {"far": 1.0, "wake": 0.1, "wake_length": 8.0}
@@ -107,12 +107,12 @@ VARIANTS = {
     ),
     # d1-dom80 with the outlet sponge (fsistab.params.Sponge) but no band
     "d1-dom80-sponge": ("medium", D1_DOM80, (80, 160, 80)),
-    # the default `medium` since issue 14's low-mass-ratio study: d1-dom80 with a 1-chord band
+    # `medium` after the low-mass-ratio study: d1-dom80 with a 1-chord band
     # |Y| < 20 to the outlet, without and with the outlet sponge, and its refinements
     "band20": ("medium", BAND20, (80, 160, 80)),
     "band20-sponge": ("medium", BAND20, (80, 160, 80)),
     "band20-wake40-sponge": ("medium", {**BAND20, "wake_length": 40.0}, (80, 160, 80)),
-    # the default `medium` since the far-field study at low mass ratio (30 November 2026, evening):
+    # the `medium` preset, chosen by the far-field study at low mass ratio (docs/discretisation.md):
     # band20 with 2-chord outer elements, the outlet sponge and the far-field layer
     "far2-layer": ("medium", {**BAND20, "far": 2.0}, (80, 160, 80)),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
@@ -125,22 +125,22 @@ VARIANTS = {
     "coarse": ("coarse", {}, (20, 40, 20)),
     "coarse-d1": ("coarse", CANDIDATE, (40, 80, 40)),
     "nested-80-box30": ("medium", {"far": 8.0, "middle": 1.0, "middle_box": (30, 60, 30)}, (80, 160, 80)),
-    # candidates for a quick preset (issue 14, 1 December 2026): 1-chord elements everywhere on a
+    # candidates for a quick preset: 1-chord elements everywhere on a
     # narrow, long domain (clean at m = 10 on coarse near-body sizes, docs/discretisation.md), with
     # coarse or medium near-body and wake sizes, to find which of them the wake mode needs
     "quick-sponge": ("coarse", QUICK, (20, 160, 20)),
     "quick-wake-sponge": ("coarse", {**QUICK, "wake": 0.05}, (20, 160, 20)),
-    # the `quick` preset until 1 December 2026 (medium's near body with QUICK's wake and far field)
+    # an earlier `quick` preset (medium's near body with QUICK's wake and far field)
     "quick-near-sponge": ("medium", {**QUICK, "wake_half_width": 0.6}, (20, 160, 20)),
-    # the `quick` preset since: today's `medium` (far2-layer) with 0.1-chord wake elements
+    # the `quick` preset: `medium` (far2-layer) with 0.1-chord wake elements
     "far2-wake0.1-layer": ("medium", {**BAND20, "far": 2.0, "wake": 0.1}, (80, 160, 80)),
 }
 
 
 def variant_spec(name: str, reynolds: float = REYNOLDS):
-    """The mesh of a variant, fitted to ``reynolds``: its preset's 0.3 sizes (``BASE``) with the
-    variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium` preset's)
-    only on the ``-sponge`` variants, with the far-field layer of today's preset
+    """The mesh of a variant, fitted to ``reynolds``: its preset's sizes before the study (``BASE``)
+    with the variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium`
+    preset's) only on the ``-sponge`` variants, with the far-field layer of the `medium` preset
     (:func:`fsistab.params.default_sponge`) on the ``-layer`` ones."""
     preset, sizes, (up, down, lateral) = VARIANTS[name]
     sponge = {"-sponge": Sponge(), "-layer": default_sponge(Plate(), "medium")}.get(name[name.rfind("-") :])

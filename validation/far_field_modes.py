@@ -1,5 +1,5 @@
 """Where the fixed plate's weakly damped low-frequency fluid modes live, and what a lateral sponge
-does to them (issue 14: the low-mass-ratio folds of the map).
+does to them (these modes fold the map's low-mass-ratio neutral curves; docs/discretisation.md).
 
 Plate at Re 2900 (``--reynolds``) on a mesh preset (default ``medium``, its steady state cached):
 the eigenvalues nearest each ``--shift`` of the fixed body (shift-invert Arnoldi,
@@ -7,7 +7,7 @@ the eigenvalues nearest each ``--shift`` of the fixed body (shift-invert Arnoldi
 ``½∫|û|²`` in regions of the domain: the band ``|Y| < 20``, ``20 < |Y| < 40`` and ``|Y| > 40``,
 each split along X, and within 5 chords of the body's centre (``r<5``: how much of the mode the
 body feels). With ``--lateral-sponge SIGMA START`` the term ``∫ σ(Y) u·v`` is added to ``J_ff``
-first (test only; MODEL.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
+first (test only; docs/model.md §7), ``σ`` rising from 0 at ``|Y| = START`` to ``SIGMA`` at the lateral
 boundary by the smooth step ``3t² − 2t³`` in
 ``t = (Y² − START²)/(l² − START²)``. With ``--viscosity NU START`` the term ``NU ∫ s(X) ∇u:∇v``
 is added instead (test only), ``s`` rising by the same step from 0 at ``X = START`` to 1 at
@@ -18,8 +18,8 @@ Usage: python validation/far_field_modes.py [--preset medium] [--shift 0.2j 0.6j
            [--size NAME=VALUE] [--far-wake H END HALF]
            [--reynolds 2900] [--cache DIR]
 
-``--far 4 --sponge 0.2,0.25`` is the ``medium`` preset before 30 November 2026 (evening), whose
-modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
+``--far 4 --sponge 0.2,0.25`` is an earlier ``medium`` preset (4-chord outer elements, no far-field
+layer), whose modes docs/discretisation.md lists; ``--sponge`` takes fsistab's ``--sponge`` values.
 """
 
 import argparse

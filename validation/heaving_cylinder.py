@@ -1,6 +1,10 @@
-"""Heaving spring-mounted cylinder (REFERENCE.md §B): fluid and solid eigenvalue branches along U*.
+"""Heaving spring-mounted cylinder: fluid and solid eigenvalue branches along U*.
 
-Re = 60, m = 20, heave only (MODEL.md §10 scalings, ``Solid.cylinder``). Both branches start at
+The behaviour to reproduce (Navrose & Mittal 2016; Zhang et al. 2015; Sabino et al. 2020;
+docs/validation.md, "Heaving cylinder"): a fluid and a structure branch, tending as U* → 0 to the
+fixed-cylinder mode and to ``iω_n``, interacting near coincidence ``ω_n ≈ ω_wake``.
+
+Re = 60, m = 20, heave only (docs/model.md §10 scalings, ``Solid.cylinder``). Both branches start at
 the lowest U* from the fixed-cylinder mode and from ``iω_n √(m/(m+1))`` and are followed by
 nearest-eigenvalue continuation: the next eigenvalue is predicted from the previous ones (secant
 in σ for the fluid branch, in σU* for the solid branch, whose frequency scales with 1/U*) and
@@ -42,7 +46,7 @@ from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir, json_attr, write_dataset
 from fsistab.tracking import refine_eigenpair
 
-FIXED_REFERENCE = 0.046839 + 0.74518j  # REFERENCE.md §A, Re = 60
+FIXED_REFERENCE = 0.046839 + 0.74518j  # fixed cylinder at Re = 60 (StabFem, Fabre et al.)
 DEFAULT_VELOCITIES = [
     *np.arange(3.0, 6.0, 0.5),
     *np.arange(6.0, 9.0, 0.25),

@@ -1,4 +1,4 @@
-"""Structure mode of the heaving cylinder (REFERENCE.md §B) by Arnoldi at given U*, and a figure.
+"""Structure mode of the heaving cylinder (Navrose & Mittal 2016) by Arnoldi at given U*, and a figure.
 
 Companion of ``validation/heaving_cylinder.py``. Beyond coincidence the structure mode sits among
 weakly damped fluid modes of the wake (at Re = 60, m = 20: λ ≈ -0.05 to -0.065, spaced ≈ 0.03 in

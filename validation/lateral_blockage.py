@@ -1,15 +1,15 @@
-"""Static slopes of the plate against the lateral extent of the domain (issue 14, item 3).
+"""Static slopes of the plate against the lateral extent of the domain (docs/discretisation.md).
 
 For each Reynolds number and lateral half-width ``L`` (domain ``[-U, D] × [-L, L]`` chords,
 ``--upstream U`` and ``--downstream D``, default 20 and 40; ``U = 0`` on the lateral sides,
-MODEL.md §4) the steady state and one real factorisation give ``dC_L/dα`` and ``d(-C_M)/dα``
-about mid-chord (MODEL.md §9), on the preset's sizes fitted to that Re (``--preset``, default
+docs/model.md §4) the steady state and one real factorisation give ``dC_L/dα`` and ``d(-C_M)/dα``
+about mid-chord (docs/model.md §9), on the preset's sizes fitted to that Re (``--preset``, default
 ``medium``) with the far-field size ``--far`` (the preset's own sizes, middle box and wake band
 included, with ``--far preset``), and any scalar size changed by ``--size NAME=VALUE`` (as in
 ``sponge_check.py``; the point's record keeps them under ``sizes``). ``--sponge`` gives every
-domain the preset's outlet sponge (it enters the linear operator, hence the slopes, by 0.04 % on
-``medium``): with ``--upstream 80 --downstream 160 --far preset --sponge`` the point ``L = 80`` is
-the default ``medium`` mesh itself.
+domain the preset's outlet sponge (it enters the linear operator, hence the slopes): with
+``--upstream 80 --downstream 160 --far preset --sponge`` the point ``L = 80`` is the default
+``medium`` mesh itself.
 One JSON line per point is appended to ``--out``; a point already there is skipped (a rerun resumes).
 
 Usage: python validation/lateral_blockage.py [--reynolds 500 2900 10000] [--lateral 20 40 80 160]

@@ -1,9 +1,9 @@
-"""Neutral curves of the plate in the (Re, U*) and (α0, U*) planes at fixed m (MODEL.md §8).
+"""Neutral curves of the plate in the (Re, U*) and (α0, U*) planes at fixed m (docs/model.md §8).
 
-Plate, MODEL.md solid defaults (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289), m = 1000 by default.
+Plate, solid defaults of docs/model.md §2 (Ω = 0.8, ζ_h = 0, ζ_θ = 0.05, r_θ = 0.289), m = 1000 by default.
 Starting from the flutter onset at Re = 2900, α0 = 0 (Newton on det T(iω; U*) = 0 from a guess near
-the reference U*_F ≈ 4.5, ω ≈ 0.18), the flutter and divergence thresholds are continued along
-decreasing Re and along increasing α0 on one mesh (fitted to Re = 2900) with
+U*_F ≈ 4.5 (Moulin & Marquet 2021), ω ≈ 0.18), the flutter and divergence thresholds
+are continued along decreasing Re and along increasing α0 on one mesh (fitted to Re = 2900) with
 ``fsistab.critical.critical_points_along_flow``: steady states continued from one flow to the next,
 flutter by the exact-transfer Newton, divergence by the static Newton. Writes NetCDF and a figure,
 prints markdown tables with factorisations and wall times.

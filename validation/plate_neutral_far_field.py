@@ -1,4 +1,4 @@
-"""Stability map of the plate at Re = 2900 on a mesh whose far field is refined (MODEL.md §8).
+"""Stability map of the plate at Re = 2900 on a mesh whose far field is refined (docs/model.md §8).
 
 The `coarse` preset has far-field elements of 4 chords; there the truncated domain carries a cloud
 of weakly damped modes that hybridise with the solid modes and make the flutter curve zig-zag

@@ -1,7 +1,7 @@
-"""Static slopes of the plate against Re on the mesh presets, and their mesh convergence (issue #5).
+"""Static slopes of the plate against Re on the mesh presets, and their mesh convergence (docs/validation.md).
 
-Plate of MODEL.md §2 (chord/thickness 20, corner radius e/10), α0 = 0: steady state, fluid
-operators and one linear solve per (mesh, Re) (MODEL.md §9, :func:`fsistab.slopes.static_slopes`).
+Plate of docs/model.md §1 (chord/thickness 20, corner radius e/10), α0 = 0: steady state, fluid
+operators and one linear solve per (mesh, Re) (docs/model.md §9, :func:`fsistab.slopes.static_slopes`).
 Reported: ``dC_L/dα`` and ``d(-C_M)/dα`` (``α = -θ``, per radian, moment about mid-chord), their
 ratio to the thin-airfoil values 2π and π/2, and the relative change from the next coarser mesh,
 ``(s_fine - s_coarse) / s_fine``.

@@ -1,6 +1,6 @@
-"""The spring-mounted plate of the reference paper (REFERENCE.md §E) on the three mesh presets.
+"""The spring-mounted plate of Moulin & Marquet (2021, Phys. Fluids 33, 034133) on the three mesh presets.
 
-Plate, Re = 2900, α0 = 0, m = 1000, U* = 4.7, heave and pitch (MODEL.md defaults): eigenvalues
+Plate, Re = 2900, α0 = 0, m = 1000, U* = 4.7, heave and pitch (docs/model.md §2 defaults): eigenvalues
 nearest the shifts 0.17i, 0.15i and 11.2i. Reported: the least stable mode with 0.1 < ω < 0.25
 whose solid share of the near-body kinetic energy is at least 0.4 (flutter), the other such modes
 (anti-flutter candidates: near the neutral axis the solid modes hybridise with weakly damped

@@ -1,5 +1,5 @@
 """The stability map from the transfer function against the continuation map on the same mesh
-(plate, Re = 2900, α0 = 0, m in [1, 1e4]; MODEL.md §7-§8, issue 6).
+(plate, Re = 2900, α0 = 0, m in [1, 1e4]; docs/model.md §7-§8).
 
 Computes the map with `fsistab.transfer_map.transfer_neutral_map` (samples of G(iω) saved in --out,
 so a rerun factorises nothing), then

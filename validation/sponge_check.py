@@ -1,8 +1,8 @@
-"""Does a sponge layer give the large-domain answer and remove the spurious neutral curves (issue 14)?
+"""Does a sponge layer give the large-domain answer and remove the spurious neutral curves?
 
-The plate at Re = 2900 (steady state of the mesh, cached), solid parameters of MODEL.md. A sponge
+The plate at Re = 2900 (steady state of the mesh, cached), solid parameters of docs/model.md §2. A sponge
 ``σ(X, Y) u`` is added to the linearised momentum equation only, i.e. ``∫ σ u·v`` to ``J_ff``
-(MODEL.md §7; the steady state is not changed). On the domain ``[-a, d] × [-l, l]``
+(docs/model.md §7; the steady state is not changed). On the domain ``[-a, d] × [-l, l]``
 
     ``σ = σ_max (1 - (1 - s_d)(1 - s_u)(1 - s_l))``,  ``S(t) = 3t² - 2t³`` for ``0 ≤ t ≤ 1``,
     ``s_d = S((X - (1 - z_d) d) / (z_d d))``  (downstream: the last fraction ``z_d`` of ``[0, d]``),
@@ -38,7 +38,7 @@ far field's middle box (``fsistab.mesh.MeshSizes``), ``--band`` its band behind 
 ``--far-wake H END HALF`` elements of size ``H`` from the wake box's end to ``END`` (``far_wake``);
 ``--velocity-range`` replaces the default U* range of every sweep (``[2, 10]`` for m ≥ 100,
 ``[1.5, 6]`` below). ``--slip`` imposes only ``U·N = 0`` on the inlet and lateral sides for the
-perturbation (tried once on ``coarse``: the sweeps then need more than 200 samples). Examples
+perturbation (on ``coarse`` the sweeps then need many more samples). Examples
 (docs/discretisation.md, "A sponge layer"):
 
     python validation/sponge_check.py coarse --regions upstream --no-baseline

@@ -1,12 +1,12 @@
-"""How finely ``G(iω)`` varies on the plate's low-frequency band, and what sets it (issue 15: the
-samples of the default map below ω = 1.3).
+"""How finely ``G(iω)`` varies on the plate's low-frequency band, and what sets it: it decides how
+many samples the default map needs below ω = 1.3 (docs/performance.md, "The whole map").
 
 Plate at Re 2900 (``--reynolds``) on a mesh preset (default ``quick``, which has the default
 mesh's far field; its steady state cached), optionally with another domain (``--domain UP DOWN
 LAT``) or sponge (``--sponge``, fsistab's values): exact samples of the aerodynamic transfer
 matrix ``G`` (:func:`fsistab.transfer.transfer_samples`, one factorisation each) on the grid
 ``ω = W0, W0 + h, …, W1`` (``--window W0 W1 --step h``). Only two combinations of ``G``'s columns
-reach the body's equations, since ``ḣ = s h`` and ``θ' = s θ`` (MODEL.md §7)::
+reach the body's equations, since ``ḣ = s h`` and ``θ' = s θ`` (docs/model.md §7)::
 
     G_heave = G_h + s G_ḣ,        G_pitch = G_θ + s G_θ'
 

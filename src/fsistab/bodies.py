@@ -283,7 +283,8 @@ class Cylinder:
         "fine": (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
     }
     middle_presets: ClassVar[dict[str, MiddleRow]] = {}
-    # blockage: [-25, 50] x [-25, 25] raises the wake-mode frequency by 1.2 %, this one by 0.13 %
+    # large enough that blockage shifts the wake-mode frequency by a tenth of what a domain half as
+    # large does (docs/validation.md, "Fixed cylinder: leading global mode")
     domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = {None: (50.0, 100.0, 50.0)}
     sponge_presets: ClassVar[dict[str, dict[str, float]]] = {}
 

@@ -1,4 +1,4 @@
-"""The coupled fluid–solid system ``σ M q + J q = 0`` (MODEL.md §5, §7) for given solid parameters.
+"""The coupled fluid–solid system ``σ M q + J q = 0`` (docs/model.md §5, §7) for given solid parameters.
 
 Unknowns ``q = (q_s, q_f)``: the active solid states first — a subset of ``(h, θ, ḣ, θ')`` chosen by
 :attr:`fsistab.params.Solid.dofs` (heave: ``h, ḣ``; pitch: ``θ, θ'``) — then the fluid unknowns
@@ -30,7 +30,7 @@ def active_states(solid: Solid) -> list[int]:
 def lift_and_moment_rows(theta: float, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``∂(C_L, C_M)/∂(F_x, F_y, M)`` (2 × 3) and ``∂C_L/∂θ`` at fixed loads.
 
-    ``C_L = 2{R(θ)F}·e_y = 2(sin θ F_x + cos θ F_y)``, ``C_M = 2M`` (MODEL.md §4).
+    ``C_L = 2{R(θ)F}·e_y = 2(sin θ F_x + cos θ F_y)``, ``C_M = 2M`` (docs/model.md §4).
     """
     c, s = math.cos(theta), math.sin(theta)
     rows = np.array([[2 * s, 2 * c, 0.0], [0.0, 0.0, 2.0]])
@@ -38,7 +38,7 @@ def lift_and_moment_rows(theta: float, loads: np.ndarray) -> tuple[np.ndarray, n
 
 
 def solid_stiffness(solid: Solid) -> np.ndarray:
-    """In-vacuo solid rows of ``J_ss`` (4 × 4, MODEL.md §7) without the aerodynamic terms."""
+    """In-vacuo solid rows of ``J_ss`` (4 × 4, docs/model.md §7) without the aerodynamic terms."""
     w_h, w_t = solid.freq_ratio / solid.reduced_velocity, 1.0 / solid.reduced_velocity
     return np.array(
         [
@@ -51,7 +51,7 @@ def solid_stiffness(solid: Solid) -> np.ndarray:
 
 
 def stiffness_derivative(solid: Solid) -> np.ndarray:
-    """``∂J_ss/∂U*`` (4 × 4, MODEL.md §7): derivative of the in-vacuo rows of :func:`solid_stiffness`
+    """``∂J_ss/∂U*`` (4 × 4, docs/model.md §7): derivative of the in-vacuo rows of :func:`solid_stiffness`
     (``ω_h = Ω/U*``, ``ω_θ = 1/U*``); ``U*`` enters ``J`` nowhere else."""
     u = solid.reduced_velocity
     w_h, w_t = solid.freq_ratio / u, 1.0 / u
@@ -66,7 +66,7 @@ def stiffness_derivative(solid: Solid) -> np.ndarray:
 def solid_blocks(
     solid: Solid, theta0: float, loads0: np.ndarray, load_s: np.ndarray, load_mass_s: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Solid rows of ``J`` and ``M`` on the solid columns (4 × 4 each, MODEL.md §7) and the map
+    """Solid rows of ``J`` and ``M`` on the solid columns (4 × 4 each, docs/model.md §7) and the map
     ``C = ∂(C_L/m, C_M/(m r_θ²))/∂(F_x, F_y, M)`` (2 × 3) that turns loads into solid rows.
 
     ``load_s``, ``load_mass_s`` (3 × 4) are the loads' derivatives with respect to ``(h, θ, ḣ, θ')``
@@ -85,9 +85,9 @@ def solid_blocks(
 
 @dataclass(frozen=True)
 class CoupledSystem:
-    """``J`` and ``M`` of MODEL.md (E) for one set of solid parameters, as SciPy sparse matrices.
+    """``J`` and ``M`` of docs/model.md §7 (E) for one set of solid parameters, as SciPy sparse matrices.
 
-    Time unit ``L/U∞``; the solid rows are those of MODEL.md §3 divided as there (``/m``,
+    Time unit ``L/U∞``; the solid rows are those of docs/model.md §3 divided as there (``/m``,
     ``/(m r_θ²)``). The blocks are kept separately (``jss``, ``jsf``, ``jfs``, ``mss``, ``msf``,
     ``mfs``, and the fluid's ``jff``, ``mff``) for bordered solvers.
     """
@@ -175,9 +175,9 @@ def velocity_derivative(system: CoupledSystem, q: np.ndarray) -> np.ndarray:
 
 
 class CoupledResidual:
-    """The discrete nonlinear residual ``R(q) = (R_s, R_f)`` of MODEL.md §5, for FD checks of ``J``.
+    """The discrete nonlinear residual ``R(q) = (R_s, R_f)`` of docs/model.md §5, for FD checks of ``J``.
 
-    ``C_Fext`` and ``C_Mext`` are set so that the steady state is an equilibrium (MODEL.md §6).
+    ``C_Fext`` and ``C_Mext`` are set so that the steady state is an equilibrium (docs/model.md §6).
     Inactive solid states are held at their steady values.
     """
 

@@ -1,4 +1,4 @@
-"""Eigenpairs of ``σ M q + J q = 0`` nearest given shifts (MODEL.md §7), by shift-invert Arnoldi.
+"""Eigenpairs of ``σ M q + J q = 0`` nearest given shifts (docs/model.md §7), by shift-invert Arnoldi.
 
 ``σ = λ + iω``: growth rate ``λ``, frequency ``ω`` in the body's time unit (``L/U∞``). ``J`` and
 ``M`` are real, so eigenvalues come in conjugate pairs: only ``ω ≥ 0`` is reported. Modes are
@@ -147,7 +147,7 @@ def _labelled(system: CoupledSystem, sigma: complex, vector: np.ndarray, residua
 def neutral_eigenpair(system: CoupledSystem, frequency: float, vector: np.ndarray) -> Eigenpair:
     """The :class:`Eigenpair` of a neutral mode ``σ = iω`` found without Arnoldi: a threshold's
     critical mode, e.g. the null vector of the transfer function's characteristic matrix
-    (:meth:`fsistab.transfer.TransferSample.mode`, MODEL.md §7) at a converged neutral point of
+    (:meth:`fsistab.transfer.TransferSample.mode`, docs/model.md §7) at a converged neutral point of
     ``system``'s solid. Normalised and labelled as :func:`eigenpairs_near`'s; its residual
     ``‖J q + iω M q‖/‖q‖`` is computed, not assumed (it is as small as the point is converged)."""
     sigma = complex(0.0, frequency)

@@ -1,4 +1,4 @@
-"""Aerodynamic coefficients and wake measures of a steady state (MODEL.md §4).
+"""Aerodynamic coefficients and wake measures of a steady state (docs/model.md §4).
 
 Forces are "reaction forces" of the discrete equations: the weak momentum residual tested with a
 discrete field ``ℓ`` equal to a rigid motion on the wall and zero at every other dof. Since
@@ -21,7 +21,8 @@ RIGID_MOTIONS = ("x", "y", "rotation")
 
 
 def wall_liftings(space, mesh) -> dict[str, object]:
-    """Discrete liftings ``ℓ_x, ℓ_y, ℓ_rotation`` of ``e_x``, ``e_y`` and ``(-Y, X)`` on the wall.
+    """Discrete liftings ``ℓ_x, ℓ_y, ℓ_rotation`` of ``e_x``, ``e_y`` and ``(-Y, X)`` on the wall
+    (the liftings of the wall data of docs/model.md §7).
 
     GridFunctions of the Taylor–Hood ``space`` whose velocity equals the rigid motion on the wall
     dofs and vanishes at every other dof (pressure included).
@@ -38,7 +39,8 @@ def wall_liftings(space, mesh) -> dict[str, object]:
 
 
 def reaction_loads(steady: SteadyState) -> dict[str, float]:
-    """Force ``(F_x, F_y)`` in body axes and moment ``M`` about G (counter-clockwise +).
+    """Force ``(F_x, F_y)`` in body axes and moment ``M`` about G (counter-clockwise +), from the
+    weak-form residual (docs/model.md §4).
 
     Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
     """
@@ -54,7 +56,7 @@ def reaction_loads(steady: SteadyState) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Coefficients:
-    """Lift, drag and moment coefficients in the laboratory axes (MODEL.md §4).
+    """Lift, drag and moment coefficients in the laboratory axes (docs/model.md §4).
 
     ``lift`` along ``e_y``, ``drag`` along ``e_x`` (the free-stream direction in the body frame),
     ``moment`` about G, counter-clockwise positive (nose-down for the plate; nose-up is ``C_M < 0``).
@@ -66,7 +68,7 @@ class Coefficients:
 
 
 def aerodynamic_coefficients(steady: SteadyState) -> Coefficients:
-    """``C_L = 2{R(θ0)F}·e_y``, ``C_D = 2{R(θ0)F}·e_x``, ``C_M = 2M`` (MODEL.md §4)."""
+    """``C_L = 2{R(θ0)F}·e_y``, ``C_D = 2{R(θ0)F}·e_x``, ``C_M = 2M`` (docs/model.md §4)."""
     loads = reaction_loads(steady)
     theta = steady.flow.theta0
     fx, fy = loads["force_x"], loads["force_y"]

@@ -1,4 +1,4 @@
-"""Bodies and fluid domains as netgen.occ shapes (MODEL.md §1, §10).
+"""Bodies and fluid domains as netgen.occ shapes (docs/model.md §1, §10).
 
 The body is centred on its elastic centre ``G = (0, 0)``; the fluid comes from ``-x``. Boundary
 names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = ±lateral),

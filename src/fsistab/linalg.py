@@ -1,10 +1,10 @@
-"""Sparse factorisations of ``K(s) = J + s M`` and the shift-invert operator (ARCHITECTURE `linalg`).
+"""Sparse factorisations of ``K(s) = J + s M`` and the shift-invert operator (the solvers layer).
 
 The fluid block ``K_ff(s) = J_ff + s M_f``, assembled by :func:`fsistab.operators.shifted_fluid_matrix`
 (in complex arithmetic for a complex shift; NGSolve's solvers take no SciPy matrix), is factorised
-once with UMFPACK (four times faster than SciPy's SuperLU on these matrices); this module writes
-no finite-element form. The few solid unknowns are attached by
-exact block elimination (a bordered solve)::
+once with UMFPACK (faster than SciPy's SuperLU on these matrices: docs/performance.md, "Sparse
+direct solvers compared"); this module writes no finite-element form. The few solid unknowns are
+attached by exact block elimination (a bordered solve)::
 
     X = K_ff⁻¹ K_fs,   S = K_ss - K_sf X        (n_s fluid solves per factorisation)
     x_s = S⁻¹ (b_s - K_sf K_ff⁻¹ b_f),   x_f = K_ff⁻¹ b_f - X x_s
@@ -33,8 +33,8 @@ BACKENDS = ("umfpack", "superlu")
 
 def sample_threads(threads: int | None = None) -> int:
     """Factorisations (or solves) run at once: ``threads``, or the CPU count but at most 2 (each
-    factorisation held at once costs memory: 1.4 GB for the medium plate). A one-line InputError
-    below 1."""
+    factorisation held at once costs memory, of the order of a gigabyte on the default meshes). A
+    one-line InputError below 1."""
     threads = min(2, os.cpu_count() or 1) if threads is None else int(threads)
     if threads < 1:
         raise InputError(f"threads must be at least 1, got {threads}")
@@ -56,8 +56,8 @@ def _shifted(fluid: FluidOperators, shift: complex):
 def shared_analysis(fluid: FluidOperators, shift: complex, matrix=None) -> umfpack.Analysis:
     """The UMFPACK symbolic analysis of ``J_ff + s M_f`` in ``s``'s arithmetic, made once per
     operators and arithmetic (kept in ``fluid.analyses``) and shared by every shift: the symmetric
-    strategy (the Taylor–Hood pattern is symmetric; its factors are cheaper and more accurate,
-    unrefined solve residual 8e-12 instead of 7e-10 on the coarse plate) on a nested-dissection
+    strategy (the Taylor–Hood pattern is symmetric; its factors are cheaper and its unrefined solves
+    more accurate, docs/performance.md, "The steady Newton") on a nested-dissection
     ordering, one for both arithmetics (``J_ff`` and ``J_ff + s M_f`` share their pattern)."""
     shift = complex(shift)
     dtype = complex if shift.imag != 0 else float
@@ -116,7 +116,7 @@ class FluidFactor:
         right-hand side at a time is all it does (the Krylov blocks of the reduced models)."""
         if b.ndim == 2:
             # a zero column has the zero solution: not solved (the heave column of J_fs + s M_fs,
-            # MODEL.md §7: the body-frame equations do not see the heave displacement)
+            # docs/model.md §7: the body-frame equations do not see the heave displacement)
             nonzero = [k for k in range(b.shape[1]) if np.any(b[:, k])]
             result = np.zeros(b.shape, dtype=np.result_type(b.dtype, self.dtype))
             columns = [b[:, k] for k in nonzero]

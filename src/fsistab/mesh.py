@@ -6,8 +6,8 @@ Above Re 2900 the near-body sizes shrink faster (:func:`high_reynolds_factor`, `
 the near box by ``f`` (so it scales with ``Re^-1/2``), the wall and corner sizes by ``f² = 2900/Re``.
 At Re 10⁴ the plate's flow separates at its rounded leading edge (radius 0.005 chord)
 into a thin bubble hugging the wall, whose length and response to α, hence the static slopes, the
-Re 2900 sizes do not resolve; measured (docs/validation.md, plate slopes), the slopes depend mostly
-on the wall and corner sizes, little on the near box. Up to Re 2900 the sizes, and so the mesh cache
+Re 2900 sizes do not resolve; the slopes depend mostly on the wall and corner sizes, little on the
+near box (docs/validation.md, "Plate: static slopes"). Up to Re 2900 the sizes, and so the mesh cache
 keys and every result computed on them, are those of the table.
 Meshes are mirror-symmetric about ``Y = 0``; elements touching the body are curved
 (``curve_order``).
@@ -41,13 +41,13 @@ class MeshSizes:
     ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)`` and, if ``middle_band = (e, w)`` is given,
     also in the band ``[0, e] × [-w, w]`` behind the body, ``far_wake = (h, e, w)`` (if given) size
     ``h`` in the box ``[wake end, e] × [-w, w]`` that continues the wake box to ``e``, ``far``
-    elsewhere. The middle box grades the
-    far field, so that a larger domain costs little; measured on the plate (docs/discretisation.md),
-    4-chord elements beyond a 1-chord box on ``[-40, 80] × [-40, 40]`` reproduce the uniform 1-chord
-    mesh's flutter point, while 8-chord elements, or 4-chord ones out to 80 chords, bring weakly
-    damped free-stream modes next to the flutter mode. 4-chord elements across the wake, even beyond
-    80 chords, fold the low-mass-ratio neutral curves (the perturbation carried down the wake is
-    partly reflected where the elements grow); the band keeps the wake's elements small to the outlet.
+    elsewhere.
+
+    The middle box grades the far field, so that a larger domain costs little; outer elements that
+    are too coarse carry weakly damped free-stream modes next to the flutter mode. Large elements
+    across the wake fold the low-mass-ratio neutral curves (the perturbation carried down the wake is
+    partly reflected where the elements grow), so the band keeps the wake's elements small to the
+    outlet (docs/discretisation.md).
     """
 
     wall: float

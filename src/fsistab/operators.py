@@ -1,10 +1,10 @@
-"""Linear operators of the fluid at a steady state (MODEL.md §5, §7), exported as SciPy matrices.
+"""Linear operators of the fluid at a steady state (docs/model.md §5, §7), exported as SciPy matrices.
 
 The fluid unknowns ``q_f`` are the free dofs of the Taylor–Hood space (velocity off the Dirichlet
 boundaries, all pressure dofs). The wall velocity dofs are not unknowns: they follow the solid,
 ``u_Γ(q_s) = a_x(θ, ḣ) ℓ_x + a_y(θ, ḣ) ℓ_y + θ' ℓ_rot`` with ``(a_x, a_y) = R(θ)ᵀ(-1, ḣ)ᵀ``
-(MODEL.md §4 wall condition, lifted with the discrete fields ``ℓ`` of :mod:`fsistab.forces`).
-Hence the discrete Jacobian has, besides the shape derivatives ``D_θ, D_ḣ, D_θ'`` of MODEL.md §7,
+(docs/model.md §4 wall condition, lifted with the discrete fields ``ℓ`` of :mod:`fsistab.forces`).
+Hence the discrete Jacobian has, besides the shape derivatives ``D_θ, D_ḣ, D_θ'`` of docs/model.md §7,
 the wall-coupling columns ``A_{fΓ} ∂u_Γ/∂q_s`` and a mass coupling ``M_{fΓ} ∂u_Γ/∂q_s``.
 
 Solid columns are ordered ``SOLID_STATE = (h, θ, ḣ, θ')``; ``h`` never enters the fluid.
@@ -36,19 +36,21 @@ NEAR_RADIUS = 1.0  # body lengths around G
 
 
 def rotation_matrix(theta: float) -> np.ndarray:
-    """``R(θ)`` of MODEL.md §4 (counter-clockwise rotation)."""
+    """``R(θ)`` of docs/model.md §4 (counter-clockwise rotation)."""
     c, s = math.cos(theta), math.sin(theta)
     return np.array([[c, -s], [s, c]])
 
 
 def grid_velocity_derivatives(theta: float) -> dict[str, tuple[float, float]]:
-    """Uniform parts of ``∂W/∂θ = R'(θ)ᵀ(-1, 0)ᵀ`` and ``∂W/∂ḣ = R(θ)ᵀ(0, 1)ᵀ`` (at ḣ = θ' = 0)."""
+    """Uniform parts of ``∂W/∂θ = R'(θ)ᵀ(-1, 0)ᵀ`` and ``∂W/∂ḣ = R(θ)ᵀ(0, 1)ᵀ`` (at ḣ = θ' = 0),
+    the ``W_θ`` and ``W_ḣ`` of docs/model.md §7."""
     c, s = math.cos(theta), math.sin(theta)
     return {"theta": (s, c), "hdot": (s, c)}
 
 
 def wall_coefficients(q_solid: np.ndarray) -> np.ndarray:
-    """Coefficients of ``(ℓ_x, ℓ_y, ℓ_rot)`` in ``u_Γ(q_s)``: ``(R(θ)ᵀ(-1, ḣ)ᵀ, θ')``."""
+    """Coefficients of ``(ℓ_x, ℓ_y, ℓ_rot)`` in ``u_Γ(q_s)``: ``(R(θ)ᵀ(-1, ḣ)ᵀ, θ')``, the wall
+    velocity ``W`` of docs/model.md §4."""
     _, theta, hdot, thetadot = q_solid
     ax, ay = rotation_matrix(theta).T @ np.array([-1.0, hdot])
     return np.array([ax, ay, thetadot])
@@ -69,8 +71,8 @@ def wall_coefficients_jacobian(q_solid: np.ndarray) -> np.ndarray:
 
 def _to_scipy(matrix, n: int) -> sp.csr_matrix:
     """NGSolve's assembled sparse matrix as a SciPy CSR matrix, from its own CSR arrays (copied):
-    the same entries in the same order as through ``COO()``, without SciPy's COO-to-CSR sort
-    (0.02 s instead of 0.17 s for a matrix of the default mesh)."""
+    the same entries in the same order as through ``COO()``, without SciPy's COO-to-CSR sort, which
+    dominates the export's time."""
     values, columns, starts = matrix.CSR()
     arrays = np.array(values), np.array(columns), np.array(starts, dtype=np.int64)
     return sp.csr_matrix(arrays, shape=(n, n))
@@ -81,7 +83,7 @@ def _linear_form_vector(space, integrand_of_test) -> np.ndarray:
 
     (_, _), (v, q) = space.TnT()
     form = LinearForm(space)
-    # compiled: with the sponge's term 0.47 s instead of 1.85 s on the default mesh, identical
+    # compiled: several times faster to assemble with the sponge's term, the vector identical
     form += integrand_of_test(v, q).Compile() * dx
     form.Assemble()
     return form.vec.FV().NumPy().copy()
@@ -189,7 +191,7 @@ def far_layer(sponge, sizes):
 
 def rotation_target(steady: SteadyState):
     """``u_θ = (∇U⁰)(−Y, X) − e_z∧U⁰``: the steady field carried by a pitch ``δθ`` when the far
-    field stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (MODEL.md §4,
+    field stays fixed in the laboratory, ``R(δθ)ᵀ U⁰(R(δθ) X) = U⁰ + δθ u_θ + O(δθ²)`` (docs/model.md §4,
     §7). In body axes the steady wake turns by ``−δθ`` when the body pitches, a perturbation growing
     like ``X δθ`` downstream that is kinematics, not shed vorticity: the sponge relaxes towards it."""
     from ngsolve import CF, Grad, x, y
@@ -207,7 +209,7 @@ def _with_sponge(sigma, integrand, u, v):
 
 
 def fluid_operators(steady: SteadyState) -> FluidOperators:
-    """Assemble every fluid block of MODEL.md §7 once at ``steady`` (one real assembly each), with
+    """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each), with
     the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one (:class:`fsistab.params.Sponge`)."""
     from ngsolve import CF, BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
 
@@ -220,8 +222,8 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
 
     jacobian = BilinearForm(space)
     linearisation = momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds)
-    # compiled: the sum of the linearisation and the sponge's term took 7.5 times longer to
-    # assemble uncompiled on the default mesh (19.3 s against 2.6 s), the matrix identical to the bit
+    # compiled: the sum of the linearisation and the sponge's term assembles several times faster
+    # than uncompiled, the matrix identical to the bit
     jacobian += _with_sponge(sigma, linearisation, u, v).Compile() * dx
     jacobian.Assemble()
     mass = BilinearForm(space)
@@ -278,7 +280,7 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
 
 
 def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
-    """``K_ff(s) = J_ff + s M_f`` (MODEL.md §7) as NGSolve's assembled matrix on the whole space
+    """``K_ff(s) = J_ff + s M_f`` (docs/model.md §7) as NGSolve's assembled matrix on the whole space
     (real for a real ``s``) and the mask of the fluid unknowns, ``(form, free dofs)``: the form of
     :func:`fluid_operators`' ``jff`` and ``mff`` assembled in one pass in the arithmetic of ``s``,
     for a factorisation by NGSolve's sparse solvers (:class:`fsistab.linalg.FluidFactor`; SciPy's
@@ -304,7 +306,7 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
 
 
 class FluidResidual:
-    """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (MODEL.md §5).
+    """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (docs/model.md §5).
 
     For finite-difference checks of every block of :func:`fluid_operators`: the wall dofs are set
     from the solid state by the nonlinear lifting, the grid velocity is

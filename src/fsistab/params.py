@@ -1,6 +1,6 @@
 """Immutable, validated parameters and the conventions they carry.
 
-Non-dimensionalisation (MODEL.md §1, §2, §10):
+Non-dimensionalisation (docs/model.md §1, §2, §10):
 
 * plate: length unit the chord ``c``, time unit ``c/U∞``; the plate spans ``X ∈ [-1/2, 1/2]``
   with its leading edge at ``X = -1/2`` (the fluid comes from the left in the body frame);
@@ -26,7 +26,7 @@ from fsistab.validate import positive as _positive
 
 @dataclass(frozen=True)
 class Flow:
-    """Flow parameters that the steady state depends on: ``Re`` and ``α0`` (MODEL.md §6).
+    """Flow parameters that the steady state depends on: ``Re`` and ``α0`` (docs/model.md §6).
 
     ``reynolds = ρ U∞ L / μ`` with ``L`` the body's length unit; ``alpha0_deg`` is the steady
     angle of attack in degrees, positive nose-up (``θ0 = -α0``).
@@ -52,7 +52,7 @@ class Flow:
 class Domain:
     """Rectangular fluid domain ``[-upstream, downstream] × [-lateral, lateral]`` (body lengths).
 
-    ``U = 0`` is imposed upstream and laterally, a stress-free condition downstream (MODEL.md §4).
+    ``U = 0`` is imposed upstream and laterally, a stress-free condition downstream (docs/model.md §4).
     """
 
     upstream: float
@@ -69,7 +69,7 @@ class Domain:
 
 @dataclass(frozen=True)
 class Sponge:
-    """An absorbing layer at the outlet, in the **linearised** momentum equation only (MODEL.md §7):
+    """An absorbing layer at the outlet, in the **linearised** momentum equation only (docs/model.md §7):
 
         ``∫ σ(X) (u − θ u_θ)·v``,   ``σ(X) = σ_max S((X − X_s)/(X_out − X_s))``,   ``S(t) = 3t² − 2t³``
         on ``[0, 1]`` (0 before, 1 after),   ``X_s = (1 − zone) X_out``,
@@ -82,24 +82,18 @@ class Sponge:
     ``sigma_max`` in units ``U∞/L``; ``zone`` the fraction of ``[0, X_out]`` it covers.
 
     It removes the truncated domain's weakly damped convective modes (perturbations carried to the
-    outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves.
-    Measured on the plate at Re 2900 (docs/discretisation.md, "A sponge layer"): the default
-    (σ_max = 0.2, the last quarter of a 160-chord domain, ``e⁻⁴`` per pass) moves U*_F, ω_F and U*_D
-    at m = 1000 by +0.007 %, −0.09 % and −0.04 % on ``medium`` without its wake band, and by
-    +0.001 %, +0.003 % and −0.02 % with it (the static slopes by 0.04 %, the wake mode not at all);
-    it halves the samples of a sweep at m = 10. It must start more than one wake wavelength of the
-    flutter mode (``2π/ω_F ≈ 35`` chords) behind the body, and lie in elements that resolve the wake
-    (the reflection where elements grow is not absorbed by a layer behind it).
+    outlet and fed back), which otherwise put spurious folds into the low-mass-ratio neutral curves,
+    while it leaves the thresholds at large mass ratio, the static slopes and the wake mode
+    practically unchanged (docs/discretisation.md, "A sponge layer"). It must start more than one
+    wake wavelength of the flutter mode (``2π/ω_F``) behind the body, and lie in elements that
+    resolve the wake: the reflection where elements grow is not absorbed by a layer behind it.
 
     ``far_sigma > 0`` adds a **far-field layer** outside the mesh's middle box and band
     (:func:`fsistab.operators.far_layer`): ``σ_far = far_sigma S(d / far_ramp)``, ``d`` the distance
     to the nearer of the two, added to the outlet's ``σ``. It damps the weakly damped free-stream
     modes that the outer elements carry, which fold the low-mass-ratio neutral curves. It also acts
-    on the body's own far field at low frequency (on a mesh of 1-chord elements everywhere it moves
-    the restabilisation at m = 10 by −1.5 %), so the presets keep it on elements fine enough to carry
-    that far field: on ``medium`` (2-chord outer elements, ``far_sigma = 0.2``, ``far_ramp = 10``)
-    every sweep is as clean as on the 1-chord mesh and within 0.6 % of it at m = 10, 0.05 % at
-    m = 1000 (docs/discretisation.md, "The far field at low mass ratio").
+    on the body's own far field at low frequency, so the presets keep it on elements fine enough to
+    carry that far field (docs/discretisation.md, "The far field at low mass ratio").
     """
 
     sigma_max: float = 0.2
@@ -168,12 +162,12 @@ SOLID_DOFS = ("heave", "pitch")
 
 @dataclass(frozen=True)
 class Solid:
-    """Solid parameters (MODEL.md §2-§3); they change only small blocks of the coupled system.
+    """Solid parameters (docs/model.md §2-§3); they change only small blocks of the coupled system.
 
     ``mass_ratio`` m = m̃/(½ρL²s), ``reduced_velocity`` U* = U∞/(L ω_θ), ``freq_ratio`` Ω = ω_h/ω_θ,
     ``zeta_h``/``zeta_theta`` damping ratios, ``r_theta`` radius of gyration about G in body lengths,
     ``dofs`` the active degrees of freedom among ``heave`` and ``pitch`` (empty: fixed body).
-    For the cylinder (MODEL.md §10) use :meth:`Solid.cylinder`, which converts its diameter-based
+    For the cylinder (docs/model.md §10) use :meth:`Solid.cylinder`, which converts its diameter-based
     ``m = 4m̃/(πρD²s)`` and ``U* = 2πU∞/(Dω_n)`` to this form.
     """
 
@@ -200,7 +194,7 @@ class Solid:
 
     @classmethod
     def cylinder(cls, mass_ratio: float, reduced_velocity: float, zeta: float = 0.0) -> Solid:
-        """Heave-only cylinder in MODEL.md §10 scalings: ``h'' + (2π/U*)² h = 2 C_L/(π m)``.
+        """Heave-only cylinder in docs/model.md §10 scalings: ``h'' + (2π/U*)² h = 2 C_L/(π m)``.
 
         In the generic form ``h'' + (Ω/U*_g)² h = C_L / m_g`` this is ``m_g = π m / 2`` and
         ``Ω/U*_g = 2π/U*`` (with ``Ω = 1``).
@@ -481,22 +475,17 @@ MAP_METHODS = ("transfer", "continuation")
 THRESHOLD_METHODS = ("transfer", "tracking")  # fsistab.critical.find_thresholds
 
 
-# The transfer map's reduced fluid models (fsistab.reduced_model) against exact samples, measured
-# (docs/transfer.md, docs/performance.md): on the coarse plate (14 597 unknowns) and fsistab 0.3's
-# medium (110 379) the models took 0.7-1.0x the wall time of exact samples and 10x fewer
-# factorisations; on today's medium (416 871) G(iω) has structure on the scale 0.1 in ω (the
-# band's weakly damped modes) and a model of 305 vectors, costing about 25 exact samples, certifies
-# an interval that exact samples resolve with 20. On the plate's quick preset of the time (111 506) the whole
-# map took 369 s with exact samples (steady state cached); with models it had built 12 (57 s each,
-# certifying ±0.02-0.09 in ω below ω = 3) after 818 s and was stopped. Exact samples from 100 000
-# unknowns on.
+# The transfer map's reduced fluid models (fsistab.reduced_model) of REDUCED_BLOCKS Krylov blocks
+# pay on small meshes; from EXACT_SAMPLES_FROM fluid unknowns on, G(iω) has structure on a scale
+# that a model costs more to certify than exact samples cost to resolve, so the map samples exactly
+# (docs/performance.md, "The whole map"; docs/transfer.md).
 REDUCED_BLOCKS = 60
 EXACT_SAMPLES_FROM = 100_000
 
 
 @dataclass(frozen=True)
 class MapSettings:
-    """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, MODEL.md §8).
+    """Settings of the stability map in ``(m, U*)`` (``fsistab neutral``, docs/model.md §8).
 
     Every value is checked whichever ``method`` uses it. ``seed_masses`` None means ``m/10`` and
     ``m/100`` of ``start_mass`` within the range; ``tolerance``, ``min_step`` and ``max_frequencies``
@@ -644,7 +633,7 @@ class TheodorsenSettings:
     """``fsistab theodorsen``: the typical section's critical points at ``mass_ratio`` over
     ``velocity_range``, or its neutral curves at ``points`` mass ratios over ``mass_range``, with
     the slopes ``slopes`` (thin airfoil, viscous ``calibrated`` at the case's Re, or ``given``:
-    ``dC_L/dα`` and ``d(-C_M)/dα`` about mid-chord per radian, MODEL.md §9); ``elastic_axis`` and
+    ``dC_L/dα`` and ``d(-C_M)/dα`` about mid-chord per radian, docs/model.md §9); ``elastic_axis`` and
     ``static_unbalance`` in chords (their bounds, which need r_θ, are checked by the section)."""
 
     mass_ratio: float = 1000.0

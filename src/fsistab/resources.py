@@ -1,7 +1,7 @@
 """Size of a mesh and memory of a solve, estimated from the mesh specification without meshing.
 
-Used to refuse, before any work, a mesh that cannot be computed (issue #13: ``--Re 1e6`` on a mesh
-command ran away in memory).
+Used to refuse, before any work, a mesh that cannot be computed (for instance ``--Re 1e6`` on a
+mesh command, whose mesh would exhaust the memory).
 
 Element count. Netgen fills the domain with triangles of the local size ``h(x)``: the region's
 ``maxh`` (near box, wake box, far field), lowered near every smaller size by the grading, which lets
@@ -13,62 +13,21 @@ wake boxes of :func:`fsistab.geometry.fluid_half_geometry` with their sizes)::
     triangles ≈ C ∫_fluid dA / h(x)²,           s = K · grading
 
 integrated by an adaptive quadtree (:func:`_area_over_h2`) over the upper half and doubled (the
-mesh is mirrored). ``C = DENSITY`` and ``K = GRADING_SLOPE`` are fitted to the meshes below. The
+mesh is mirrored). ``C = DENSITY`` and ``K = GRADING_SLOPE`` are fitted to the unknowns that
+``mesh_statistics`` counts on real meshes of the plate and the cylinder. The
 Taylor–Hood P2–P1 unknowns follow exactly from the triangle count ``T`` and the number ``B`` of
 boundary edges (Euler's formula for a domain with one hole): ``ndof = 3V + 2E = 4.5 T + 2.5 B``,
-``B`` estimated as the body's and outer boundary's lengths over their sizes.
-
-Calibration: unknowns measured by ``mesh_statistics`` on real meshes (Netgen/NGSolve 6.2.2608;
-domain = upstream, downstream, lateral; ratio = estimated/measured). ``fit`` rows fixed ``C`` and
-``K``, ``check`` rows were meshed afterwards to test them::
-
-    set    body     mesh   Re      domain         other                 measured estimated ratio
-    fit    plate    coarse ≤ 1000  default        -                       15 274    14 922  0.98
-    fit    plate    coarse 2900    default        -                       15 335    15 876  1.04
-    fit    plate    coarse 10000   default        -                       46 448    45 854  0.99
-    fit    plate    coarse 30000   default        -                      171 183   177 435  1.04
-    fit    plate    coarse 2900    40, 80, 40     -                       21 319    20 571  0.96
-    fit    plate    coarse 2900    10, 20, 10     -                       13 998    14 660  1.05
-    fit    plate    coarse 2900    20, 80, 20     -                       17 883    16 941  0.95
-    fit    plate    coarse 2900    default        far 1.0                 37 985    37 888  1.00
-    fit    plate    medium 2900    default        -                      111 585   113 055  1.01
-    fit    cylinder coarse 40      default        -                       21 073    20 841  0.99
-    fit    cylinder coarse 100     default        -                       21 662    21 389  0.99
-    fit    cylinder coarse 1000    default        -                       25 634    25 389  0.99
-    fit    cylinder coarse 40      25, 50, 25     -                       13 640    13 544  0.99
-    fit    cylinder coarse 40      10, 20, 10     -                       10 455    11 420  1.09
-    check  plate    coarse 5000    default        -                       22 068    22 794  1.03
-    check  plate    coarse 1000    default        chord/thickness 10      14 746    14 723  1.00
-    check  plate    coarse 2900    default        chord/thickness 50      16 543    16 454  0.99
-    check  plate    coarse 2900    default        wake_length 20          28 079    30 963  1.10
-    check  plate    coarse 100     default        grading 0.4             13 746    10 835  0.79
-    check  cylinder coarse 300     30, 60, 30     -                       16 317    16 496  1.01
-    check  cylinder coarse 40      default        far 1.0                165 256   162 495  0.98
-    check  cylinder coarse 40      default        grading 0.15            25 546    26 422  1.03
-
-and against the unknowns quoted in ``docs/validation.md`` (earlier versions of the meshing code):
-plate fine Re 2900 314 955 (estimated 313 960, 1.00), medium Re 10⁴ 199 184 (193 054, 0.97),
-fine Re 10⁴ 567 075 (557 901, 0.98); cylinder medium Re 40 115 935 (116 485, 1.00). The presets
-are within 10 %; a grading far from the presets' 0.25 is the weakest case (0.79 at 0.4). Stated
-accuracy: a factor 1.25 on the unknowns (the tests check 1.25 on the coarse meshes).
+``B`` estimated as the body's and outer boundary's lengths over their sizes. Stated accuracy: a
+factor 1.25 on the unknowns (what the tests check on the coarse meshes); a grading far from the
+presets' 0.25 is the weakest case.
 
 Memory. Peak resident memory ``MEMORY_BASE + MEMORY_PER_UNKNOWN · n`` of one process that builds
 the mesh, solves the steady state by Newton (real LU) and factorises ``J + sM`` once in complex
-arithmetic (UMFPACK), single-threaded; measured with ``resource.getrusage`` (``ru_maxrss``)::
-
-    mesh (steady flow)                         unknowns  measured  estimated  ratio
-    plate coarse (Re 100)                        15 274   0.37 GB    0.38 GB   1.05
-    cylinder coarse (Re 40)                      21 073   0.44 GB    0.45 GB   1.04
-    plate coarse, far 1.0 (Re 100)               37 985   0.60 GB    0.66 GB   1.09
-    plate coarse at Re 10⁴ (flow Re 100)         46 448   0.67 GB    0.76 GB   1.13
-    plate coarse at Re 3·10⁴ (flow Re 100)      171 183   1.63 GB    2.25 GB   1.38
-
-The slope is that of the larger runs of ``docs/validation.md``, whose fill grows a little faster than
-linearly: steady states at Re 10⁴ of 567 075 and 871 620 unknowns peaked at 6.6 and 10.3 GB
-(estimated 7.0 and 10.7), the eigenvalue benchmark (complex LU and Arnoldi) at 1.64 and 4.51 GB
-for 110 379 and 314 959 unknowns (estimated 1.5 and 4.0); ``NGSOLVE-NOTES.md``: a complex LU of
-162 k unknowns, about 2.0 GB (estimated 2.1). Workflows that keep several factorisations (stability
-maps, continuation) need more: 2.9 GB for a flutter curve on the medium plate (estimated 1.5).
+arithmetic (UMFPACK), single-threaded, fitted to ``ru_maxrss`` of such runs. The fill of the LU
+grows a little faster than linearly, so the slope is that of the larger runs. Workflows that keep
+several factorisations (stability maps, continuation) need more than this estimate. The
+calibration of both models against measured meshes and runs is in docs/performance.md ("Mesh size
+and memory estimates").
 """
 
 from __future__ import annotations

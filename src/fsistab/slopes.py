@@ -1,4 +1,4 @@
-"""Static aerodynamic slopes ``dC_L/dθ`` and ``dC_M/dθ`` at a steady state (MODEL.md §9).
+"""Static aerodynamic slopes ``dC_L/dθ`` and ``dC_M/dθ`` at a steady state (docs/model.md §9).
 
 The steady flow's response to a small pitch ``δθ`` solves ``J_ff δq_f = -J_fs[:, θ] δθ``: one real
 linear solve, where ``J_fs[:, θ]`` holds both the shape derivative ``D_θ`` and the wall condition
@@ -58,7 +58,7 @@ def static_response(
 def static_slopes(
     fluid: FluidOperators, counter: FactorCounter | None = None, factor: FluidFactor | None = None
 ) -> StaticSlopes:
-    """Slopes of MODEL.md §9 from one factorisation of ``J_ff`` (``factor``, if given, is reused)."""
+    """Slopes of docs/model.md §9 from one factorisation of ``J_ff`` (``factor``, if given, is reused)."""
     response = static_response(fluid, counter, factor)
     d_loads = fluid.load_f @ response + fluid.load_s[:, 1]  # d(F_x, F_y, M)/dθ in body axes
     rows, d_lift_rotation = lift_and_moment_rows(fluid.theta0, fluid.loads0)

@@ -1,4 +1,4 @@
-"""Steady Navier–Stokes in the body frame (MODEL.md §4, §6): Newton with automatic continuation.
+"""Steady Navier–Stokes in the body frame (docs/model.md §4, §6): Newton with automatic continuation.
 
 Unknowns are the absolute velocity written in the body axes ``U`` and the pressure ``P``
 (Taylor–Hood P2–P1). The steady state is the flow around the body held at ``θ0 = -α0`` with the
@@ -28,7 +28,7 @@ NEWTON_TOL = 1e-9  # Euclidean norm of the residual on free dofs
 
 
 def wall_velocity(theta: float) -> tuple[float, float]:
-    """Translational grid velocity ``R(θ)ᵀ(-1, 0)ᵀ = (-cos θ, sin θ)`` (MODEL.md §4, ḣ = 0)."""
+    """Translational grid velocity ``R(θ)ᵀ(-1, 0)ᵀ = (-cos θ, sin θ)`` (docs/model.md §4, ḣ = 0)."""
     return (-math.cos(theta), math.sin(theta))
 
 
@@ -40,7 +40,7 @@ def taylor_hood_space(mesh, complex: bool = False):
 
 
 def momentum_form(velocity, pressure, test_velocity, test_pressure, grid_velocity, inv_reynolds):
-    """Weak steady residual of MODEL.md §4 (``∂U/∂t = θ' = 0``) as an integrand.
+    """Weak steady residual of docs/model.md §4 (``∂U/∂t = θ' = 0``) as an integrand.
 
     ``((∇U)(U - W), v) + (σ(U, P), ∇v) - (∇·U, q)`` with ``σ = -P I + Re⁻¹(∇U + ∇Uᵀ)``: the
     symmetric stress makes ``σN = 0`` the natural downstream condition and gives the forces.
@@ -60,7 +60,7 @@ def momentum_form(velocity, pressure, test_velocity, test_pressure, grid_velocit
 def momentum_linearisation(
     velocity, pressure, test_velocity, test_pressure, base_velocity, grid_velocity, inv_reynolds
 ):
-    """Derivative of :func:`momentum_form` at ``U⁰`` in the direction ``(u, p)`` (MODEL.md §7, ``J_ff``).
+    """Derivative of :func:`momentum_form` at ``U⁰`` in the direction ``(u, p)`` (docs/model.md §7, ``J_ff``).
 
     ``((∇u)(U⁰ - W), v) + ((∇U⁰) u, v) + (Re⁻¹(∇u + ∇uᵀ), ∇v) - (p, ∇·v) - (q, ∇·u)``: written out,
     its assembly costs less than half of NGSolve's ``AssembleLinearization``, which differentiates
@@ -336,10 +336,10 @@ def continuation(
     Secant predictor in the homotopy parameter, step doubled after an easy step and halved after
     a failure; below ``min_step`` a ConvergenceError says where the branch was lost. Newton
     converges to ``path_tol`` on the way and to :data:`NEWTON_TOL` at ``target``. A looser
-    ``path_tol`` (1e-6) saves the last Newton step of most intermediate steps (20 -> 15
-    factorisations for the coarse plate at Re 2900 from rest) but moves the state at the target
-    within the accuracy that NEWTON_TOL gives it (2.7e-11 relative there, 3.6e-8 at Re 10⁴), so the
-    default keeps every step at NEWTON_TOL and the results of earlier versions.
+    ``path_tol`` saves the last Newton step of most intermediate steps, but the state at the target
+    then depends on the path within the accuracy that NEWTON_TOL gives it; the default keeps every
+    step at NEWTON_TOL, so that the target's state, and its cache entry, do not depend on the path's
+    tolerance.
     """
     s, ds = 0.0, first_step
     current = state.vec.CreateVector()
@@ -391,7 +391,7 @@ def solve_steady(
     progress: Callable[[Flow, int], None] | None = None,
     backend: str = "umfpack",
 ) -> SteadyState:
-    """Steady state for ``flow`` on the mesh of ``spec`` (MODEL.md §6), cached under its key.
+    """Steady state for ``flow`` on the mesh of ``spec`` (docs/model.md §6), cached under its key.
 
     From ``initial`` (a steady state on the same mesh) or from rest: a direct Newton, then, if it
     fails, continuation in Re (geometric) and α0 (linear) from the initial parameters — from

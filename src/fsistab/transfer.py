@@ -1,4 +1,4 @@
-"""Aerodynamic transfer functions: the fluid eliminated exactly from the coupled problem (MODEL.md §7).
+"""Aerodynamic transfer functions: the fluid eliminated exactly from the coupled problem (docs/model.md §7).
 
 With ``K(s) = J + sM``, eliminating the fluid unknowns from (E) leaves the solid's characteristic
 matrix (``n_s ≤ 4`` active solid states)::
@@ -15,7 +15,7 @@ counter-clockwise +) for a unit amplitude of each solid state ``(h, θ, ḣ, θ'
 ``e^{st}``, with the inertia of the wall lifting. ``G`` depends on the body, the mesh, ``Re`` and
 ``α0`` only, and ``T(s) = P(s; m, U*, Ω, ζ, r_θ) - E G(s)`` (:func:`fsistab.coupled.solid_blocks`)
 is assembled from it for any solid parameters. It is the viscous counterpart of Theodorsen's loads
-(MODEL.md §9) and of the flutter derivatives of wind engineering.
+(docs/model.md §9) and of the flutter derivatives of wind engineering.
 
 ``G`` is evaluated exactly — one sparse factorisation of ``K_ff(s)`` and three back-substitutions
 per point (:func:`exact_transfer`; the heave column is zero and not solved), with ``dG/ds`` three
@@ -25,7 +25,7 @@ rational fit (AAA) needed too many samples (docs/transfer.md), and the certified
 :mod:`fsistab.reduced_model` replaced it. Neutral points ``det T(iω; U*) = 0`` are converged
 exactly by :func:`transfer_flutter_point` (the transfer-determinant formulation of
 :mod:`fsistab.neutral_point`). Frequencies and growth rates are in the body's time unit ``L/U∞``
-(chord for the plate, diameter for the cylinder, MODEL.md §2, §10).
+(chord for the plate, diameter for the cylinder, docs/model.md §1, §10).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ class TransferSample:
 
     def mode(self, solid: Solid, theta0: float, loads0: np.ndarray) -> np.ndarray:
         """The coupled vector ``(q̂_s, q̂_f)`` of the eigenvalue ``σ = s`` for ``solid``, where
-        ``det T(s) = 0`` (MODEL.md §7): ``q̂_s`` the null vector of ``T(s)`` on the active solid
+        ``det T(s) = 0`` (docs/model.md §7): ``q̂_s`` the null vector of ``T(s)`` on the active solid
         states, ``q̂_f = -X q̂_s`` (the fluid rows of (E)); unit norm. At a neutral point
         converged to a step δω, its residual is O(δω)."""
         t = characteristic_matrix(self.value, solid, self.s, theta0, loads0)
@@ -125,7 +125,7 @@ def iter_transfer_samples(
     """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
     at most 2; each holds one factorisation in memory), each yielded (and counted) as soon as it is
     done, in the order they finish: a thread that finishes starts the next shift at once instead of
-    waiting for the other (factorisations at different ``s`` take 5–8 s on the default mesh), and a
+    waiting for the other (factorisations at different ``s`` take different times), and a
     caller that saves each sample loses only those under way if interrupted. UMFPACK, called
     through ctypes, runs without the GIL, so threads factorise in parallel; the factorisations of an
     arithmetic share one symbolic analysis, made before them (:func:`fsistab.linalg.shared_analysis`)."""
@@ -191,7 +191,7 @@ def aerodynamic_loads(transfer: np.ndarray, theta0: float, loads0: np.ndarray, s
     """``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` for ``(h, θ) ∝ e^{st}`` (2 × 2): the viscous counterpart of
     Theodorsen's ``s² L₂ + s L₁ + L₀`` (:func:`fsistab.theodorsen.load_matrices`, ``a = 0``).
 
-    ``C_L`` lab-frame lift, ``C_M`` about G counter-clockwise + (MODEL.md §4); the lift includes the
+    ``C_L`` lab-frame lift, ``C_M`` about G counter-clockwise + (docs/model.md §4); the lift includes the
     steady force rotated with the body (``∂C_L/∂θ`` at fixed loads)."""
     rows, dcl_dtheta = lift_and_moment_rows(theta0, loads0)
     heave = rows @ (transfer[:, 0] + s * transfer[:, 2])
@@ -212,7 +212,7 @@ def characteristic_matrix(
     transfer: np.ndarray, solid: Solid, s: complex, theta0: float, loads0: np.ndarray
 ) -> np.ndarray:
     """``T(s)`` on the active solid states (n_s × n_s) from ``G(s)`` (``transfer``, 3 × 4): ``σ`` is a
-    coupled eigenvalue iff ``det T(σ) = 0``. Rows those of ``R_s`` (MODEL.md §5), columns the active
+    coupled eigenvalue iff ``det T(σ) = 0``. Rows those of ``R_s`` (docs/model.md §5), columns the active
     ``(h, θ, ḣ, θ')``."""
     p0, coupling, a = _solid_parts(solid, theta0, loads0)
     return p0 + s * np.eye(len(a)) - coupling @ transfer[:, a]
@@ -221,7 +221,7 @@ def characteristic_matrix(
 def determinant_on_axis(
     transfer: np.ndarray, rate: np.ndarray, solid: Solid, omega: float, theta0: float, loads0: np.ndarray
 ) -> tuple[np.ndarray, complex, complex, complex]:
-    """``T(iω)``, ``det T`` and its derivatives ``∂/∂ω`` and ``∂/∂ log U*`` (MODEL.md §8) from
+    """``T(iω)``, ``det T`` and its derivatives ``∂/∂ω`` and ``∂/∂ log U*`` (docs/model.md §8) from
     ``G(iω)`` and ``dG/ds`` (``transfer``, ``rate``), by Jacobi's formula
     ``d det T = det T · tr(T⁻¹ dT)``; ``U*`` enters the in-vacuo rows only."""
     p0, coupling, a = _solid_parts(solid, theta0, loads0)
@@ -237,7 +237,7 @@ def determinant_on_axis(
 def determinant_gradient(
     transfer: np.ndarray, rate: np.ndarray, solid: Solid, omega: float, theta0: float, loads0: np.ndarray
 ) -> tuple[np.ndarray, complex, np.ndarray]:
-    """``T(iω)``, ``det T`` and its gradient ``∂/∂(ω, log U*, log m)`` (MODEL.md §8; three complex
+    """``T(iω)``, ``det T`` and its gradient ``∂/∂(ω, log U*, log m)`` (docs/model.md §8; three complex
     numbers) from ``G(iω)`` and ``dG/ds``. Every aerodynamic term of the solid rows scales with
     ``1/m``, so ``∂T/∂(log m) = -(T - T_vac)`` with ``T_vac = P_vac + iωI`` the in-vacuo part."""
     t, det, d_omega, d_logu = determinant_on_axis(transfer, rate, solid, omega, theta0, loads0)
@@ -248,7 +248,7 @@ def determinant_gradient(
 
 
 class TransferDeterminant:
-    """The exact-transfer formulation of the neutral point in the ``(m, U*)`` plane (MODEL.md §8):
+    """The exact-transfer formulation of the neutral point in the ``(m, U*)`` plane (docs/model.md §8):
     ``f(y) = det T(iω; U*, m) / scale`` for :class:`fsistab.neutral_point.DeterminantProblem`, in
     ``y = (ω, log U*, log m)``. ``G(iω)`` and ``dG/ds`` are memoised per frequency: the residual
     and the Jacobian at one Newton iterate share one factorisation of ``K_ff(iω)``. ``refine``:
@@ -328,7 +328,7 @@ def transfer_flutter_point(
 
     Each iteration costs one factorisation of ``K_ff(iω)`` and two back-substitutions (``G`` and
     ``dG/ds``); ``∂T/∂U*`` touches the solid part only. The counterpart, with a 4 × 4 determinant in
-    place of the augmented sparse system, of :func:`fsistab.critical.flutter_point` (MODEL.md §8).
+    place of the augmented sparse system, of :func:`fsistab.critical.flutter_point` (docs/model.md §8).
     """
     counter = counter if counter is not None else FactorCounter()
     start = counter.count
@@ -389,7 +389,7 @@ def viscous_theodorsen_dataset(
     samples_path: Path | None = None,
 ) -> xr.Dataset:
     """``G(iω)`` at ``frequencies`` (> 0, time unit ``L/U∞``) and the loads ``(C_L, C_M)`` per unit
-    ``(ĥ, θ̂)`` it gives (:func:`aerodynamic_loads`), beside Theodorsen's loads (MODEL.md §9, ``a = 0``,
+    ``(ĥ, θ̂)`` it gives (:func:`aerodynamic_loads`), beside Theodorsen's loads (docs/model.md §9, ``a = 0``,
     ``k = ω/2``) with thin-airfoil slopes and with the viscous static slopes of the same steady state
     (calibrated): the viscous Theodorsen function. One factorisation per frequency, one more for the
     slopes. Complex values carry a ``part`` dimension (real, imag). With ``samples_path``, every

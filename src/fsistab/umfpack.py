@@ -2,16 +2,15 @@
 
 NGSolve's wheel links SuiteSparse's UMFPACK into ``libngla`` and exports its ``umfpack_dl_*`` and
 ``umfpack_zl_*`` entry points (64-bit indices, real and complex); this module calls them through
-ctypes, on a SciPy CSC matrix. Against ``BaseMatrix.Inverse(inverse="umfpack")`` it gains, measured
-on the medium plate Jacobian (110 k unknowns, complex, one thread; docs/performance.md):
+ctypes, on a SciPy CSC matrix. Against ``BaseMatrix.Inverse(inverse="umfpack")`` it gains
+(docs/performance.md, "Where a solve went"):
 
-* **solves 3.5× cheaper** (121 ms against 426–457 ms): NGSolve's solve runs UMFPACK's iterative
-  refinement (``UMFPACK_IRSTEP = 2``), which estimates backward errors at the cost of extra
-  products and solves. Here the plain solve is the default and one refinement step is done in
-  NumPy on request (:meth:`LU.solve` ``refine``), which brings the relative residual from about
-  1e-7 to 1e-12 for one extra solve;
+* **cheaper solves**: NGSolve's solve runs UMFPACK's iterative refinement
+  (``UMFPACK_IRSTEP = 2``), which estimates backward errors at the cost of extra products and
+  solves. Here the plain solve is the default and one refinement step is done in NumPy on request
+  (:meth:`LU.solve` ``refine``), for one extra solve;
 * **the symbolic analysis reused** (:class:`Analysis`) for every matrix of the same sparsity
-  pattern — ``J + sM`` at every shift ``s`` — saving about 15 % of each factorisation;
+  pattern — ``J + sM`` at every shift ``s`` — instead of redone in each factorisation;
 * no reassembly of ``J + sM`` by NGSolve: the matrix is formed from SciPy blocks.
 
 The ngsolve version is pinned in ``pyproject.toml``; if the symbols were missing, :func:`available`
@@ -190,12 +189,11 @@ def nested_dissection(matrix: sp.spmatrix) -> np.ndarray:
 def symmetric_analysis(matrix: sp.spmatrix, ordering: np.ndarray | None = None) -> Analysis:
     """:class:`Analysis` with UMFPACK's symmetric strategy (diagonal pivots preferred) on the nested-
     dissection ordering of :func:`nested_dissection`, for a pattern-symmetric matrix such as a
-    Taylor–Hood Jacobian. Measured on the medium plate Jacobian (340 637 unknowns, complex, one
-    thread): numeric factorisation 5.4 s and 1.4 GB against 8.7 s and 1.9 GB with AMD (which was
-    itself about 30 % cheaper than the default strategy). The strategy and ordering are kept in the
-    analysis, so every :class:`LU` made with it follows them. ``ordering``: that of another
-    analysis of the same pattern (e.g. in the other arithmetic) instead of a new one (METIS takes
-    3.1 s of the 4.7 s of an analysis of the medium plate Jacobian)."""
+    Taylor–Hood Jacobian: its numeric factorisations take less time and memory than with AMD or
+    the default strategy (docs/performance.md, "The sparse LU: a nested-dissection ordering"). The
+    strategy and ordering are kept in the analysis, so every :class:`LU` made with it follows them.
+    ``ordering``: that of another analysis of the same pattern (e.g. in the other arithmetic)
+    instead of a new one, since METIS takes most of an analysis's time."""
     control = _control()
     control[_STRATEGY] = _STRATEGY_SYMMETRIC
     control[_ORDERING] = _ORDERING_GIVEN
