@@ -34,7 +34,7 @@ def main() -> None:
         "--backend",
         default="umfpack",
         choices=("umfpack", "ngsolve"),
-        help="fsistab.umfpack (default) or NGSolve's UMFPACK (the solver before issue 15)",
+        help="fsistab.umfpack (default) or NGSolve's UMFPACK (the earlier solver)",
     )
     args = parser.parse_args()
     SetNumThreads(2)

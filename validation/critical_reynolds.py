@@ -89,7 +89,7 @@ def main() -> None:
     ds = onset_dataset(
         result,
         {
-            "case": "fixed cylinder, critical Reynolds number of the wake (REFERENCE.md §A)",
+            "case": "fixed cylinder, critical Reynolds number of the wake (docs/validation.md)",
             "critical_reynolds": result.critical_value,
             "critical_frequency": result.frequency,
             "ndof": result.iterates[-1].unknowns,

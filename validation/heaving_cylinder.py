@@ -272,7 +272,7 @@ def main() -> None:
         },
         coords={"reduced_velocity": u, "branch": list(BRANCHES)},
         attrs={
-            "case": "heaving cylinder, REFERENCE.md §B; MODEL.md §10 scalings",
+            "case": "heaving cylinder (docs/validation.md); docs/model.md §10 scalings",
             "convention": "sigma = growth_rate + i frequency of sigma M q + J q = 0; time unit D/U",
             "reynolds": reynolds,
             "mass_ratio": m,

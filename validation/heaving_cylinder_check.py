@@ -145,7 +145,7 @@ def main() -> None:
             },
             coords={"reduced_velocity": velocities, "candidate": np.arange(k)},
             attrs={
-                "case": "heaving cylinder, REFERENCE.md §B: Arnoldi near i omega_n sqrt(m/(m+1))",
+                "case": "heaving cylinder (docs/validation.md): Arnoldi near i omega_n sqrt(m/(m+1))",
                 "reynolds": reynolds,
                 "mass_ratio": m,
                 "mesh": json_attr(spec.describe()),

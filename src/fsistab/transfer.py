@@ -459,7 +459,7 @@ def viscous_theodorsen_dataset(
                 "transfer: body-axis loads (F_x, F_y, M) [rho U^2 L] per unit (h, theta, hdot, thetadot) "
                 "~ e^{st}, "
                 "s = i*frequency, time unit L/U; loads: (C_L, C_M about G, counter-clockwise +) per unit "
-                "(h, theta); reduced_frequency k = omega b/U with b = L/2 (MODEL.md §9)"
+                "(h, theta); reduced_frequency k = omega b/U with b = L/2 (docs/model.md §9)"
             ),
         },
     )
