@@ -45,7 +45,8 @@ TIMEOUT = 600.0  # seconds per script: a hung solver fails the build instead of 
 STDERR_TAIL = 40  # lines of a failing script's stderr quoted in the build error
 
 # script stem -> the figures it draws on the coarse mesh (each also stored in docs/gallery/figures);
-# quick: about 10 s each on one core with the coarse steady state cached, under 15 s without it
+# quick: about 10 s of CPU each for the first two with the coarse steady state cached, under 40 s
+# for the wake onset (its steady states at Re 500 from rest)
 EXECUTED: dict[str, tuple[str, ...]] = {
     "plot_steady_flow": ("steady_plate_Re2900_a0.png",),
     "plot_spectrum": (
@@ -55,6 +56,11 @@ EXECUTED: dict[str, tuple[str, ...]] = {
         "anti-flutter_plate_Re2900_a0_m1000_U4.7.png",
         "anti-flutter_plate_Re2900_a0_m1000_U4.7_motion.png",
         "wake_plate_Re2900_a0_m1000_U4.7.png",
+    ),
+    "plot_wake_onset": (
+        "wake_onset_Re500_coarse.png",
+        "wake_onset_steady_Re500_a9.77_coarse.png",
+        "wake_onset_mode_Re500_a9.77_coarse.png",
     ),
 }
 
