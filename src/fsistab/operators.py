@@ -12,6 +12,11 @@ Loads are the reaction loads ``(F_x, F_y, M)`` in body axes, ``F·ℓ = -(ℓᵀ
 their derivatives are rows ``-ℓᵀ A`` and their inertia rows ``-ℓᵀ M`` (the wall-adjacent fluid
 mass that the lifting puts into the force, consistent with the discrete equations).
 Everything here depends on (mesh, Re, α0) only, never on the solid parameters.
+
+Every term of the momentum equation is written once, as a :class:`Term` (``TERMS``: Navier–Stokes in
+the moving frame, the time derivative, the frame's rotation, the sponge); ``J_ff``, ``M_f``, the
+solid columns, the shifted matrix ``J_ff + s M_f``, the nonlinear residual of the finite-difference
+checks and the base-flow variation of the sensitivities are sums over them.
 """
 
 from __future__ import annotations
@@ -314,7 +319,9 @@ class Term:
       perturbation ``q_s`` (the base-flow gradient of :mod:`fsistab.sensitivity`).
 
     A part a term lacks is None. A new term (a PML, a forcing) is one subclass added to ``TERMS``:
-    every operator, the residual and the base-flow gradient are sums over the terms.
+    every operator, the residual and the base-flow gradient are sums over the terms. A term that is
+    not part of the steady problem (:mod:`fsistab.steady`) must vanish at the steady state, whose
+    loads ``loads0`` are the steady problem's reaction loads.
     """
 
     def residual(self, fields: SteadyFields, motion: Motion, trial, test):
