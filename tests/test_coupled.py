@@ -1,5 +1,5 @@
-"""The coupled Jacobian against finite differences of the nonlinear residual (MODEL.md §5, §7),
-and the eigen-solver against analytic limits (REFERENCE.md §B)."""
+"""The coupled Jacobian against finite differences of the nonlinear residual (docs/model.md §5, §7),
+and the eigen-solver against analytic limits (docs/validation.md, heaving cylinder)."""
 
 import math
 
@@ -142,7 +142,8 @@ def cylinder_60():
 
 
 def test_fixed_cylinder_wake_mode_coarse(cylinder_60):
-    """REFERENCE.md §A, Re = 60: 0.0468 + 0.745i (coarse mesh here: a loose check)."""
+    """docs/validation.md, fixed cylinder's leading global mode, Re = 60: 0.0468 + 0.745i (coarse mesh
+    here: a loose check)."""
     pairs = eigenpairs_near(CoupledSystem(cylinder_60, Solid(dofs=())), [0.75j], 3)
     leading = pairs[0]
     assert leading.label == "fluid" and leading.residual < 1e-8
@@ -151,12 +152,11 @@ def test_fixed_cylinder_wake_mode_coarse(cylinder_60):
 
 
 def test_heaving_cylinder_limits(cylinder_60):
-    """REFERENCE.md §B (Re = 60, m = 20): as U* -> 0 the fluid mode tends to the fixed-cylinder
-    mode and the solid mode to iω_n √(m/(m + C_m)).
-
-    ``C_m = 1`` (potential flow) is the high-frequency limit; at finite Stokes number
-    ``β = D²f/ν = Re ω/2π`` Stokes' oscillating cylinder gives ``C_m = 1 + 4(πβ)^-1/2 + (πβ)^-3/2``
-    (Sarpkaya 1986), which at U* = 3 (β ≈ 19) lowers the frequency by 1.2 %."""
+    """docs/validation.md, heaving cylinder (Re = 60, m = 20): as U* -> 0 the fluid mode tends to the
+    fixed-cylinder mode and the solid mode to iω_n √(m/(m + C_m)). ``C_m = 1`` (potential flow) is the
+    high-frequency limit; at finite Stokes number ``β = D²f/ν = Re ω/2π`` Stokes' oscillating cylinder
+    gives ``C_m = 1 + 4(πβ)^-1/2 + (πβ)^-3/2`` (Sarpkaya 1986), which at U* = 3 (β ≈ 19) lowers the
+    frequency by 1.2 %."""
     fixed = eigenpairs_near(CoupledSystem(cylinder_60, Solid(dofs=())), [0.75j], 3)[0].value
     reduced_velocity = 3.0
     omega_n = 2 * math.pi / reduced_velocity

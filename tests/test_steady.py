@@ -16,7 +16,7 @@ from fsistab.steady import load_steady, solve_steady, steady_key, steady_path
 
 
 def test_symmetric_plate_has_no_lift_or_moment(plate_2900):
-    """MODEL.md §6 / REFERENCE.md §E: at α0 = 0 the steady flow is symmetric."""
+    """docs/model.md §6: at α0 = 0 the steady flow is symmetric."""
     c = aerodynamic_coefficients(plate_2900)
     assert abs(c.lift) < 1e-10
     assert abs(c.moment) < 1e-10
@@ -138,7 +138,8 @@ def test_recirculation_behind_cylinder_grows_with_reynolds(cylinder_coarse_40):
     [(40, (1.50, 1.54), (2.2, 2.3)), (50, None, (2.9, 3.0))],
 )
 def test_cylinder_against_reference_medium_mesh(reynolds, drag_range, length_range):
-    """REFERENCE.md §A on the medium mesh, default domain [-50, 100] × [-50, 50]."""
+    """docs/validation.md (fixed cylinder, steady flow) on the medium mesh, default domain
+    [-50, 100] × [-50, 50]."""
     steady = solve_steady(mesh_spec(Cylinder(), "medium", reynolds), Flow(reynolds))
     if drag_range:
         assert drag_range[0] <= aerodynamic_coefficients(steady).drag <= drag_range[1]

@@ -50,6 +50,12 @@ def solid_stiffness(solid: Solid) -> np.ndarray:
     )
 
 
+def solid_mass(solid: Solid) -> np.ndarray:
+    """In-vacuo solid rows of ``M_s`` (4 × 4, docs/model.md §7): ``I₄``, the rows being divided by the
+    solid inertia (``/m``, ``/(m r_θ²)``), before the fluid's load inertia."""
+    return np.eye(4)
+
+
 def stiffness_derivative(solid: Solid) -> np.ndarray:
     """``∂J_ss/∂U*`` (4 × 4, docs/model.md §7): derivative of the in-vacuo rows of :func:`solid_stiffness`
     (``ω_h = Ω/U*``, ``ω_θ = 1/U*``); ``U*`` enters ``J`` nowhere else."""
@@ -78,7 +84,7 @@ def solid_blocks(
     jss = solid_stiffness(solid).astype(np.result_type(load_s, float))
     jss[2:, :] -= coefficient_rows @ load_s
     jss[2, 1] -= dcl_dtheta / solid.mass_ratio  # the steady force rotated with the body
-    mss = np.eye(4, dtype=np.result_type(load_mass_s, float))
+    mss = solid_mass(solid).astype(np.result_type(load_mass_s, float))
     mss[2:, :] -= coefficient_rows @ load_mass_s
     return jss, mss, coefficient_rows
 

@@ -12,6 +12,11 @@ Loads are the reaction loads ``(F_x, F_y, M)`` in body axes, ``F·ℓ = -(ℓᵀ
 their derivatives are rows ``-ℓᵀ A`` and their inertia rows ``-ℓᵀ M`` (the wall-adjacent fluid
 mass that the lifting puts into the force, consistent with the discrete equations).
 Everything here depends on (mesh, Re, α0) only, never on the solid parameters.
+
+Every term of the momentum equation is written once, as a :class:`Term` (``TERMS``: Navier–Stokes in
+the moving frame, the time derivative, the frame's rotation, the sponge); ``J_ff``, ``M_f``, the
+solid columns, the shifted matrix ``J_ff + s M_f``, the nonlinear residual of the finite-difference
+checks and the base-flow variation of the sensitivities are sums over them.
 """
 
 from __future__ import annotations
@@ -200,56 +205,341 @@ def rotation_target(steady: SteadyState):
     return Grad(base) * CF((-y, x)) - CF((-base[1], base[0]))
 
 
-def _with_sponge(sigma, integrand, u, v):
-    """``integrand + σ u·v``, the sponge's part of the linearised momentum equation added (the
-    integrand itself without a sponge, ``sigma`` None)."""
-    from ngsolve import InnerProduct
-
-    return integrand if sigma is None else integrand + sigma * InnerProduct(u, v)
+# ---------------------------------------------------------------------------------------------
+# the terms of the fluid's momentum equation (docs/model.md §4) and of its linearisation (§7)
 
 
-def fluid_operators(steady: SteadyState) -> FluidOperators:
-    """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each), with
-    the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one (:class:`fsistab.params.Sponge`)."""
-    from ngsolve import CF, BilinearForm, Grad, IfPos, InnerProduct, dx, x, y
+def _dot(a, b):
+    """``a·b`` of two 2-vector CoefficientFunctions, without conjugation."""
+    return a[0] * b[0] + a[1] * b[1]
 
-    space, n_all = steady.space, steady.space.ndof
-    theta0 = steady.flow.theta0
-    base = steady.velocity
-    grid_velocity = CF(wall_velocity(theta0))
+
+def _total(parts):
+    """The sum of the integrands that are not None, in order (None if there is none)."""
+    total = None
+    for part in parts:
+        if part is not None:
+            total = part if total is None else total + part
+    return total
+
+
+@dataclass(frozen=True)
+class SteadyFields:
+    """What the terms need of the steady state ``q⁰`` (docs/model.md §6): ``U⁰``, ``θ0``, ``Re⁻¹``, the
+    grid velocity ``W⁰ = R(θ0)ᵀ(-1, 0)ᵀ`` and the sponge's ``σ(X)`` (None without a sponge)."""
+
+    steady: SteadyState
+    sigma: object
+
+    @property
+    def velocity(self):
+        return self.steady.velocity
+
+    @property
+    def theta0(self) -> float:
+        return self.steady.flow.theta0
+
+    @property
+    def inv_reynolds(self) -> float:
+        return 1.0 / self.steady.flow.reynolds
+
+    @property
+    def grid_velocity(self):
+        from ngsolve import CF
+
+        return CF(wall_velocity(self.theta0))
+
+
+def steady_fields(steady: SteadyState) -> SteadyFields:
+    """The :class:`SteadyFields` of ``steady``, with the sponge of its mesh specification."""
+    return SteadyFields(steady, sponge_coefficient(steady))
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The solid state ``(θ, ḣ, θ')`` as NGSolve parameters, for the nonlinear residual: the grid
+    velocity ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` of docs/model.md §4 (``h`` never enters the fluid)."""
+
+    theta: object
+    hdot: object
+    thetadot: object
+
+    @classmethod
+    def at_rest(cls) -> Motion:
+        from ngsolve import Parameter
+
+        return cls(Parameter(0.0), Parameter(0.0), Parameter(0.0))
+
+    def set(self, q_solid: np.ndarray) -> None:
+        """Set the parameters to the solid state ``(h, θ, ḣ, θ')``."""
+        self.theta.Set(q_solid[1])
+        self.hdot.Set(q_solid[2])
+        self.thetadot.Set(q_solid[3])
+
+    @property
+    def grid_velocity(self):
+        from ngsolve import CF, cos, sin, x, y
+
+        ct, st = cos(self.theta), sin(self.theta)
+        return CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
+
+
+def grid_velocity_direction(theta0: float, state: str):
+    """``∂W/∂q_s`` for ``state`` in ``("theta", "hdot", "thetadot")`` at ``ḣ = θ' = 0``: the uniform
+    ``W_θ``, ``W_ḣ`` of :func:`grid_velocity_derivatives` and the rotation ``(-Y, X)`` (docs/model.md §7)."""
+    from ngsolve import CF, x, y
+
+    if state == "thetadot":
+        return CF((-y, x))
+    return CF(grid_velocity_derivatives(theta0)[state])
+
+
+def grid_velocity_perturbation(theta0: float, q_solid: np.ndarray):
+    """``ŵ = W_θ θ̂ + W_ḣ ḣ̂ + θ̂'(-Y, X)`` for a real solid perturbation ``(ĥ, θ̂, ḣ̂, θ̂')``
+    (docs/model.md §7)."""
+    from ngsolve import CF, x, y
+
+    dw = grid_velocity_derivatives(theta0)
+    z = q_solid
+    return CF(tuple(dw["theta"][i] * z[1] + dw["hdot"][i] * z[2] for i in range(2))) + z[3] * CF((-y, x))
+
+
+class Term:
+    """One term of the fluid's momentum equation, ``R_f(q) = Σ terms`` (docs/model.md §4, §7), by its parts:
+
+    * ``residual``: its integrand in the nonlinear residual, for the trial state ``(U, P)`` and the
+      solid :class:`Motion` (the finite-difference checks of :class:`FluidResidual`);
+    * ``sources``: its parts that do not depend on the fluid state, as ``(weight(q_s), integrand of
+      the test function)`` pairs, subtracted from the residual;
+    * ``stiffness``, ``mass``: its integrands in ``J_ff`` and ``M_f`` at the steady state;
+    * ``solid_column``: its explicit derivative with respect to ``θ``, ``ḣ`` or ``θ'`` (the fluid rows
+      of the solid columns of ``J``, before the wall coupling);
+    * ``base_variation``: the derivative of ``(v, J q)`` with respect to the steady velocity in the
+      direction ``δ``, for the direct velocity ``u``, the test field ``v`` and a real solid
+      perturbation ``q_s`` (the base-flow gradient of :mod:`fsistab.sensitivity`).
+
+    A part a term lacks is None. A new term (a PML, a forcing) is one subclass added to ``TERMS``:
+    every operator, the residual and the base-flow gradient are sums over the terms. A term that is
+    not part of the steady problem (:mod:`fsistab.steady`) must vanish at the steady state, whose
+    loads ``loads0`` are the steady problem's reaction loads.
+    """
+
+    def residual(self, fields: SteadyFields, motion: Motion, trial, test):
+        return None
+
+    def sources(self, fields: SteadyFields, v) -> list:
+        return []
+
+    def stiffness(self, fields: SteadyFields, trial, test):
+        return None
+
+    def mass(self, fields: SteadyFields, trial, test):
+        return None
+
+    def solid_column(self, fields: SteadyFields, state: str, v):
+        return None
+
+    def base_variation(self, fields: SteadyFields, delta, u, v, q_solid: np.ndarray):
+        return None
+
+
+class NavierStokes(Term):
+    """Convection relative to the grid, stress and continuity, ``(∇U)(U − W) − ∇·σ(U, P)``, ``∇·U``
+    (docs/model.md §4; :func:`fsistab.steady.momentum_form` and its linearisation): the grid
+    velocity ``W`` carries the solid state, hence the shape derivatives ``-(∇U⁰) ∂W/∂q_s``."""
+
+    def residual(self, fields, motion, trial, test):
+        return momentum_form(*trial, *test, motion.grid_velocity, fields.inv_reynolds)
+
+    def stiffness(self, fields, trial, test):
+        return momentum_linearisation(
+            *trial, *test, fields.velocity, fields.grid_velocity, fields.inv_reynolds
+        )
+
+    def solid_column(self, fields, state, v):
+        from ngsolve import Grad, InnerProduct
+
+        return -InnerProduct(Grad(fields.velocity) * grid_velocity_direction(fields.theta0, state), v)
+
+    def base_variation(self, fields, delta, u, v, q_solid):
+        """``((∇u)δ + (∇δ)u − (∇δ)ŵ, v)``."""
+        from ngsolve import Grad
+
+        w = grid_velocity_perturbation(fields.theta0, q_solid)
+        return _dot(Grad(u) * delta, v) + _dot(Grad(delta) * u, v) - _dot(Grad(delta) * w, v)
+
+
+class TimeDerivative(Term):
+    """``∂U/∂t``: the velocity mass ``(u, v)`` of ``M_f`` (docs/model.md §5, §7)."""
+
+    def mass(self, fields, trial, test):
+        from ngsolve import InnerProduct
+
+        return InnerProduct(trial[0], test[0])
+
+
+class FrameRotation(Term):
+    """``θ' e_z∧U`` of the rotating body frame (docs/model.md §4): zero in ``J_ff`` (``θ'⁰ = 0``), the
+    column ``(e_z∧U⁰, v)`` on ``θ'``."""
+
+    def residual(self, fields, motion, trial, test):
+        from ngsolve import CF, InnerProduct
+
+        u = trial[0]
+        return motion.thetadot * InnerProduct(CF((-u[1], u[0])), test[0])
+
+    def solid_column(self, fields, state, v):
+        from ngsolve import CF, InnerProduct
+
+        if state != "thetadot":
+            return None
+        base = fields.velocity
+        return InnerProduct(CF((-base[1], base[0])), v)
+
+    def base_variation(self, fields, delta, u, v, q_solid):
+        """``θ̂' (e_z∧δ, v)``."""
+        from ngsolve import CF
+
+        return q_solid[3] * _dot(CF((-delta[1], delta[0])), v)
+
+
+class SpongeLayer(Term):
+    """The outlet sponge and its far-field layer, ``σ (U − U⁰ − (θ − θ0) u_θ)``
+    (:class:`fsistab.params.Sponge`, :func:`sponge_coefficient`): ``σ u`` in ``J_ff``, ``-σ u_θ`` on the
+    ``θ`` column (its target turns with the body, :func:`rotation_target`); nothing without a sponge."""
+
+    def residual(self, fields, motion, trial, test):
+        from ngsolve import InnerProduct
+
+        return None if fields.sigma is None else fields.sigma * InnerProduct(trial[0], test[0])
+
+    def sources(self, fields, v):
+        """``∫ σ U⁰·v`` and ``(θ − θ0) ∫ σ u_θ·v``, the sponge's target."""
+        from ngsolve import InnerProduct
+
+        if fields.sigma is None:
+            return []
+        theta0, sigma = fields.theta0, fields.sigma
+        return [
+            (lambda q_solid: 1.0, sigma * InnerProduct(fields.velocity, v)),
+            (lambda q_solid: q_solid[1] - theta0, sigma * InnerProduct(rotation_target(fields.steady), v)),
+        ]
+
+    def stiffness(self, fields, trial, test):
+        return self.residual(fields, None, trial, test)
+
+    def solid_column(self, fields, state, v):
+        from ngsolve import InnerProduct
+
+        if fields.sigma is None or state != "theta":
+            return None
+        return -(fields.sigma * InnerProduct(rotation_target(fields.steady), v))
+
+    def base_variation(self, fields, delta, u, v, q_solid):
+        """``-θ̂ σ ((∇δ)(-Y, X) − e_z∧δ, v)``: the target ``θ̂ u_θ`` is linear in ``U⁰``."""
+        from ngsolve import CF, Grad, x, y
+
+        pitch = q_solid[1]
+        if fields.sigma is None or pitch == 0:
+            return None
+        return -(pitch * fields.sigma * _dot(Grad(delta) * CF((-y, x)) - CF((-delta[1], delta[0])), v))
+
+
+TERMS: tuple[Term, ...] = (NavierStokes(), TimeDerivative(), FrameRotation(), SpongeLayer())
+
+
+def stiffness_integrand(fields: SteadyFields, trial, test, terms=TERMS):
+    """``J_ff``'s integrand, the sum of the terms' linearisations at the steady state (docs/model.md §7)."""
+    return _total(term.stiffness(fields, trial, test) for term in terms)
+
+
+def mass_integrand(fields: SteadyFields, trial, test, terms=TERMS):
+    """``M_f``'s integrand (docs/model.md §7)."""
+    return _total(term.mass(fields, trial, test) for term in terms)
+
+
+def shifted_integrand(fields: SteadyFields, trial, test, shift, terms=TERMS):
+    """``K_ff(s) = J_ff + s M_f``'s integrand, term by term (docs/model.md §7)."""
+
+    def part(term):
+        mass = term.mass(fields, trial, test)
+        return _total([term.stiffness(fields, trial, test), None if mass is None else shift * mass])
+
+    return _total(part(term) for term in terms)
+
+
+def solid_column_integrand(fields: SteadyFields, state: str, v, terms=TERMS):
+    """``∂R_f/∂q_s`` at fixed fluid dofs for ``state`` in ``("theta", "hdot", "thetadot")``: the
+    explicit dependence of the residual on the solid state (docs/model.md §7), None if no term has one."""
+    return _total(term.solid_column(fields, state, v) for term in terms)
+
+
+def residual_integrand(fields: SteadyFields, motion: Motion, trial, test, terms=TERMS):
+    """The nonlinear residual's integrand in the fluid state, for the solid :class:`Motion`
+    (docs/model.md §4), without the terms' sources (:func:`residual_sources`)."""
+    return _total(term.residual(fields, motion, trial, test) for term in terms)
+
+
+def residual_sources(fields: SteadyFields, v, terms=TERMS) -> list:
+    """The residual's parts independent of the fluid state, ``(weight(q_s), integrand)`` pairs."""
+    return [source for term in terms for source in term.sources(fields, v)]
+
+
+def base_flow_variation(fields: SteadyFields, delta, u, v, q_solid: np.ndarray, terms=TERMS):
+    """``∂(v, J q)/∂U⁰`` in the direction ``δ`` (the test function of a linear form), for the direct
+    velocity ``u`` (wall values of the solid motion included), the test field ``v`` and the real
+    solid perturbation ``q_s = (ĥ, θ̂, ḣ̂, θ̂')``, summed over the terms (docs/model.md §7): the
+    integrand of :func:`fsistab.sensitivity.base_flow_gradient`, one real part at a time."""
+    return _total(term.base_variation(fields, delta, u, v, q_solid) for term in terms)
+
+
+# ---------------------------------------------------------------------------------------------
+# the assembled operators
+
+
+def _solid_columns(fields: SteadyFields, terms=TERMS) -> np.ndarray:
+    """The explicit solid columns ``(h, θ, ḣ, θ')`` of the residual's derivative (ndof × 4), one
+    compiled linear form each (zero for ``h``, which never enters the fluid)."""
+    space = fields.steady.space
+    columns = [np.zeros(space.ndof)]
+    for state in SOLID_STATE[1:]:
+        columns.append(
+            _linear_form_vector(
+                space, lambda v, q, state=state: solid_column_integrand(fields, state, v, terms)
+            )
+        )
+    return np.column_stack(columns)
+
+
+def _bilinear_matrices(fields: SteadyFields, terms=TERMS) -> tuple[sp.csr_matrix, ...]:
+    """``J_ff``, ``M_f`` and the near-body mass on the whole space, SciPy CSR (one assembly each)."""
+    from ngsolve import BilinearForm, IfPos, dx, x, y
+
+    space, n_all = fields.steady.space, fields.steady.space.ndof
     (u, p), (v, q) = space.TnT()
-    sigma = sponge_coefficient(steady)
-
     jacobian = BilinearForm(space)
-    linearisation = momentum_linearisation(u, p, v, q, base, grid_velocity, 1.0 / steady.flow.reynolds)
-    # compiled: the sum of the linearisation and the sponge's term assembles several times faster
-    # than uncompiled, the matrix identical to the bit
-    jacobian += _with_sponge(sigma, linearisation, u, v).Compile() * dx
+    # compiled: the sum of the terms assembles several times faster than uncompiled, the matrix
+    # identical to the bit
+    jacobian += stiffness_integrand(fields, (u, p), (v, q), terms).Compile() * dx
     jacobian.Assemble()
+    mass_term = mass_integrand(fields, (u, p), (v, q), terms)
     mass = BilinearForm(space)
-    mass += InnerProduct(u, v) * dx
+    mass += mass_term * dx
     mass.Assemble()
     near = BilinearForm(space)
-    near += IfPos(NEAR_RADIUS**2 - x * x - y * y, 1.0, 0.0) * InnerProduct(u, v) * dx
+    near += IfPos(NEAR_RADIUS**2 - x * x - y * y, 1.0, 0.0) * mass_term * dx
     near.Assemble()
-    a_all, m_all = _to_scipy(jacobian.mat, n_all), _to_scipy(mass.mat, n_all)
+    return tuple(_to_scipy(form.mat, n_all) for form in (jacobian, mass, near))
 
-    # shape derivatives: the residual's explicit dependence on (θ, ḣ, θ') through W and θ' e_z∧U
-    dw = grid_velocity_derivatives(theta0)
 
-    def theta_column(v, q):
-        term = -InnerProduct(Grad(base) * CF(dw["theta"]), v)
-        if sigma is not None:  # the sponge's target turns with the body: -σ u_θ
-            term = term - sigma * InnerProduct(rotation_target(steady), v)
-        return term
-
-    d_theta = _linear_form_vector(space, theta_column)
-    d_hdot = _linear_form_vector(space, lambda v, q: -InnerProduct(Grad(base) * CF(dw["hdot"]), v))
-    d_thetadot = _linear_form_vector(
-        space,
-        lambda v, q: -InnerProduct(Grad(base) * CF((-y, x)), v) + InnerProduct(CF((-base[1], base[0])), v),
-    )
-    explicit = np.column_stack([np.zeros(n_all), d_theta, d_hdot, d_thetadot])
+def fluid_operators(steady: SteadyState, terms=TERMS) -> FluidOperators:
+    """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each): the
+    sum of ``terms``, with the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one
+    (:class:`fsistab.params.Sponge`), and the wall coupling of the solid state."""
+    fields = steady_fields(steady)
+    theta0 = steady.flow.theta0
+    a_all, m_all, near_all = _bilinear_matrices(fields, terms)
+    explicit = _solid_columns(fields, terms)
 
     # wall coupling: u_Γ(q_s) = L a(q_s), so ∂u/∂q_s = L ∂a/∂q_s
     lifting = wall_lifting_matrix(steady)
@@ -258,7 +548,7 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
     j_all_s = a_all @ wall_columns + explicit
     m_all_s = m_all @ wall_columns
 
-    index = free_dof_indices(space)
+    index = free_dof_indices(steady.space)
     loads = reaction_loads(steady)
     lift_t = sp.csr_matrix(lifting.T)
     return FluidOperators(
@@ -275,31 +565,27 @@ def fluid_operators(steady: SteadyState) -> FluidOperators:
         load_mass_s=-(lifting.T @ m_all_s),
         loads0=np.array([loads["force_x"], loads["force_y"], loads["moment"]]),
         theta0=theta0,
-        mff_near=_to_scipy(near.mat, n_all)[index][:, index].tocsr(),
+        mff_near=near_all[index][:, index].tocsr(),
     )
 
 
-def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
+def shifted_fluid_matrix(fluid: FluidOperators, shift: complex, terms=TERMS):
     """``K_ff(s) = J_ff + s M_f`` (docs/model.md §7) as NGSolve's assembled matrix on the whole space
     (real for a real ``s``) and the mask of the fluid unknowns, ``(form, free dofs)``: the form of
     :func:`fluid_operators`' ``jff`` and ``mff`` assembled in one pass in the arithmetic of ``s``,
     for a factorisation by NGSolve's sparse solvers (:class:`fsistab.linalg.FluidFactor`; SciPy's
     complex sparse matrices cannot be handed to them). The caller keeps ``form`` alive while it
     uses the matrix ``form.mat``."""
-    from ngsolve import CF, BilinearForm, InnerProduct, dx
+    from ngsolve import BilinearForm, dx
 
     steady = fluid.steady
     shift = complex(shift)
     is_complex = shift.imag != 0
     space = taylor_hood_space(steady.mesh, complex=is_complex)
     (u, p), (v, q) = space.TnT()
-    grid_velocity = CF(wall_velocity(fluid.theta0))
     form = BilinearForm(space)
     value = shift if is_complex else shift.real
-    linearisation = momentum_linearisation(
-        u, p, v, q, steady.velocity, grid_velocity, 1.0 / steady.flow.reynolds
-    )
-    integrand = _with_sponge(sponge_coefficient(steady), linearisation + value * InnerProduct(u, v), u, v)
+    integrand = shifted_integrand(steady_fields(steady), (u, p), (v, q), value, terms)
     form += integrand.Compile() * dx  # as in fluid_operators
     form.Assemble()
     return form, space.FreeDofs()
@@ -308,36 +594,29 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex):
 class FluidResidual:
     """The discrete nonlinear fluid residual ``R_f(q_s, q_f)`` and reaction loads (docs/model.md §5).
 
-    For finite-difference checks of every block of :func:`fluid_operators`: the wall dofs are set
-    from the solid state by the nonlinear lifting, the grid velocity is
-    ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` and the rotation term ``θ' e_z∧U`` is included; with a
-    sponge, ``σ (U − U⁰ − (θ − θ0) u_θ)`` (its target, the steady field turned with the body to first
-    order, :func:`rotation_target`; zero at the steady state).
+    For finite-difference checks of every block of :func:`fluid_operators`: the sum of the same
+    ``terms``' residuals. The wall dofs are set from the solid state by the nonlinear lifting, the
+    grid velocity is ``W = R(θ)ᵀ(-1, ḣ)ᵀ + θ'(-Y, X)ᵀ`` and the rotation term ``θ' e_z∧U`` is
+    included; with a sponge, ``σ (U − U⁰ − (θ − θ0) u_θ)`` (its target, the steady field turned with
+    the body to first order, :func:`rotation_target`; zero at the steady state).
     """
 
-    def __init__(self, steady: SteadyState):
-        from ngsolve import CF, BilinearForm, InnerProduct, Parameter, cos, dx, sin, x, y
+    def __init__(self, steady: SteadyState, terms=TERMS):
+        from ngsolve import BilinearForm, dx
 
         self.steady = steady
         space = steady.space
         (u, p), (v, q) = space.TnT()
-        self.theta, self.hdot, self.thetadot = Parameter(0.0), Parameter(0.0), Parameter(0.0)
-        ct, st = cos(self.theta), sin(self.theta)
-        grid_velocity = CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
+        fields = steady_fields(steady)
+        self.motion = Motion.at_rest()
         form = BilinearForm(space)
-        residual = momentum_form(u, p, v, q, grid_velocity, 1.0 / steady.flow.reynolds)
-        sigma = sponge_coefficient(steady)
-        form += _with_sponge(sigma, residual + self.thetadot * InnerProduct(CF((-u[1], u[0])), v), u, v) * dx
+        form += residual_integrand(fields, self.motion, (u, p), (v, q), terms) * dx
         self.form = form
-        # the sponge's target as load vectors ∫ σ U⁰·v and ∫ σ u_θ·v (None without a sponge)
-        self._target = (
-            None
-            if sigma is None
-            else [
-                _linear_form_vector(space, lambda v, q, f=field: sigma * InnerProduct(f, v))
-                for field in (steady.velocity, rotation_target(steady))
-            ]
-        )
+        # the parts independent of the fluid state as (weight(q_s), load vector) pairs
+        self._sources = [
+            (weight, _linear_form_vector(space, lambda v, q, integrand=integrand: integrand))
+            for weight, integrand in residual_sources(fields, v, terms)
+        ]
         self.lifting = wall_lifting_matrix(steady)
         self.index = free_dof_indices(space)
         self._vector = steady.state.vec.CreateVector()
@@ -350,14 +629,12 @@ class FluidResidual:
 
     def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(R_f on the free dofs, loads (F_x, F_y, M) = -ℓᵀ R)`` for solid state ``(h, θ, ḣ, θ')``."""
-        self.theta.Set(q_solid[1])
-        self.hdot.Set(q_solid[2])
-        self.thetadot.Set(q_solid[3])
+        self.motion.set(q_solid)
         self._vector.FV().NumPy()[:] = self.full_state(q_solid, q_fluid)
         self.form.Apply(self._vector, self._residual)
         r = self._residual.FV().NumPy()
-        if self._target is not None:
-            r = r - self._target[0] - (q_solid[1] - self.steady.flow.theta0) * self._target[1]
+        for weight, vector in self._sources:
+            r = r - weight(q_solid) * vector
         return r[self.index].copy(), -(self.lifting.T @ r)
 
     def steady_point(self) -> tuple[np.ndarray, np.ndarray]:
