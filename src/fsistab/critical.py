@@ -505,47 +505,62 @@ def track_thresholds(
     wake_frequency = starts["wake"].frequency if "wake" in starts else None
     found: list[Threshold] = []
     for name, branch in branches.items():
-        growth = np.array([v.real for v in branch.values])
-        for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
-            u0, u1 = branch.parameters[i], branch.parameters[i + 1]
-            weight = growth[i] / (growth[i] - growth[i + 1])
-            guess_velocity = u0 + weight * (u1 - u0)
-            guess = branch.values[i] + weight * (branch.values[i + 1] - branch.values[i])
-            if abs(guess.imag) < 1e-6:
-                continue  # a static crossing: divergence, found below
-            point = flutter_point(
-                fluid,
-                replace(solid, reduced_velocity=guess_velocity),
-                guess.imag,
-                branch.vectors[i + 1],
-                counter=counter,
-            )
-            if abs(point.frequency) <= STATIC_FREQUENCY:
-                continue  # the branch met ω = 0 on the way: the divergence point, found below
-            boundary = "onset" if growth[i] < 0 else "restabilisation"
-            if any(_same_point(point, t) and t.boundary == boundary for t in found if t.branch == name):
-                continue  # the same threshold found twice; an onset and a restabilisation at one
-                # point stay both: the growth rate touches zero there (or one crossing is unresolved)
-            is_viv = name == "wake" or (
-                wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
-            )
-            found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+        found += _branch_crossings(fluid, solid, name, branch, wake_frequency, counter)
     if "pitch" in solid.dofs:
-        # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
-        factor = static_factor or FluidFactor(fluid, 0.0, counter)
-        slope = static_slopes(fluid, factor=factor).moment
-        if slope > 0:
-            # (a little below it: at the root itself the static system is singular)
-            estimate = 0.98 * divergence_velocity(slope, solid.r_theta, solid.mass_ratio)
-            point = divergence_point(
-                fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
-            )
-            if velocities[0] <= point.reduced_velocity <= velocities[-1]:
-                found.append(Threshold("divergence", "onset", "static", point))
+        point = _tracked_divergence(fluid, solid, static_factor, counter)
+        if point is not None and velocities[0] <= point.reduced_velocity <= velocities[-1]:
+            found.append(Threshold("divergence", "onset", "static", point))
     return sorted(found, key=lambda t: t.reduced_velocity), {
         "branches": branches,
         "wake_frequency": wake_frequency,
     }
+
+
+def _branch_crossings(fluid, solid: Solid, name: str, branch, wake_frequency, counter) -> list[Threshold]:
+    """The dynamic thresholds where the growth rate of the tracked ``branch`` (named ``name``)
+    changes sign, each converged by :func:`flutter_point` from the interpolated crossing, each
+    once per boundary."""
+    found: list[Threshold] = []
+    growth = np.array([v.real for v in branch.values])
+    for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
+        u0, u1 = branch.parameters[i], branch.parameters[i + 1]
+        weight = growth[i] / (growth[i] - growth[i + 1])
+        guess_velocity = u0 + weight * (u1 - u0)
+        guess = branch.values[i] + weight * (branch.values[i + 1] - branch.values[i])
+        if abs(guess.imag) < 1e-6:
+            continue  # a static crossing: divergence, found apart
+        point = flutter_point(
+            fluid,
+            replace(solid, reduced_velocity=guess_velocity),
+            guess.imag,
+            branch.vectors[i + 1],
+            counter=counter,
+        )
+        if abs(point.frequency) <= STATIC_FREQUENCY:
+            continue  # the branch met ω = 0 on the way: the divergence point, found apart
+        boundary = "onset" if growth[i] < 0 else "restabilisation"
+        if any(_same_point(point, t) and t.boundary == boundary for t in found):
+            continue  # the same threshold found twice; an onset and a restabilisation at one
+            # point stay both: the growth rate touches zero there (or one crossing is unresolved)
+        is_viv = name == "wake" or (
+            wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
+        )
+        found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+    return found
+
+
+def _tracked_divergence(fluid, solid: Solid, static_factor, counter) -> CriticalPoint | None:
+    """The divergence point by :func:`divergence_point`, started a little below the
+    torsional-divergence estimate ``√(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0; at the root itself the
+    static system is singular); None without a positive moment slope."""
+    factor = static_factor or FluidFactor(fluid, 0.0, counter)
+    slope = static_slopes(fluid, factor=factor).moment
+    if not slope > 0:
+        return None
+    estimate = 0.98 * divergence_velocity(slope, solid.r_theta, solid.mass_ratio)
+    return divergence_point(
+        fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
+    )
 
 
 @dataclass(frozen=True)

@@ -355,7 +355,7 @@ def divergence_velocity_from_determinant(
 
 
 @dataclass(frozen=True)
-class CriticalPoint:
+class TheodorsenPoint:
     """A neutral point along U* at fixed m: ``kind`` flutter or divergence, ``frequency`` ω (U∞/c),
     ``boundary`` onset (unstable just above U*) or restabilisation, ``residual`` |det D|/scale."""
 
@@ -458,7 +458,7 @@ def flutter_points(
     section: TypicalSection,
     velocity_range=(1e-2, 1e2),
     points_per_decade: int = 400,
-) -> list[CriticalPoint]:
+) -> list[TheodorsenPoint]:
     """Every flutter boundary (real ``ω > 0``, ``U*`` in ``velocity_range``) at ``section``'s m.
 
     ``det D(iω; U*)`` (MODEL.md §9) is, for each ``ω``, a quartic in ``w = 1/U*`` (the loads depend
@@ -501,7 +501,7 @@ def flutter_points(
             brackets += [
                 (fine[j], fine[j + 1]) for j in np.nonzero(np.sign(values[1:]) != np.sign(values[:-1]))[0]
             ]
-    found: list[CriticalPoint] = []
+    found: list[TheodorsenPoint] = []
     for a, b in brackets:
         omega = brentq(lambda om: float(indicator_at(om)[0]), a, b, xtol=1e-15, rtol=1e-14)
         w_all = _w_roots(section, omega)[0]
@@ -524,7 +524,7 @@ def flutter_points(
             continue
         boundary = _boundary(section, velocity, omega)
         found.append(
-            CriticalPoint("flutter", s.mass_ratio, float(velocity), float(omega), boundary, residual)
+            TheodorsenPoint("flutter", s.mass_ratio, float(velocity), float(omega), boundary, residual)
         )
     return sorted(found, key=lambda p: p.reduced_velocity)
 
@@ -540,16 +540,16 @@ def _boundary(section: TypicalSection, velocity: float, omega: float, delta: flo
     return "onset" if above.real > below.real else "restabilisation"
 
 
-def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> CriticalPoint | None:
-    """Torsional divergence as a :class:`CriticalPoint` (ω = 0) if its U* is in ``velocity_range``."""
+def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> TheodorsenPoint | None:
+    """Torsional divergence as a :class:`TheodorsenPoint` (ω = 0) if its U* is in ``velocity_range``."""
     lo, hi = _velocity_range(velocity_range)
     velocity = divergence_velocity(section)
     if not (math.isfinite(velocity) and lo <= velocity <= hi):
         return None
-    return CriticalPoint("divergence", section.mass_ratio, velocity, 0.0, "onset", 0.0)
+    return TheodorsenPoint("divergence", section.mass_ratio, velocity, 0.0, "onset", 0.0)
 
 
-def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[CriticalPoint]:
+def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[TheodorsenPoint]:
     """Every flutter boundary and the divergence in ``velocity_range``, sorted by U*."""
     found = flutter_points(section, velocity_range)
     divergence = divergence_point(section, velocity_range)
