@@ -1,4 +1,4 @@
-"""Pseudo-arclength continuation of a curve ``F(y) = 0`` in ``R^N`` (MODEL.md §8), NumPy only.
+"""Pseudo-arclength continuation of a curve ``F(y) = 0`` in ``R^N`` (docs/model.md §8), NumPy only.
 
 The curve is the solution set of ``F: R^N → R^(N-1)``, usually ``y = (x, p)`` with state ``x`` and
 one parameter ``p`` (a complex state is passed as its real and imaginary parts by the caller).

@@ -1,4 +1,4 @@
-"""Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (MODEL.md §8).
+"""Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (docs/model.md §8).
 
 Dynamic instability: the neutral-point problem of :mod:`fsistab.neutral_point` in its augmented
 sparse formulation (:class:`AugmentedProblem`, unknowns ``(q̂, ω, U*, log m)``; the neutral curves
@@ -42,7 +42,7 @@ from fsistab.transfer import transfer_flutter_point
 
 def phase_index(system: CoupledSystem) -> int:
     """Index in the coupled vector of ``h`` (or ``θ`` for a pitch-only system): the phase condition
-    ``Re(q̂_k) = 0`` of MODEL.md §8."""
+    ``Re(q̂_k) = 0`` of docs/model.md §8."""
     labels = system.state_labels()
     for name in ("h", "theta"):
         if name in labels:
@@ -52,7 +52,7 @@ def phase_index(system: CoupledSystem) -> int:
 
 def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
     """``∂(J + iωM)/∂(log m) q``: every aerodynamic term of the solid rows (and its inertia) scales
-    with ``1/m`` (MODEL.md §3), so this is minus the aerodynamic part of the solid rows applied to
+    with ``1/m`` (docs/model.md §3), so this is minus the aerodynamic part of the solid rows applied to
     ``q``."""
     ns = system.n_solid
     full = system.jacobian @ q + 1j * omega * (system.mass @ q)
@@ -65,7 +65,7 @@ def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.nd
 
 
 class AugmentedProblem:
-    """The augmented sparse system of MODEL.md §8 (module doc) in ``y = (Re q̂, Im q̂, ω, U*, μ)``,
+    """The augmented sparse system of docs/model.md §8 (module doc) in ``y = (Re q̂, Im q̂, ω, U*, μ)``,
     ``μ = log m``, for the solid parameters of ``template`` otherwise.
 
     The bordered solve eliminates ``δq̂ = a + δω b + δU* c + δμ d`` with
@@ -213,7 +213,7 @@ def flutter_point(
     maxit: int = 12,
     counter: FactorCounter | None = None,
 ) -> CriticalPoint:
-    """The neutral point of MODEL.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
+    """The neutral point of docs/model.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
     on the augmented sparse system (:class:`AugmentedProblem`, ``m`` held)
     from ``(mode, frequency, solid.reduced_velocity)``.
 
@@ -238,7 +238,7 @@ def flutter_point(
 
 
 class DivergenceProblem:
-    """Static instability (``ω_c = 0``, MODEL.md §8) as a real square system in ``y = (q̂, κ)``,
+    """Static instability (``ω_c = 0``, docs/model.md §8) as a real square system in ``y = (q̂, κ)``,
     ``κ = 1/U*²``, for the solid parameters of ``solid`` otherwise::
 
         J(U*) q̂ = 0,     θ̂ = 1
@@ -424,7 +424,7 @@ def find_thresholds(
     branch follows is missed, and VIV is recognised only with ``wake_shift`` (a crossing of the
     wake branch or within 30 % of its frequency: the tangent of the local rule would cost a
     factorisation per threshold there). Both converge each threshold to the same equation
-    (MODEL.md §8).
+    (docs/model.md §8).
 
     Returns the thresholds sorted by U* and details: ``wake_frequency`` (None without
     ``wake_shift``), and ``frequencies`` sampled (transfer) or the tracked ``branches``.
@@ -587,7 +587,7 @@ def critical_points_along_flow(
     counter: FactorCounter | None = None,
     progress=None,
 ):
-    """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (MODEL.md §8) at fixed solid
+    """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (docs/model.md §8) at fixed solid
     parameters: natural continuation along ``flows`` (ordered), on one mesh ``spec``. A generator
     of :class:`FlowCriticalPoint`, one per flow, so that a caller keeps the points computed before
     a failure (:class:`~fsistab.errors.ConvergenceError`: try smaller steps in the flow parameter).

@@ -1,8 +1,8 @@
 """Neutral curves in the flow-parameter planes ``(Re, U*)`` and ``(α0, U*)`` by pseudo-arclength
-continuation (MODEL.md §8), at fixed solid parameters, through turning points.
+continuation (docs/model.md §8), at fixed solid parameters, through turning points.
 
 A dynamic neutral point at flow parameter ``p`` (``log Re`` or ``α0`` in degrees) solves the two
-real equations of the exact transfer (:mod:`fsistab.transfer`, MODEL.md §8)::
+real equations of the exact transfer (:mod:`fsistab.transfer`, docs/model.md §8)::
 
     det T(iω; U*, p) / d0 = 0,        T = P(U*) + iω I - C G(iω; p),
 

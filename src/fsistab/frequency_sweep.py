@@ -1,5 +1,5 @@
 """Every threshold along U* at one mass ratio from the exact transfer function swept in frequency:
-an exact p–k method (MODEL.md §7–§8).
+an exact p–k method (docs/model.md §7–§8).
 
 On the imaginary axis ``s = iω`` the characteristic function of :mod:`fsistab.transfer_map`,
 
@@ -9,7 +9,7 @@ is, at fixed ``m``, a complex polynomial in ``u`` (degree 2 per active dof; :fun
 At each frequency its roots ``u_k(ω)`` with ``Re u_k > 0`` are the speeds at which the coupled
 system would have a neutral mode of frequency ``ω`` if they were real: a real root is a neutral
 point, ``U*_c = 1/u_k``, ``ω_c = ω``. Elsewhere they are complex, and near the in-vacuo relations
-(``u ≈ ω/Ω`` in heave, ``u ≈ ω`` in pitch, MODEL.md §2) at large ``m``. Where ``G`` is smooth in
+(``u ≈ ω/Ω`` in heave, ``u ≈ ω`` in pitch, docs/model.md §2) at large ``m``. Where ``G`` is smooth in
 ``ω`` so are they, and so is the 2 × 2 load matrix ``A(iω)``, whose derivative ``dA/dω`` each
 sample gives too (with ``dG/ds``). Between two samples the roots are followed on the cubic
 Hermite interpolant of ``A`` (exact at both ends; :func:`_follow`: each root continued in small
@@ -52,7 +52,7 @@ to a relative step ``MIN_STEP`` in ω; intervals left unresolved there, and cros
 iteration does not converge (two crossings about to merge), are reported, not fatal.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
-:class:`fsistab.params.Solid` (MODEL.md §2, §10).
+:class:`fsistab.params.Solid` (docs/model.md §2, §10).
 """
 
 from __future__ import annotations
@@ -562,7 +562,7 @@ def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np
     """The neutral point at ``sample``'s frequency and ``solid``'s ``(m, U*)`` with the exact tangent
     of its neutral curve, ``d(log m, log U*)/dω`` from ``F(log m, log U*, ω) = 0``, and the crossing
     rate ``∂(Re σ)/∂(log U*)`` at fixed m, ``(u F_u/F_s).real`` (> 0: onset)
-    (:func:`fsistab.transfer_map._root_with_tangent`, MODEL.md §7–§8). Where the tangent is not
+    (:func:`fsistab.transfer_map._root_with_tangent`, docs/model.md §7–§8). Where the tangent is not
     defined (``F_m m`` and ``F_u u`` parallel: a fold of the curve in ω, where ``ω`` is stationary
     along it) its derivatives are infinite."""
     omega = sample.s.imag

@@ -1,4 +1,4 @@
-"""Neutral curves in the (m, U*) plane by pseudo-arclength continuation (MODEL.md §8).
+"""Neutral curves in the (m, U*) plane by pseudo-arclength continuation (docs/model.md §8).
 
 A point of a dynamic neutral curve solves, in the unknowns ``y = (Re q̂, Im q̂, ω, U*, μ = log m)``::
 
@@ -423,7 +423,7 @@ def trace_neutral_map(
     counter: FactorCounter | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> NeutralMap:
-    """The stability map of MODEL.md §8 in the plane ``(m, U*)``.
+    """The stability map of docs/model.md §8 in the plane ``(m, U*)``.
 
     Each seed sweep (:func:`fsistab.critical.find_thresholds`) gives thresholds; every dynamic one
     not already on a traced curve is continued towards smaller and larger m

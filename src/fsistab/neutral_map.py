@@ -45,7 +45,7 @@ class TurningPoint:
 
 
 def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarray) -> np.ndarray:
-    """``U*_D(m)`` of :func:`divergence_velocity` on ``mass_ratios`` (MODEL.md §8), as the map
+    """``U*_D(m)`` of :func:`divergence_velocity` on ``mass_ratios`` (docs/model.md §8), as the map
     stores it: NaN (no line to draw) where the slope is not positive."""
     velocities = np.asarray(divergence_velocity(moment_slope, r_theta, mass_ratios))
     return np.where(np.isinf(velocities), np.nan, velocities)
@@ -150,7 +150,7 @@ def frequency_following(
     two points or no change in U* and m).
 
     The solid's frequencies in the fluid are ``(Ω/U*, 1/U*) · √(m/(m + m_a))`` (in-vacuo
-    ``Ω/U*``, ``1/U*``, MODEL.md §2-§3, lowered by an added mass ``m_a``): along a curve they move
+    ``Ω/U*``, ``1/U*``, docs/model.md §2-§3, lowered by an added mass ``m_a``): along a curve they move
     by ``Δ log U*``, and by up to ``½ Δ log m`` more through the mass ratio for a light body.
     Along a flutter curve the critical frequency follows them (at large m ``U* ∝ √m`` and
     ``ω U*`` stays O(1): a following near 1); along a VIV curve it stays locked at the frequency of
@@ -238,7 +238,7 @@ class MapCrossing:
 
 @dataclass(frozen=True)
 class NeutralMap:
-    """Every neutral curve found in the ``(m, U*)`` plane (MODEL.md §8): dynamic curves (flutter,
+    """Every neutral curve found in the ``(m, U*)`` plane (docs/model.md §8): dynamic curves (flutter,
     VIV) with their turning points, the divergence curve ``U*_D(m)`` of the static moment slope,
     and the codimension-two crossings of all of them; ``unresolved`` the frequency intervals
     ``(low, high, reason)`` the transfer method left unresolved (none by continuation)."""
