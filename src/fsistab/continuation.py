@@ -116,46 +116,57 @@ def newton(
     """
     if final_residual and small_step is None:
         raise InputError("final_residual applies to a small_step criterion: give one")
-    y = np.array(start, dtype=float)
-    residuals: list[float] = []
-    path: list[np.ndarray] = []
-    step: np.ndarray | None = None
+    trace = _NewtonTrace(np.array(start, dtype=float))
     previous = math.inf
     stepped_small = False
-
-    def result(converged: bool, iterations: int, reason: str = "") -> NewtonResult:
-        return NewtonResult(y, converged, iterations, tuple(residuals), step, reason, tuple(path))
-
     for iteration in range(max_iterations + 1):
+        y = trace.point
         try:
             residual = np.asarray(problem.residual(y), dtype=float)
         except _RESIDUAL_ERRORS as error:
-            return result(False, iteration, str(error))
+            return trace.result(False, iteration, str(error))
         norm = float(np.linalg.norm(residual))
-        residuals.append(norm)
-        path.append(y)
+        trace.residuals.append(norm)
+        trace.path.append(y)
         if not math.isfinite(norm):
-            return result(False, iteration, "non-finite residual")
+            return trace.result(False, iteration, "non-finite residual")
         if norm < tol or stepped_small:
-            return result(True, iteration)
+            return trace.result(True, iteration)
         if iteration == max_iterations:
             break
         reuse = chord and iteration > 0 and norm <= 0.1 * previous
         previous = norm
         try:
-            step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
+            trace.step = step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
         except np.linalg.LinAlgError as error:
-            return result(problem.singular_is_root, iteration, "" if problem.singular_is_root else str(error))
+            singular = problem.singular_is_root
+            return trace.result(singular, iteration, "" if singular else str(error))
         except _SOLVE_ERRORS as error:
-            return result(False, iteration, str(error))
+            return trace.result(False, iteration, str(error))
         if not np.all(np.isfinite(step)):
-            return result(False, iteration, "non-finite Newton step")
-        y = y + step
-        if small_step is not None and small_step(step, y):
+            return trace.result(False, iteration, "non-finite Newton step")
+        trace.point = y + step
+        if small_step is not None and small_step(step, trace.point):
             if not final_residual:
-                return result(True, iteration + 1)
+                return trace.result(True, iteration + 1)
             stepped_small = True  # converged once G at y is recorded
-    return result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
+    return trace.result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
+
+
+@dataclass
+class _NewtonTrace:
+    """What a Newton iteration has done so far: the current ``point``, the residual norms at the
+    points of ``path``, the last ``step``."""
+
+    point: np.ndarray
+    residuals: list[float] = field(default_factory=list)
+    path: list[np.ndarray] = field(default_factory=list)
+    step: np.ndarray | None = None
+
+    def result(self, converged: bool, iterations: int, reason: str = "") -> NewtonResult:
+        return NewtonResult(
+            self.point, converged, iterations, tuple(self.residuals), self.step, reason, tuple(self.path)
+        )
 
 
 @dataclass(frozen=True)

@@ -269,6 +269,23 @@ def saved_turning_points(table) -> list[TurningPoint]:
     ]
 
 
+class _CurveRecorder:
+    """Saves a neutral curve in its table as it is traced: each point (with its mode, the state to
+    resume from) after the ``points`` already there, each turning point with the point that follows
+    it, numbered along the whole curve (``offset`` the index of the continuation's start)."""
+
+    def __init__(self, table, points: list[NeutralPoint], offset: int):
+        self.table, self.points, self.offset = table, points, offset
+
+    def save(self, point: NeutralPoint) -> None:
+        self.points.append(point)
+        self.table.append(_point_record(point), kind="point", state={"last_mode": point.mode})
+
+    def save_fold(self, fold: TurningPoint) -> None:
+        fold = replace(fold, index=fold.index + self.offset)
+        self.table.append(_fold_record(fold), kind="fold", save=False)
+
+
 def trace_curve_resumable(
     fluid: FluidOperators,
     start: CriticalPoint,
@@ -305,16 +322,10 @@ def trace_curve_resumable(
     else:
         points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
         table.append(_point_record(start), kind="point", state={"last_mode": start.mode}, save=False)
-    offset = len(points) - 1
-
-    def save(point: NeutralPoint) -> None:
-        points.append(point)
-        table.append(_point_record(point), kind="point", state={"last_mode": point.mode})
-
-    def save_fold(fold: TurningPoint) -> None:  # saved with the next point
-        table.append(_fold_record(replace(fold, index=fold.index + offset)), kind="fold", save=False)
-
-    curve = continue_neutral_curve(fluid, start, template, on_point=save, on_fold=save_fold, **options)
+    recorder = _CurveRecorder(table, points, len(points) - 1)
+    curve = continue_neutral_curve(
+        fluid, start, template, on_point=recorder.save, on_fold=recorder.save_fold, **options
+    )
     table.finish({"stop": curve.stop})
     return points
 

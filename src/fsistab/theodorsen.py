@@ -567,6 +567,13 @@ def _quadratic_roots(m2, m1, m0) -> np.ndarray:
     return np.linalg.eigvals(np.vstack([top, bottom]))
 
 
+def _pk_root_near(section: TypicalSection, reduced_velocity: float, k: float, near: complex) -> complex:
+    """The root of the quadratic problem with ``C(k)`` frozen (:func:`quadratic_matrices`) nearest
+    ``near``."""
+    roots = _quadratic_roots(*quadratic_matrices(section, theodorsen_function(k), reduced_velocity))
+    return complex(roots[np.argmin(np.abs(roots - near))])
+
+
 def pk_root(
     section: TypicalSection, reduced_velocity: float, guess: complex, tol: float = 1e-12, maxit: int = 60
 ) -> complex:
@@ -581,13 +588,6 @@ def pk_root(
     for ``e^{σt}``) only where ``λ = 0``, where it solves ``det D(iω) = 0``.
     """
     u = _positive_velocity(reduced_velocity)
-    near = complex(guess)
-
-    def root_at(k: float) -> complex:
-        nonlocal near
-        roots = _quadratic_roots(*quadratic_matrices(section, theodorsen_function(k), u))
-        near = complex(roots[np.argmin(np.abs(roots - near))])
-        return near
 
     def mismatch(k: float, sigma: complex) -> float:  # φ(k) = k(σ(k)) - k
         return max(sigma.imag, 0.0) / 2 - k
@@ -595,8 +595,9 @@ def pk_root(
     def done(k: float, sigma: complex) -> bool:
         return abs(mismatch(k, sigma)) <= tol * max(abs(sigma), 1e-300)
 
+    near = complex(guess)
     k = max(near.imag, 0.0) / 2
-    sigma = root_at(k)
+    sigma = near = _pk_root_near(section, u, k, near)
     previous = None
     for iteration in range(maxit):
         if done(k, sigma):
@@ -609,11 +610,11 @@ def pk_root(
             previous = (k, f1)
             k = k - f1 * (k - k0) / (f1 - f0) if f1 != f0 else k + f1
             if k < 0:
-                at_zero = root_at(0.0)
+                at_zero = near = _pk_root_near(section, u, 0.0, near)
                 if done(0.0, at_zero):
                     return at_zero  # a real root of the static problem (C(0) = 1)
                 k = previous[0] / 2
-        sigma = root_at(k)
+        sigma = near = _pk_root_near(section, u, k, near)
     raise ConvergenceError(
         f"p-k iteration did not converge at U* = {u:.6g} near sigma = {complex(guess):.4g}"
     )
