@@ -28,6 +28,13 @@ Detection between consecutive points, each localised on the curve by a bracketin
   Jacobian vanishes, two neutral curves crossing, ...), located where ``g = 0``;
 - bounds on components of ``y``: the curve stops there (at the bound itself with ``clip``).
 
+The continuation is an iterator of the accepted points, as BifurcationKit.jl's ``ContIterable``
+separates the problem, the iteration and its state: a :class:`ContinuationIterator` (problem,
+start, direction, settings, bounds, test functions) yields each point as a
+:class:`ContinuationPoint` (the point, its tangent, the step to it, the events found on that step)
+and says why the curve ended (``stop``); the caller decides when to stop and what to keep.
+:func:`continuation` gathers a whole curve into a :class:`ContinuationBranch`.
+
 The corrector is :func:`newton`, the one Newton of the package: it solves any square system
 ``G(y) = 0`` given ``G`` and a solver of ``G_y δ = rhs`` (:class:`SquareProblem`), e.g. a neutral
 point at a fixed point of its parameter plane (:meth:`CurveProblem.pinned`: ``F(y) = 0`` with one
@@ -457,7 +464,8 @@ def _excess(index: int, bound: float):
 
 @dataclass(frozen=True)
 class ContinuationSettings:
-    """How :func:`continuation` steps along a curve (module doc), validated on construction.
+    """How a continuation (:class:`ContinuationIterator`) steps along a curve (module doc),
+    validated on construction.
 
     ``step`` the first ``Δs``, kept in ``[min_step, max_step]``, multiplied by ``growth`` after a
     corrector of at most ``fast_iterations`` iterations; ``max_points`` recorded points (the start

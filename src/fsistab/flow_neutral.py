@@ -11,7 +11,7 @@ in the unknowns ``y = (ω, log U*, p)``; ``d0`` is ``|det T|`` of the in-vacuo p
 solid stiffness derivative, as in :func:`fsistab.transfer.transfer_flutter_point`); ``∂/∂p`` is a
 one-sided finite difference through a second steady state at ``p + δp`` (Newton from the state at
 ``p``). It only steers Newton and the tangent: the points themselves solve the equations to the
-tolerance. The generic continuation (:func:`fsistab.continuation.continuation`) measures
+tolerance. The generic continuation (:class:`fsistab.continuation.ContinuationIterator`) measures
 arclength in the plane ``(log U*, p)`` and reports turning points in ``p`` (where the threshold
 folds back, e.g. in α0 near 3° for the plate at Re = 2900, m = 1000).
 

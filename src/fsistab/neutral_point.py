@@ -9,7 +9,7 @@ Theodorsen model, the threshold estimates of :mod:`fsistab.critical`) takes it f
 
 A dynamic neutral point (``ω > 0``) is one problem — the problem is separate from the solver
 (:func:`fsistab.continuation.newton`) and from the curve driver
-(:func:`fsistab.continuation.continuation`), as in BifurcationKit.jl. A *formulation* gives the
+(:class:`fsistab.continuation.ContinuationIterator`), as in BifurcationKit.jl. A *formulation* gives the
 residual ``F(y)`` and a bordered solve ``[F_y; bᵀ] δ = rhs`` (a
 :class:`~fsistab.continuation.CurveProblem`) for real unknowns ``y = (state…, ω, U*-coordinate, p)``
 with ``p`` the parameter of the plane (``log m``, ``log Re`` or ``α0``); ``F`` has one equation
