@@ -1,4 +1,4 @@
-"""Pseudo-arclength continuation on algebraic curves with known folds and Hopf points (MODEL.md §8).
+"""Pseudo-arclength continuation on algebraic curves with known folds and Hopf points (docs/model.md §8).
 
 Every expected value comes from the analysis of the curve, written next to the test.
 """

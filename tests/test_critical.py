@@ -1,4 +1,4 @@
-"""Critical points of the plate (MODEL.md §8), Re = 2900, α0 = 0, coarse mesh."""
+"""Critical points of the plate (docs/model.md §8), Re = 2900, α0 = 0, coarse mesh."""
 
 import math
 
@@ -33,7 +33,7 @@ def test_stiffness_derivative_matches_finite_difference():
 
 
 def test_divergence_is_the_torsional_formula(plate_operators):
-    """MODEL.md §8: U*_D = sqrt(m r_θ² / (dC_M/dθ)) with the computed static slope."""
+    """docs/model.md §8: U*_D = sqrt(m r_θ² / (dC_M/dθ)) with the computed static slope."""
     slope = static_slopes(plate_operators).moment
     counter = FactorCounter()
     for mass_ratio in (100.0, 1000.0):
@@ -49,7 +49,7 @@ def test_divergence_is_the_torsional_formula(plate_operators):
 
 def test_divergence_mode_is_static_and_failure_is_reported(plate_operators):
     """The returned pair solves the static problem: θ̂ = 1 exactly, ḣ = θ' = 0 (the kinematic rows
-    of MODEL.md §7), ``J(U*_D) q̂ ≈ 0`` at the returned U*_D; without a Newton step the start
+    of docs/model.md §7), ``J(U*_D) q̂ ≈ 0`` at the returned U*_D; without a Newton step the start
     (``q̂ = J⁻¹ e_θ``, ``‖J q̂‖ = 1/|(J⁻¹ e_θ)_θ|``) is not a root and the error says where."""
     solid = Solid(mass_ratio=1000, reduced_velocity=7.0)
     point = divergence_point(plate_operators, solid)

@@ -1,4 +1,4 @@
-"""Neutral curves by pseudo-arclength (MODEL.md §8), plate, Re = 2900, coarse mesh."""
+"""Neutral curves by pseudo-arclength (docs/model.md §8), plate, Re = 2900, coarse mesh."""
 
 import math
 
@@ -62,7 +62,7 @@ def test_flutter_curve_towards_small_mass_ratios(plate_operators):
 
 def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
     """On the coarse mesh the flutter curve traced from m = 1000 towards small m turns back in m a
-    little below m = 600 (MODEL.md §8: the continuation must pass turning points). Started at
+    little below m = 600 (docs/model.md §8: the continuation must pass turning points). Started at
     m = 600, it must report one located turning point, where m is smallest, and go on to larger m;
     the turning point is itself neutral (checked by the eigen-solver)."""
     solid = Solid(mass_ratio=600, reduced_velocity=3.76)
@@ -91,7 +91,7 @@ def test_flutter_curve_passes_its_turning_point_in_m(plate_operators):
 
 
 def test_divergence_velocity_formula():
-    """U*_D = √(m r_θ²/(dC_M/dθ)) (MODEL.md §8): thin-airfoil slope π/2, m = 4, r_θ = 1/2 gives
+    """U*_D = √(m r_θ²/(dC_M/dθ)) (docs/model.md §8): thin-airfoil slope π/2, m = 4, r_θ = 1/2 gives
     √(2/π); broadcasting; no divergence (inf) where the slope restores; bad input refused."""
     assert divergence_velocity(math.pi / 2, 0.5, 4.0) == pytest.approx(math.sqrt(2 / math.pi), rel=1e-15)
     grid = divergence_velocity(np.array([[1.0], [4.0], [-2.0], [0.0]]), 0.5, np.array([4.0, 16.0]))

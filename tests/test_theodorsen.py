@@ -1,4 +1,4 @@
-"""Analytic typical section with Theodorsen aerodynamics (MODEL.md §9, REFERENCE.md §C–§E).
+"""Analytic typical section with Theodorsen aerodynamics (docs/model.md §9, REFERENCE.md §C–§E).
 
 Fast: no mesh, except the one CLI test of calibrated slopes (marked slow).
 """
@@ -32,7 +32,7 @@ from fsistab.theodorsen import (
     theodorsen_function,
 )
 
-PLATE = TypicalSection.create(mass_ratio=1000.0)  # MODEL.md §2: Ω 0.8, ζ_h 0, ζ_θ 0.05, r_θ 0.289
+PLATE = TypicalSection.create(mass_ratio=1000.0)  # docs/model.md §2: Ω 0.8, ζ_h 0, ζ_θ 0.05, r_θ 0.289
 
 
 # --- C(k), REFERENCE.md §C ---------------------------------------------------------------------
@@ -116,7 +116,7 @@ def test_added_mass_is_symmetric_and_thin_airfoil_moment_slope_about_the_elastic
     for a in (-0.3, 0.0, 0.25):
         section = TypicalSection.create(elastic_axis=a)
         l2 = load_matrices(section, 1.0)[0]
-        assert l2[0, 1] == l2[1, 0]  # MODEL.md §9 prints (π/4) a h'': that would break this
+        assert l2[0, 1] == l2[1, 0]  # docs/model.md §9 prints (π/4) a h'': that would break this
         assert section.moment_slope_elastic_axis == pytest.approx(math.pi / 2 * (1 + 4 * a), rel=1e-14)
 
 
@@ -174,7 +174,7 @@ def test_torsional_divergence_formula_is_the_root_of_the_static_determinant(
     section = TypicalSection.create(
         mass_ratio=mass_ratio, elastic_axis=elastic_axis, static_unbalance=unbalance, slopes=slopes
     )
-    expected = math.sqrt(mass_ratio * 0.289**2 / slopes.moment_about(elastic_axis))  # MODEL.md §8
+    expected = math.sqrt(mass_ratio * 0.289**2 / slopes.moment_about(elastic_axis))  # docs/model.md §8
     assert divergence_velocity(section) == pytest.approx(expected, rel=1e-14)
     assert divergence_velocity_from_determinant(section) == pytest.approx(expected, rel=1e-10)
 
@@ -488,7 +488,7 @@ def test_cli_neutral_curves_and_viscous_comparison(tmp_path):
 
 @pytest.mark.slow
 def test_cli_calibrated_slopes_coarse_mesh(tmp_path):
-    """Viscous slopes of MODEL.md §9 (coarse mesh, Re = 2900) in the Theodorsen model: close to the
+    """Viscous slopes of docs/model.md §9 (coarse mesh, Re = 2900) in the Theodorsen model: close to the
     viscous thresholds of REFERENCE.md §E (U*_F ≈ 4.5, U*_D ≈ 7.3–7.4)."""
     args = ["--mass-ratio", "1000", "--slopes", "calibrated", "--Re", "2900", "--mesh", "coarse", "--json"]
     result = _run(args, tmp_path)

@@ -1,4 +1,4 @@
-"""Pseudo-arclength continuation of a curve ``F(y) = 0`` in ``R^N`` (MODEL.md §8), NumPy only.
+"""Pseudo-arclength continuation of a curve ``F(y) = 0`` in ``R^N`` (docs/model.md §8), NumPy only.
 
 The curve is the solution set of ``F: R^N → R^(N-1)``, usually ``y = (x, p)`` with state ``x`` and
 one parameter ``p`` (a complex state is passed as its real and imaginary parts by the caller).
@@ -27,6 +27,13 @@ Detection between consecutive points, each localised on the curve by a bracketin
 - events: sign changes of user test functions ``g(y)`` (a Hopf point where the trace of a 2×2
   Jacobian vanishes, two neutral curves crossing, ...), located where ``g = 0``;
 - bounds on components of ``y``: the curve stops there (at the bound itself with ``clip``).
+
+The continuation is an iterator of the accepted points, as BifurcationKit.jl's ``ContIterable``
+separates the problem, the iteration and its state: a :class:`ContinuationIterator` (problem,
+start, direction, settings, bounds, test functions) yields each point as a
+:class:`ContinuationPoint` (the point, its tangent, the step to it, the events found on that step)
+and says why the curve ended (``stop``); the caller decides when to stop and what to keep.
+:func:`continuation` gathers a whole curve into a :class:`ContinuationBranch`.
 
 The corrector is :func:`newton`, the one Newton of the package: it solves any square system
 ``G(y) = 0`` given ``G`` and a solver of ``G_y δ = rhs`` (:class:`SquareProblem`), e.g. a neutral
@@ -116,46 +123,57 @@ def newton(
     """
     if final_residual and small_step is None:
         raise InputError("final_residual applies to a small_step criterion: give one")
-    y = np.array(start, dtype=float)
-    residuals: list[float] = []
-    path: list[np.ndarray] = []
-    step: np.ndarray | None = None
+    trace = _NewtonTrace(np.array(start, dtype=float))
     previous = math.inf
     stepped_small = False
-
-    def result(converged: bool, iterations: int, reason: str = "") -> NewtonResult:
-        return NewtonResult(y, converged, iterations, tuple(residuals), step, reason, tuple(path))
-
     for iteration in range(max_iterations + 1):
+        y = trace.point
         try:
             residual = np.asarray(problem.residual(y), dtype=float)
         except _RESIDUAL_ERRORS as error:
-            return result(False, iteration, str(error))
+            return trace.result(False, iteration, str(error))
         norm = float(np.linalg.norm(residual))
-        residuals.append(norm)
-        path.append(y)
+        trace.residuals.append(norm)
+        trace.path.append(y)
         if not math.isfinite(norm):
-            return result(False, iteration, "non-finite residual")
+            return trace.result(False, iteration, "non-finite residual")
         if norm < tol or stepped_small:
-            return result(True, iteration)
+            return trace.result(True, iteration)
         if iteration == max_iterations:
             break
         reuse = chord and iteration > 0 and norm <= 0.1 * previous
         previous = norm
         try:
-            step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
+            trace.step = step = np.asarray(problem.solve(y, -residual, reuse), dtype=float)
         except np.linalg.LinAlgError as error:
-            return result(problem.singular_is_root, iteration, "" if problem.singular_is_root else str(error))
+            singular = problem.singular_is_root
+            return trace.result(singular, iteration, "" if singular else str(error))
         except _SOLVE_ERRORS as error:
-            return result(False, iteration, str(error))
+            return trace.result(False, iteration, str(error))
         if not np.all(np.isfinite(step)):
-            return result(False, iteration, "non-finite Newton step")
-        y = y + step
-        if small_step is not None and small_step(step, y):
+            return trace.result(False, iteration, "non-finite Newton step")
+        trace.point = y + step
+        if small_step is not None and small_step(step, trace.point):
             if not final_residual:
-                return result(True, iteration + 1)
+                return trace.result(True, iteration + 1)
             stepped_small = True  # converged once G at y is recorded
-    return result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
+    return trace.result(False, max_iterations, f"residual {norm:.1e} after {max_iterations} iterations")
+
+
+@dataclass
+class _NewtonTrace:
+    """What a Newton iteration has done so far: the current ``point``, the residual norms at the
+    points of ``path``, the last ``step``."""
+
+    point: np.ndarray
+    residuals: list[float] = field(default_factory=list)
+    path: list[np.ndarray] = field(default_factory=list)
+    step: np.ndarray | None = None
+
+    def result(self, converged: bool, iterations: int, reason: str = "") -> NewtonResult:
+        return NewtonResult(
+            self.point, converged, iterations, tuple(self.residuals), self.step, reason, tuple(self.path)
+        )
 
 
 @dataclass(frozen=True)
@@ -233,7 +251,8 @@ class TestFunction:
 
 @dataclass(frozen=True)
 class Event:
-    """A special point between ``points[index]`` and ``points[index + 1]`` of a :class:`Branch`.
+    """A special point between points ``index`` and ``index + 1`` of a curve (those of a
+    :class:`ContinuationBranch`, the ``index`` of a :class:`ContinuationPoint`).
 
     ``kind`` is ``"fold"`` (turning point in the parameter), ``"bound"`` or the name of a test
     function; ``component`` the index in ``y`` of the folding parameter or of the bounded
@@ -258,12 +277,12 @@ class Event:
 
 
 @dataclass(frozen=True)
-class Branch:
-    """A continued curve: ``points`` (rows, as recorded), unit ``tangents`` (the predictor
-    direction at each point: tangent, or incoming secant), ``steps`` the ``Δs`` of each accepted
-    step, ``iterations`` the corrector iterations of each point, ``events`` in order of
-    arclength, ``stop`` why the continuation ended (``max_points``, ``bound``, ``step_too_small``
-    or ``event:<name>``)."""
+class ContinuationBranch:
+    """A continued curve, as :func:`continuation` gathers it: ``points`` (rows, as recorded),
+    unit ``tangents`` (the predictor direction at each point: tangent, or incoming secant),
+    ``steps`` the ``Δs`` of each accepted step, ``iterations`` the corrector iterations of each
+    point, ``events`` in order of arclength, ``stop`` why the continuation ended (``max_points``,
+    ``bound``, ``step_too_small`` or ``event:<name>``)."""
 
     points: np.ndarray
     tangents: np.ndarray
@@ -309,14 +328,16 @@ def _sign(value: float) -> int:
     return 1 if value > 0 else (-1 if value < 0 else 0)
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Curve:
-    """The numerical kernel shared by the continuation and the localisation."""
+    """The numerical kernel shared by the continuation and the localisation: corrector, tangent
+    and the fold test ``τ_p`` of the component ``parameter``."""
 
     problem: CurveProblem
     weights: np.ndarray
     tol: float
     max_iterations: int
+    parameter: int
 
     def correct(self, guess: np.ndarray, anchor: np.ndarray, direction: np.ndarray, step: float):
         """:func:`newton` (chord) on ``F(y) = 0, ⟨direction, y - anchor⟩_W = step`` from ``guess``."""
@@ -342,6 +363,11 @@ class _Curve:
         if not (math.isfinite(norm) and norm > 0):
             raise _StepFailure("the tangent has no component along the weighted arclength")
         return tau / norm
+
+    def fold_test(self, point: np.ndarray, chord: np.ndarray) -> float:
+        """``τ_p`` at ``point``: the parameter component of an exact tangent (no chord
+        factorisation) oriented along ``chord``, which vanishes at a fold."""
+        return float(self.tangent(point, chord, reuse=False)[self.parameter])
 
 
 def _locate(
@@ -438,7 +464,8 @@ def _excess(index: int, bound: float):
 
 @dataclass(frozen=True)
 class ContinuationSettings:
-    """How :func:`continuation` steps along a curve (module doc), validated on construction.
+    """How a continuation (:class:`ContinuationIterator`) steps along a curve (module doc),
+    validated on construction.
 
     ``step`` the first ``Δs``, kept in ``[min_step, max_step]``, multiplied by ``growth`` after a
     corrector of at most ``fast_iterations`` iterations; ``max_points`` recorded points (the start
@@ -495,6 +522,307 @@ class ContinuationSettings:
         return cls(**{**base, **fields})
 
 
+@dataclass(frozen=True)
+class ContinuationPoint:
+    """One accepted point of a curve, as :class:`ContinuationIterator` yields it.
+
+    ``index`` counts the points (0: the corrected start); ``point`` the full ``y``; ``tangent`` the
+    unit predictor direction at it (the tangent, or the incoming secant); ``step`` the ``Δs`` of
+    the step to it (0 at the start) and ``arclength`` its pseudo-arclength from the start;
+    ``iterations`` the corrector's; ``events`` those found on the step to it, in order of
+    arclength, the terminal one (which ends the curve here) last."""
+
+    index: int
+    point: np.ndarray
+    tangent: np.ndarray
+    step: float
+    arclength: float
+    iterations: int
+    events: tuple[Event, ...] = ()
+
+
+@dataclass
+class _State:
+    """Where an iteration stands: the last accepted ``point`` (number ``count - 1``) with its
+    ``tangent``, ``arclength`` and test-function ``values``, the point before it (for the fold
+    brackets of the secant predictor), and the ``step`` ``Δs`` to try next."""
+
+    point: np.ndarray
+    tangent: np.ndarray
+    arclength: float
+    values: dict[str, float]
+    step: float
+    count: int = 1
+    previous: np.ndarray | None = None
+    previous_arclength: float = 0.0
+
+
+def _checked_start(problem: CurveProblem, start, direction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(y0, weights, d0)``: the start, the arclength weights and the initial direction (not yet
+    normalised), validated (:class:`~fsistab.errors.InputError`)."""
+    y0 = np.array(start, dtype=float)
+    n = y0.size
+    if y0.ndim != 1 or n < 2:
+        raise InputError("the start of a curve is a point of R^N with N ≥ 2 (state and parameter)")
+    weights = np.ones(n) if problem.weights is None else np.asarray(problem.weights, dtype=float)
+    if weights.shape != (n,) or np.any(weights < 0) or not np.any(weights > 0):
+        raise InputError(f"the arclength weights must be {n} non-negative numbers, not all zero")
+    d0 = np.asarray(direction, dtype=float)
+    if d0.shape != (n,) or _wnorm(weights, d0) == 0:
+        raise InputError("the initial direction must have a nonzero weighted component")
+    return y0, weights, d0
+
+
+def _checked_bounds(bounds, y0: np.ndarray) -> dict[int, tuple[float, float]]:
+    """The bounds on components of ``y``, each ``low < high`` with the start inside."""
+    bounds = dict(bounds or {})
+    for index, (low, high) in bounds.items():
+        if not low < high:
+            raise InputError(f"bound on y[{index}] must have low < high, got ({low:g}, {high:g})")
+        if not low <= y0[index] <= high:
+            raise InputError(
+                f"the start has y[{index}] = {y0[index]:g} outside its bounds ({low:g}, {high:g})"
+            )
+    return bounds
+
+
+class ContinuationIterator:
+    """Pseudo-arclength continuation of the curve ``F(y) = 0`` of ``problem`` (module doc) as an
+    iterator of its accepted points (:class:`ContinuationPoint`), in the manner of
+    BifurcationKit.jl's ``ContIterable``: the caller decides when to stop and what to keep.
+
+    ``direction`` orients the first step (e.g. ``+e_p``: increasing parameter), the first predictor
+    being the tangent oriented along it; ``settings`` (default :class:`ContinuationSettings`) say
+    how to step; ``bounds`` maps component indices to ``(low, high)``: leaving them ends the curve,
+    at the bound itself when ``settings.clip``; ``events`` maps names to test functions ``g(y)``.
+    The first point is the corrected start. Only the last two points are kept.
+
+    ``stop`` says why the curve ends (``max_points``, ``bound``, ``event:<name>`` as soon as the
+    last point is yielded, ``step_too_small`` once the iteration ended after a failed step),
+    ``stop_event`` the bound or terminal event there; both are ``None`` before. Raises
+    :class:`~fsistab.errors.ConvergenceError` when the start cannot be corrected onto the curve, has
+    no tangent, or no step down to ``min_step`` converges from it. Single pass: iterate once.
+    """
+
+    def __init__(
+        self,
+        problem: CurveProblem,
+        start: np.ndarray,
+        direction: np.ndarray,
+        settings: ContinuationSettings | None = None,
+        *,
+        bounds: Mapping[int, tuple[float, float]] | None = None,
+        events: Mapping[str, TestFunction | Callable[[np.ndarray], float]] | None = None,
+    ):
+        self.settings = settings if settings is not None else ContinuationSettings()
+        y0, weights, d0 = _checked_start(problem, start, direction)
+        self.parameter = problem.parameter % y0.size
+        self.bounds = _checked_bounds(bounds, y0)
+        self.tests = {
+            name: (g if isinstance(g, TestFunction) else TestFunction(g))
+            for name, g in (events or {}).items()
+        }
+        self._curve = _Curve(
+            problem, weights, self.settings.tol, self.settings.max_iterations, self.parameter
+        )
+        self._start, self._direction = y0, d0 / _wnorm(weights, d0)
+        self._state: _State | None = None
+        self.stop: str | None = None
+        self.stop_event: Event | None = None
+
+    def __iter__(self) -> ContinuationIterator:
+        return self
+
+    def __next__(self) -> ContinuationPoint:
+        if self.stop is not None:
+            raise StopIteration
+        if self._state is None:
+            return self._begin()
+        accepted = self._advance()
+        if accepted is None:
+            self.stop = "step_too_small"
+            raise StopIteration
+        return self._accept(*accepted)
+
+    def _begin(self) -> ContinuationPoint:
+        """The start corrected onto the curve (``correct_start``) with its tangent."""
+        curve, y0, d0 = self._curve, self._start, self._direction
+        iterations = 0
+        if self.settings.correct_start:
+            try:
+                y0, iterations = curve.correct(y0, y0, d0, 0.0)
+            except _StepFailure as failure:
+                raise ConvergenceError(
+                    f"the start point is not on the curve F(y) = 0 ({failure}); give a start closer to "
+                    "the curve, e.g. converged by Newton at fixed parameter"
+                ) from failure
+        try:
+            t0 = curve.tangent(y0, d0, reuse=False)
+        except _StepFailure as failure:
+            raise ConvergenceError(
+                f"no tangent at the start point ({failure}): the bordered Jacobian is singular there; "
+                "start away from a bifurcation or choose another initial direction"
+            ) from failure
+        values = {name: float(test.function(y0)) for name, test in self.tests.items()}
+        self._state = _State(y0, t0, 0.0, values, float(self.settings.step))
+        if self.settings.max_points <= 1:
+            self.stop = "max_points"
+        return ContinuationPoint(0, y0, t0, 0.0, 0.0, iterations)
+
+    def _advance(self) -> tuple[np.ndarray, np.ndarray, int, float] | None:
+        """The next point ``(y, t, iterations, Δs)``, the step halved after each failure; None once
+        it falls below ``min_step`` (ConvergenceError if that happens from the start)."""
+        state, settings = self._state, self.settings
+        h = state.step
+        while True:
+            try:
+                return (*self._predict_correct(h), h)
+            except _StepFailure as failure:
+                h /= 2
+                if h >= settings.min_step:
+                    continue
+                if state.count == 1:
+                    raise ConvergenceError(
+                        f"pseudo-arclength corrector failed from the start point down to Δs = "
+                        f"{settings.min_step:g} ({failure}); try a smaller min_step, a larger "
+                        "max_iterations or another initial direction"
+                    ) from failure
+                return None
+
+    def _predict_correct(self, h: float) -> tuple[np.ndarray, np.ndarray, int]:
+        """Predictor ``y + Δs t``, corrector, new direction; a failure (:class:`_StepFailure`) when
+        the corrector fails or the direction turns by more than ``max_turn`` (with ``Δs`` above
+        ``min_step``): a large turn, or a jump to another part of the curve."""
+        curve, settings, state = self._curve, self.settings, self._state
+        weights, y, t = curve.weights, state.point, state.tangent
+        y_new, iterations = curve.correct(y + h * t, y, t, h)
+        tangent = settings.predictor == "tangent"
+        t_new = curve.tangent(y_new, t, reuse=True) if tangent else (y_new - y) / _wnorm(weights, y_new - y)
+        chord = (y_new - y) / _wnorm(weights, y_new - y)
+        if tangent:  # the chord and both end tangents within max_turn
+            turn = min(_wdot(weights, t, t_new), _wdot(weights, t, chord), _wdot(weights, t_new, chord))
+        elif state.count == 1:  # t is the tangent at the start
+            turn = _wdot(weights, t, chord)
+        else:  # t is the previous secant: its angle with the chord does not fall with Δs
+            turn = 1.0
+        if h > settings.min_step and turn < math.cos(settings.max_turn):
+            raise _StepFailure(f"the direction turned by more than {settings.max_turn:g} rad")
+        return y_new, t_new, iterations
+
+    def _accept(self, y_new: np.ndarray, t_new: np.ndarray, iterations: int, h: float) -> ContinuationPoint:
+        """The events on the step to ``y_new`` (folds, test functions, bounds), the curve ended at
+        a bound or terminal event, the state moved on and the step grown after a fast corrector."""
+        state, settings = self._state, self.settings
+        k, s_k = state.count - 1, state.arclength  # the step goes from point k to point k + 1
+        bracket = _Bracket(state.point, k, s_k, y_new, s_k + h)
+        found = self._fold_events(bracket, t_new)
+        values = {name: float(test.function(y_new)) for name, test in self.tests.items()}
+        found += self._test_events(bracket, values)
+        terminal = self._terminal(bracket, found)
+        if terminal is not None:
+            found = [e for e in found if e.arclength <= terminal.arclength and e is not terminal]
+            self.stop = "bound" if terminal.kind == "bound" else f"event:{terminal.kind}"
+            self.stop_event = terminal
+            if terminal.localised:  # the curve ends at the located point
+                y_new, h = terminal.point, terminal.arclength - s_k
+                t_new = self._end_tangent(y_new, t_new)
+        found.sort(key=lambda e: e.arclength)
+        events = tuple(found) + ((terminal,) if terminal is not None else ())
+        point = ContinuationPoint(state.count, y_new, t_new, h, s_k + h, iterations, events)
+        state.previous, state.previous_arclength = state.point, s_k
+        state.point, state.tangent, state.arclength, state.values = y_new, t_new, s_k + h, values
+        state.count += 1
+        if iterations <= settings.fast_iterations:
+            h = min(settings.max_step, h * settings.growth)
+        state.step = h
+        if self.stop is None and state.count >= settings.max_points:
+            self.stop = "max_points"
+        return point
+
+    def _end_tangent(self, y_end: np.ndarray, t_new: np.ndarray) -> np.ndarray:
+        """The direction at a located end point: the secant to it, or its tangent (that of the
+        overshooting point if it fails)."""
+        state = self._state
+        if self.settings.predictor == "secant":
+            return (y_end - state.point) / _wnorm(self._curve.weights, y_end - state.point)
+        try:
+            return self._curve.tangent(y_end, state.tangent, reuse=True)
+        except _StepFailure:
+            return t_new
+
+    def _fold_events(self, step: _Bracket, t_new: np.ndarray) -> list[Event]:
+        """A turning point in the parameter on the step (``detect_folds``): where ``t_p`` changes
+        sign, located on the curve (``locate_folds``) between the points whose exact tangents
+        bracket ``τ_p = 0`` (for the secant predictor, from the point before the step's start);
+        without such a bracket the sampled extremum of ``p``."""
+        settings, state, curve, p = self.settings, self._state, self._curve, self.parameter
+        if not settings.detect_folds or _sign(state.tangent[p]) * _sign(t_new[p]) >= 0:
+            return []
+        y, k, s_k, y_new = step.start, step.index, step.start_arclength, step.end
+        sampled = Event("fold", k, y, s_k, math.nan, False, 0, p)
+        if not settings.locate_folds:
+            return [sampled]
+        if settings.predictor == "tangent" or k == 0:
+            bracket = step
+        else:
+            bracket = _Bracket(state.previous, k - 1, state.previous_arclength, y_new, step.end_arclength, y)
+        try:
+            ends = (
+                curve.fold_test(bracket.start, y_new - bracket.start),
+                curve.fold_test(y_new, y_new - bracket.start),
+            )
+        except _StepFailure:
+            ends = (0.0, 0.0)
+        if _sign(ends[0]) * _sign(ends[1]) >= 0:  # no bracket in the tangents
+            return [sampled]
+        locating = (settings.locate_tol, settings.max_locate_iterations)
+        return [bracket.locate(curve, "fold", curve.fold_test, ends, p, True, *locating)]
+
+    def _test_events(self, step: _Bracket, values: dict[str, float]) -> list[Event]:
+        """The sign changes of the test functions on the step, each located (``localise``)."""
+        locating = (self.settings.locate_tol, self.settings.max_locate_iterations)
+        found = []
+        for name, test in self.tests.items():
+            pair = (self._state.values[name], values[name])
+            if _sign(pair[0]) * _sign(pair[1]) < 0:
+                g = _event_test(test.function)
+                found.append(step.locate(self._curve, name, g, pair, None, test.localise, *locating))
+        return found
+
+    def _terminal(self, step: _Bracket, found: list[Event]) -> Event | None:
+        """The first (in arclength) of the bounds left on the step (located, on the bound itself
+        with ``clip``) and the terminal events found on it."""
+        locating = (self.settings.locate_tol, self.settings.max_locate_iterations)
+        y, y_new = step.start, step.end
+        terminal: Event | None = None
+        for index, (low, high) in self.bounds.items():
+            if low <= y_new[index] <= high:
+                continue
+            bound = high if y_new[index] > high else low
+            values = (y[index] - bound, y_new[index] - bound)
+            event = step.locate(
+                self._curve, "bound", _excess(index, bound), values, index, self.settings.clip, *locating
+            )
+            if terminal is None or event.arclength < terminal.arclength:
+                terminal = event
+        for event in found:
+            if event.kind in self.tests and self.tests[event.kind].terminal:
+                if terminal is None or event.arclength < terminal.arclength:
+                    terminal = event
+        return terminal
+
+
+def _with_overrides(settings: ContinuationSettings | None, overrides: dict) -> ContinuationSettings:
+    """``settings`` (default :class:`ContinuationSettings`) with single fields replaced."""
+    settings = settings if settings is not None else ContinuationSettings()
+    if not overrides:
+        return settings
+    unknown = sorted(set(overrides) - {f.name for f in fields(ContinuationSettings)})
+    if unknown:
+        raise InputError(f"unknown continuation settings {unknown}")
+    return replace(settings, **overrides)
+
+
 def continuation(
     problem: CurveProblem,
     start: np.ndarray,
@@ -507,210 +835,43 @@ def continuation(
     on_point: Callable[[np.ndarray, int], None] | None = None,
     on_event: Callable[[Event], None] | None = None,
     **overrides,
-) -> Branch:
-    """Follow the curve ``F(y) = 0`` of ``problem`` from ``start`` (pseudo-arclength, module doc).
+) -> ContinuationBranch:
+    """The whole curve of a :class:`ContinuationIterator` (``problem``, ``start``, ``direction``,
+    ``settings``, ``bounds``, ``events`` as there) as a :class:`ContinuationBranch`.
 
-    ``direction`` orients the first step (e.g. ``+e_p``: increasing parameter); the first
-    predictor is the tangent oriented along it. ``settings`` (default :class:`ContinuationSettings`)
-    say how to step; keyword ``overrides`` (``step=0.05``, ...) replace single fields of it.
-    ``bounds`` maps component indices to ``(low, high)``; leaving them stops the curve, at the
-    bound itself when ``settings.clip``. ``events`` maps names to test functions ``g(y)``.
-    ``record(y)`` selects what is stored per point (default all of ``y``; the continuation itself
-    keeps only the last three points); ``on_point(y, iterations)`` is called for every accepted
-    point, after ``on_event`` for the events found on its step.
-
-    Raises :class:`~fsistab.errors.ConvergenceError` when the start point cannot be corrected onto
-    the curve or no step down to ``min_step`` converges from it; a failure later ends the curve
+    Keyword ``overrides`` (``step=0.05``, ...) replace single fields of ``settings``.
+    ``record(y)`` selects what is stored per point and tangent (default all of ``y``);
+    ``on_point(y, iterations)`` is called for every accepted point after the start, after
+    ``on_event`` for the events found on its step. Raises
+    :class:`~fsistab.errors.ConvergenceError` as the iterator does; a failure later ends the curve
     with ``stop = "step_too_small"``.
     """
-    settings = settings if settings is not None else ContinuationSettings()
-    if overrides:
-        unknown = sorted(set(overrides) - {f.name for f in fields(ContinuationSettings)})
-        if unknown:
-            raise InputError(f"unknown continuation settings {unknown}")
-        settings = replace(settings, **overrides)
-    step, min_step, max_step = settings.step, settings.min_step, settings.max_step
-    max_points, predictor, growth = settings.max_points, settings.predictor, settings.growth
-    clip, detect_folds, locate_folds = settings.clip, settings.detect_folds, settings.locate_folds
-    fast_iterations, max_turn = settings.fast_iterations, settings.max_turn
-    y0 = np.array(start, dtype=float)
-    n = y0.size
-    if y0.ndim != 1 or n < 2:
-        raise InputError("the start of a curve is a point of R^N with N ≥ 2 (state and parameter)")
-    weights = np.ones(n) if problem.weights is None else np.asarray(problem.weights, dtype=float)
-    if weights.shape != (n,) or np.any(weights < 0) or not np.any(weights > 0):
-        raise InputError(f"the arclength weights must be {n} non-negative numbers, not all zero")
-    parameter = problem.parameter % n
-    d0 = np.asarray(direction, dtype=float)
-    if d0.shape != (n,) or _wnorm(weights, d0) == 0:
-        raise InputError("the initial direction must have a nonzero weighted component")
-    bounds = dict(bounds or {})
-    for index, (low, high) in bounds.items():
-        if not low < high:
-            raise InputError(f"bound on y[{index}] must have low < high, got ({low:g}, {high:g})")
-        if not low <= y0[index] <= high:
-            raise InputError(
-                f"the start has y[{index}] = {y0[index]:g} outside its bounds ({low:g}, {high:g})"
-            )
-    tests = {
-        name: (g if isinstance(g, TestFunction) else TestFunction(g)) for name, g in (events or {}).items()
-    }
+    iterator = ContinuationIterator(
+        problem, start, direction, _with_overrides(settings, overrides), bounds=bounds, events=events
+    )
     record = record or (lambda y: y)
-    curve = _Curve(problem, weights, settings.tol, settings.max_iterations)
-
-    d0 = d0 / _wnorm(weights, d0)
-    iterations0 = 0
-    if settings.correct_start:
-        try:
-            y0, iterations0 = curve.correct(y0, y0, d0, 0.0)
-        except _StepFailure as failure:
-            raise ConvergenceError(
-                f"the start point is not on the curve F(y) = 0 ({failure}); give a start closer to "
-                "the curve, e.g. converged by Newton at fixed parameter"
-            ) from failure
-    try:
-        t0 = curve.tangent(y0, d0, reuse=False)
-    except _StepFailure as failure:
-        raise ConvergenceError(
-            f"no tangent at the start point ({failure}): the bordered Jacobian is singular there; "
-            "start away from a bifurcation or choose another initial direction"
-        ) from failure
-
-    points, tangents, steps, counts = [record(y0)], [record(t0)], [], [iterations0]
-    found: list[Event] = []
-    recent = [y0]  # the last (up to) three full points, for fold brackets of the secant predictor
-    arclength = [0.0]
-    g_values = {name: float(test.function(y0)) for name, test in tests.items()}
-    y, t, h = y0, t0, float(step)
-    stop, stop_event = "max_points", None
-
-    locating = (settings.locate_tol, settings.max_locate_iterations)
-
-    def fold_test(point: np.ndarray, chord: np.ndarray) -> float:
-        # an exact tangent (no chord factorisation): its p component is the located quantity
-        return float(curve.tangent(point, chord, reuse=False)[parameter])
-
-    while len(points) < max_points:
-        try:
-            y_new, iterations = curve.correct(y + h * t, y, t, h)
-            t_new = (
-                curve.tangent(y_new, t, reuse=True)
-                if predictor == "tangent"
-                else (y_new - y) / _wnorm(weights, y_new - y)
-            )
-            chord = (y_new - y) / _wnorm(weights, y_new - y)
-            if predictor == "tangent":  # the chord and both end tangents within max_turn
-                turn = min(_wdot(weights, t, t_new), _wdot(weights, t, chord), _wdot(weights, t_new, chord))
-            elif len(points) == 1:  # t is the tangent at the start
-                turn = _wdot(weights, t, chord)
-            else:  # t is the previous secant: its angle with the chord does not fall with Δs
-                turn = 1.0
-            if h > min_step and turn < math.cos(max_turn):
-                # a large turn, or a jump to another part of the curve
-                raise _StepFailure(f"the direction turned by more than {max_turn:g} rad")
-        except _StepFailure as failure:
-            h /= 2
-            if h < min_step:
-                if len(points) == 1:
-                    raise ConvergenceError(
-                        f"pseudo-arclength corrector failed from the start point down to Δs = "
-                        f"{min_step:g} ({failure}); try a smaller min_step, a larger max_iterations "
-                        "or another initial direction"
-                    ) from failure
-                stop = "step_too_small"
-                break
-            continue
-
-        k = len(points) - 1  # the step goes from point k to point k + 1
-        s_k, s_new = arclength[-1], arclength[-1] + h
-        step_events: list[Event] = []
-        step = _Bracket(y, k, s_k, y_new, s_new)
-
-        if detect_folds and _sign(t[parameter]) * _sign(t_new[parameter]) < 0 and not locate_folds:
-            step_events.append(Event("fold", k, y, s_k, math.nan, False, 0, parameter))
-        elif detect_folds and _sign(t[parameter]) * _sign(t_new[parameter]) < 0:
-            if predictor == "tangent" or k == 0:
-                a_point, a_index, a_s = y, k, s_k
-            else:
-                a_point, a_index, a_s = recent[-2], k - 1, arclength[-2]
-            chord = y_new - a_point
-            try:
-                ends = (
-                    float(curve.tangent(a_point, chord, reuse=False)[parameter]),
-                    float(curve.tangent(y_new, chord, reuse=False)[parameter]),
-                )
-            except _StepFailure:
-                ends = (0.0, 0.0)
-            if _sign(ends[0]) * _sign(ends[1]) < 0:
-                bracket = _Bracket(a_point, a_index, a_s, y_new, s_new, y if a_index < k else None)
-                step_events.append(bracket.locate(curve, "fold", fold_test, ends, parameter, True, *locating))
-            else:  # no bracket in the tangents: report the sampled extremum of p
-                step_events.append(Event("fold", k, y, s_k, math.nan, False, 0, parameter))
-
-        new_values = {name: float(test.function(y_new)) for name, test in tests.items()}
-        for name, test in tests.items():
-            pair = (g_values[name], new_values[name])
-            if _sign(pair[0]) * _sign(pair[1]) < 0:
-                g = _event_test(test.function)
-                step_events.append(step.locate(curve, name, g, pair, None, test.localise, *locating))
-
-        terminal: Event | None = None
-        for index, (low, high) in bounds.items():
-            if low <= y_new[index] <= high:
-                continue
-            bound = high if y_new[index] > high else low
-
-            values = (y[index] - bound, y_new[index] - bound)
-            event = step.locate(curve, "bound", _excess(index, bound), values, index, clip, *locating)
-            if terminal is None or event.arclength < terminal.arclength:
-                terminal = event
-        for event in step_events:
-            if event.kind in tests and tests[event.kind].terminal:
-                if terminal is None or event.arclength < terminal.arclength:
-                    terminal = event
-        if terminal is not None:
-            step_events = [e for e in step_events if e.arclength <= terminal.arclength and e is not terminal]
-            stop = "bound" if terminal.kind == "bound" else f"event:{terminal.kind}"
-            stop_event = terminal
-            if terminal.localised:  # the curve ends at the located point
-                y_new = terminal.point
-                h = terminal.arclength - s_k
-                if predictor == "secant":
-                    t_new = (y_new - y) / _wnorm(weights, y_new - y)
-                else:
-                    try:
-                        t_new = curve.tangent(y_new, t, reuse=True)
-                    except _StepFailure:
-                        pass  # keep the tangent of the overshooting point
-        step_events.sort(key=lambda e: e.arclength)
-        for event in step_events + ([terminal] if terminal is not None else []):
+    points, tangents, steps, counts, found = [], [], [], [], []
+    for accepted in iterator:
+        for event in accepted.events:
             found.append(event)
             if on_event:
                 on_event(event)
-
-        points.append(record(y_new))
-        tangents.append(record(t_new))
-        steps.append(h)
-        counts.append(iterations)
-        arclength.append(s_k + h)
-        recent = (recent + [y_new])[-3:]
-        if on_point:
-            on_point(y_new, iterations)
-        if terminal is not None:
-            break
-        g_values = new_values
-        y, t = y_new, t_new
-        if iterations <= fast_iterations:
-            h = min(max_step, h * growth)
-    return Branch(
+        points.append(record(accepted.point))
+        tangents.append(record(accepted.tangent))
+        counts.append(accepted.iterations)
+        if accepted.index > 0:
+            steps.append(accepted.step)
+            if on_point:
+                on_point(accepted.point, accepted.iterations)
+    return ContinuationBranch(
         np.array(points),
         np.array(tangents),
         np.array(steps),
         np.array(counts),
         tuple(found),
-        stop,
-        parameter,
-        stop_event,
+        iterator.stop,
+        iterator.parameter,
+        iterator.stop_event,
     )
 
 

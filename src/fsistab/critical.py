@@ -1,4 +1,4 @@
-"""Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (MODEL.md §8).
+"""Critical points: flutter (Hopf, ``ω_c ≠ 0``) and divergence (``ω_c = 0``) (docs/model.md §8).
 
 Dynamic instability: the neutral-point problem of :mod:`fsistab.neutral_point` in its augmented
 sparse formulation (:class:`AugmentedProblem`, unknowns ``(q̂, ω, U*, log m)``; the neutral curves
@@ -42,7 +42,7 @@ from fsistab.transfer import transfer_flutter_point
 
 def phase_index(system: CoupledSystem) -> int:
     """Index in the coupled vector of ``h`` (or ``θ`` for a pitch-only system): the phase condition
-    ``Re(q̂_k) = 0`` of MODEL.md §8."""
+    ``Re(q̂_k) = 0`` of docs/model.md §8."""
     labels = system.state_labels()
     for name in ("h", "theta"):
         if name in labels:
@@ -52,7 +52,7 @@ def phase_index(system: CoupledSystem) -> int:
 
 def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
     """``∂(J + iωM)/∂(log m) q``: every aerodynamic term of the solid rows (and its inertia) scales
-    with ``1/m`` (MODEL.md §3), so this is minus the aerodynamic part of the solid rows applied to
+    with ``1/m`` (docs/model.md §3), so this is minus the aerodynamic part of the solid rows applied to
     ``q``."""
     ns = system.n_solid
     full = system.jacobian @ q + 1j * omega * (system.mass @ q)
@@ -65,7 +65,7 @@ def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.nd
 
 
 class AugmentedProblem:
-    """The augmented sparse system of MODEL.md §8 (module doc) in ``y = (Re q̂, Im q̂, ω, U*, μ)``,
+    """The augmented sparse system of docs/model.md §8 (module doc) in ``y = (Re q̂, Im q̂, ω, U*, μ)``,
     ``μ = log m``, for the solid parameters of ``template`` otherwise.
 
     The bordered solve eliminates ``δq̂ = a + δω b + δU* c + δμ d`` with
@@ -213,7 +213,7 @@ def flutter_point(
     maxit: int = 12,
     counter: FactorCounter | None = None,
 ) -> CriticalPoint:
-    """The neutral point of MODEL.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
+    """The neutral point of docs/model.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
     on the augmented sparse system (:class:`AugmentedProblem`, ``m`` held)
     from ``(mode, frequency, solid.reduced_velocity)``.
 
@@ -238,7 +238,7 @@ def flutter_point(
 
 
 class DivergenceProblem:
-    """Static instability (``ω_c = 0``, MODEL.md §8) as a real square system in ``y = (q̂, κ)``,
+    """Static instability (``ω_c = 0``, docs/model.md §8) as a real square system in ``y = (q̂, κ)``,
     ``κ = 1/U*²``, for the solid parameters of ``solid`` otherwise::
 
         J(U*) q̂ = 0,     θ̂ = 1
@@ -424,7 +424,7 @@ def find_thresholds(
     branch follows is missed, and VIV is recognised only with ``wake_shift`` (a crossing of the
     wake branch or within 30 % of its frequency: the tangent of the local rule would cost a
     factorisation per threshold there). Both converge each threshold to the same equation
-    (MODEL.md §8).
+    (docs/model.md §8).
 
     Returns the thresholds sorted by U* and details: ``wake_frequency`` (None without
     ``wake_shift``), and ``frequencies`` sampled (transfer) or the tracked ``branches``.
@@ -505,47 +505,62 @@ def track_thresholds(
     wake_frequency = starts["wake"].frequency if "wake" in starts else None
     found: list[Threshold] = []
     for name, branch in branches.items():
-        growth = np.array([v.real for v in branch.values])
-        for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
-            u0, u1 = branch.parameters[i], branch.parameters[i + 1]
-            weight = growth[i] / (growth[i] - growth[i + 1])
-            guess_velocity = u0 + weight * (u1 - u0)
-            guess = branch.values[i] + weight * (branch.values[i + 1] - branch.values[i])
-            if abs(guess.imag) < 1e-6:
-                continue  # a static crossing: divergence, found below
-            point = flutter_point(
-                fluid,
-                replace(solid, reduced_velocity=guess_velocity),
-                guess.imag,
-                branch.vectors[i + 1],
-                counter=counter,
-            )
-            if abs(point.frequency) <= STATIC_FREQUENCY:
-                continue  # the branch met ω = 0 on the way: the divergence point, found below
-            boundary = "onset" if growth[i] < 0 else "restabilisation"
-            if any(_same_point(point, t) and t.boundary == boundary for t in found if t.branch == name):
-                continue  # the same threshold found twice; an onset and a restabilisation at one
-                # point stay both: the growth rate touches zero there (or one crossing is unresolved)
-            is_viv = name == "wake" or (
-                wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
-            )
-            found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+        found += _branch_crossings(fluid, solid, name, branch, wake_frequency, counter)
     if "pitch" in solid.dofs:
-        # started from the torsional-divergence estimate √(m r_θ²/(dC_M/dθ)) (exact at α0 = 0)
-        factor = static_factor or FluidFactor(fluid, 0.0, counter)
-        slope = static_slopes(fluid, factor=factor).moment
-        if slope > 0:
-            # (a little below it: at the root itself the static system is singular)
-            estimate = 0.98 * divergence_velocity(slope, solid.r_theta, solid.mass_ratio)
-            point = divergence_point(
-                fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
-            )
-            if velocities[0] <= point.reduced_velocity <= velocities[-1]:
-                found.append(Threshold("divergence", "onset", "static", point))
+        point = _tracked_divergence(fluid, solid, static_factor, counter)
+        if point is not None and velocities[0] <= point.reduced_velocity <= velocities[-1]:
+            found.append(Threshold("divergence", "onset", "static", point))
     return sorted(found, key=lambda t: t.reduced_velocity), {
         "branches": branches,
         "wake_frequency": wake_frequency,
     }
+
+
+def _branch_crossings(fluid, solid: Solid, name: str, branch, wake_frequency, counter) -> list[Threshold]:
+    """The dynamic thresholds where the growth rate of the tracked ``branch`` (named ``name``)
+    changes sign, each converged by :func:`flutter_point` from the interpolated crossing, each
+    once per boundary."""
+    found: list[Threshold] = []
+    growth = np.array([v.real for v in branch.values])
+    for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
+        u0, u1 = branch.parameters[i], branch.parameters[i + 1]
+        weight = growth[i] / (growth[i] - growth[i + 1])
+        guess_velocity = u0 + weight * (u1 - u0)
+        guess = branch.values[i] + weight * (branch.values[i + 1] - branch.values[i])
+        if abs(guess.imag) < 1e-6:
+            continue  # a static crossing: divergence, found apart
+        point = flutter_point(
+            fluid,
+            replace(solid, reduced_velocity=guess_velocity),
+            guess.imag,
+            branch.vectors[i + 1],
+            counter=counter,
+        )
+        if abs(point.frequency) <= STATIC_FREQUENCY:
+            continue  # the branch met ω = 0 on the way: the divergence point, found apart
+        boundary = "onset" if growth[i] < 0 else "restabilisation"
+        if any(_same_point(point, t) and t.boundary == boundary for t in found):
+            continue  # the same threshold found twice; an onset and a restabilisation at one
+            # point stay both: the growth rate touches zero there (or one crossing is unresolved)
+        is_viv = name == "wake" or (
+            wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
+        )
+        found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+    return found
+
+
+def _tracked_divergence(fluid, solid: Solid, static_factor, counter) -> CriticalPoint | None:
+    """The divergence point by :func:`divergence_point`, started a little below the
+    torsional-divergence estimate ``√(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0; at the root itself the
+    static system is singular); None without a positive moment slope."""
+    factor = static_factor or FluidFactor(fluid, 0.0, counter)
+    slope = static_slopes(fluid, factor=factor).moment
+    if not slope > 0:
+        return None
+    estimate = 0.98 * divergence_velocity(slope, solid.r_theta, solid.mass_ratio)
+    return divergence_point(
+        fluid, replace(solid, reduced_velocity=estimate), counter=counter, fluid_factor=factor
+    )
 
 
 @dataclass(frozen=True)
@@ -572,7 +587,7 @@ def critical_points_along_flow(
     counter: FactorCounter | None = None,
     progress=None,
 ):
-    """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (MODEL.md §8) at fixed solid
+    """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (docs/model.md §8) at fixed solid
     parameters: natural continuation along ``flows`` (ordered), on one mesh ``spec``. A generator
     of :class:`FlowCriticalPoint`, one per flow, so that a caller keeps the points computed before
     a failure (:class:`~fsistab.errors.ConvergenceError`: try smaller steps in the flow parameter).

@@ -1,8 +1,8 @@
 """Neutral curves in the flow-parameter planes ``(Re, U*)`` and ``(α0, U*)`` by pseudo-arclength
-continuation (MODEL.md §8), at fixed solid parameters, through turning points.
+continuation (docs/model.md §8), at fixed solid parameters, through turning points.
 
 A dynamic neutral point at flow parameter ``p`` (``log Re`` or ``α0`` in degrees) solves the two
-real equations of the exact transfer (:mod:`fsistab.transfer`, MODEL.md §8)::
+real equations of the exact transfer (:mod:`fsistab.transfer`, docs/model.md §8)::
 
     det T(iω; U*, p) / d0 = 0,        T = P(U*) + iω I - C G(iω; p),
 
@@ -11,7 +11,7 @@ in the unknowns ``y = (ω, log U*, p)``; ``d0`` is ``|det T|`` of the in-vacuo p
 solid stiffness derivative, as in :func:`fsistab.transfer.transfer_flutter_point`); ``∂/∂p`` is a
 one-sided finite difference through a second steady state at ``p + δp`` (Newton from the state at
 ``p``). It only steers Newton and the tangent: the points themselves solve the equations to the
-tolerance. The generic continuation (:func:`fsistab.continuation.continuation`) measures
+tolerance. The generic continuation (:class:`fsistab.continuation.ContinuationIterator`) measures
 arclength in the plane ``(log U*, p)`` and reports turning points in ``p`` (where the threshold
 folds back, e.g. in α0 near 3° for the plate at Re = 2900, m = 1000).
 
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fsistab.continuation import ContinuationSettings, TestFunction, continuation
+from fsistab.continuation import ContinuationIterator, ContinuationSettings, TestFunction
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
 from fsistab.neutral_point import DeterminantProblem
@@ -141,6 +141,48 @@ class _FlowDeterminant:
         return DeterminantProblem(self.characteristic, chord=True)
 
 
+def _checked_range(parameter: str, parameter_range: tuple[float, float], frequency: float):
+    """The range of the continuation variable (``log Re`` or ``α0``) from that of Re or α0."""
+    if parameter not in PARAMETERS:
+        raise InputError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
+    low, high = (float(v) for v in parameter_range)
+    if not low < high or (parameter == "reynolds" and low <= 0):
+        raise InputError(
+            f"the {parameter} range must be increasing (and positive for Re), got {low:g} {high:g}"
+        )
+    if frequency <= 0:
+        raise InputError("a dynamic neutral curve needs a positive starting frequency")
+    return (math.log(low), math.log(high)) if parameter == "reynolds" else (low, high)
+
+
+def _set_scale(problem: _FlowDeterminant, p0: float, solid: Solid, omega: float) -> None:
+    """The fixed scale of the determinant: ``|det|`` of the in-vacuo part at the start (so that
+    the tolerances are relative)."""
+    start_fluid = problem.fluid_at(p0)
+    in_vacuo = characteristic_matrix(
+        np.zeros((3, 4)), solid, 1j * omega, start_fluid.theta0, start_fluid.loads0
+    )
+    problem.scale = abs(np.linalg.det(in_vacuo))
+
+
+def _flow_point(problem: _FlowDeterminant, y: np.ndarray) -> FlowNeutralPoint:
+    f = problem.flow_at(float(y[2]))
+    return FlowNeutralPoint(f.reynolds, f.alpha0_deg, math.exp(float(y[1])), float(y[0]))
+
+
+def _flow_stop(iterator: ContinuationIterator, parameter: str) -> str:
+    """Why a curve ended: ``<parameter>_bound``, ``velocity_bound``, ``zero_frequency``,
+    ``max_points`` or ``step_too_small``."""
+    if iterator.stop == "bound":
+        return f"{parameter}_bound" if iterator.stop_event.component == 2 else "velocity_bound"
+    return "zero_frequency" if iterator.stop == "event:zero_frequency" else iterator.stop
+
+
+def _positive_frequency(y: np.ndarray) -> float:
+    """The test function that ends a curve where its frequency reaches zero (divergence)."""
+    return float(y[0]) - 1e-4
+
+
 def continue_flow_neutral_curve(
     spec,
     flow: Flow,
@@ -172,77 +214,40 @@ def continue_flow_neutral_curve(
     ``initial`` (the steady state at ``flow``) or ``fluid`` (its operators) are reused when given.
     ``on_point(point)`` is called for every accepted :class:`FlowNeutralPoint` after the start.
     """
-    if parameter not in PARAMETERS:
-        raise InputError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
-    low, high = (float(v) for v in parameter_range)
-    if not low < high or (parameter == "reynolds" and low <= 0):
-        raise InputError(
-            f"the {parameter} range must be increasing (and positive for Re), got {low:g} {high:g}"
-        )
-    if frequency <= 0:
-        raise InputError("a dynamic neutral curve needs a positive starting frequency")
+    p_range = _checked_range(parameter, parameter_range, frequency)
     counter = counter if counter is not None else FactorCounter()
     first = counter.count
     problem = _FlowDeterminant(spec, flow, solid, parameter, cache_dir, counter, initial, fluid)
-    p_range = (math.log(low), math.log(high)) if parameter == "reynolds" else (low, high)
     p0 = problem.value_of(flow)
     if not p_range[0] <= p0 <= p_range[1]:
         raise InputError(f"the starting flow lies outside the {parameter} range")
     omega, log_u = float(frequency), math.log(solid.reduced_velocity)
-    # fixed scale: |det| of the in-vacuo part at the start (so that tolerances are relative)
-    start_fluid = problem.fluid_at(p0)
-    in_vacuo = characteristic_matrix(
-        np.zeros((3, 4)), solid, 1j * omega, start_fluid.theta0, start_fluid.loads0
+    _set_scale(problem, p0, solid, omega)
+    iterator = ContinuationIterator(
+        problem.problem().curve(np.array([0.0, 1.0, 1.0])),
+        np.array([omega, log_u, p0]),
+        np.array([0.0, 0.0, float(np.sign(direction) or 1.0)]),
+        ContinuationSettings.neutral_curve(
+            step=step, min_step=min_step, max_step=max_step, max_points=max_points, tol=1e-9, locate_tol=1e-5
+        ),
+        bounds={2: p_range, 1: (math.log(velocity_range[0]), math.log(velocity_range[1]))},
+        events={"zero_frequency": TestFunction(_positive_frequency, terminal=True, localise=False)},
     )
-    problem.scale = abs(np.linalg.det(in_vacuo))
-
-    def point_of(y: np.ndarray) -> FlowNeutralPoint:
-        f = problem.flow_at(float(y[2]))
-        return FlowNeutralPoint(f.reynolds, f.alpha0_deg, math.exp(float(y[1])), float(y[0]))
-
-    turning: list[FlowNeutralPoint] = []
-
-    def accept(y: np.ndarray, iterations: int) -> None:
-        if on_point:
-            on_point(point_of(y))
-
-    def on_event(event) -> None:
-        if event.kind == "fold":
-            turning.append(point_of(event.point))
-
+    points, turning = [], []
     try:
-        branch = continuation(
-            problem.problem().curve(np.array([0.0, 1.0, 1.0])),
-            np.array([omega, log_u, p0]),
-            np.array([0.0, 0.0, float(np.sign(direction) or 1.0)]),
-            ContinuationSettings.neutral_curve(
-                step=step,
-                min_step=min_step,
-                max_step=max_step,
-                max_points=max_points,
-                tol=1e-9,
-                locate_tol=1e-5,
-            ),
-            bounds={2: p_range, 1: (math.log(velocity_range[0]), math.log(velocity_range[1]))},
-            events={
-                "zero_frequency": TestFunction(lambda y: float(y[0]) - 1e-4, terminal=True, localise=False)
-            },
-            on_point=accept,
-            on_event=on_event,
-        )
+        for accepted in iterator:
+            turning += [_flow_point(problem, e.point) for e in accepted.events if e.kind == "fold"]
+            points.append(_flow_point(problem, accepted.point))
+            if on_point and accepted.index > 0:
+                on_point(points[-1])
     except ConvergenceError as exc:
         raise ConvergenceError(
             f"the neutral point at {parameter} = {p0:.5g} did not converge from U* = "
             f"{solid.reduced_velocity:.5g}, ω = {frequency:.5g} ({exc}); start from a threshold of "
             "an eigenvalue sweep (fsistab critical)"
         ) from None
-    stop = branch.stop
-    if stop == "bound":
-        stop = f"{parameter}_bound" if branch.stop_event.component == 2 else "velocity_bound"
-    elif stop == "event:zero_frequency":
-        stop = "zero_frequency"
-    points = tuple(point_of(y) for y in branch.points)
-    return FlowNeutralCurve(parameter, points, tuple(turning), stop, counter.count - first)
+    stop = _flow_stop(iterator, parameter)
+    return FlowNeutralCurve(parameter, tuple(points), tuple(turning), stop, counter.count - first)
 
 
 FLOW_CURVE_FIELDS = {

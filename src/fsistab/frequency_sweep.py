@@ -1,5 +1,5 @@
 """Every threshold along U* at one mass ratio from the exact transfer function swept in frequency:
-an exact p–k method (MODEL.md §7–§8).
+an exact p–k method (docs/model.md §7–§8).
 
 On the imaginary axis ``s = iω`` the characteristic function of :mod:`fsistab.transfer_map`,
 
@@ -9,7 +9,7 @@ is, at fixed ``m``, a complex polynomial in ``u`` (degree 2 per active dof; :fun
 At each frequency its roots ``u_k(ω)`` with ``Re u_k > 0`` are the speeds at which the coupled
 system would have a neutral mode of frequency ``ω`` if they were real: a real root is a neutral
 point, ``U*_c = 1/u_k``, ``ω_c = ω``. Elsewhere they are complex, and near the in-vacuo relations
-(``u ≈ ω/Ω`` in heave, ``u ≈ ω`` in pitch, MODEL.md §2) at large ``m``. Where ``G`` is smooth in
+(``u ≈ ω/Ω`` in heave, ``u ≈ ω`` in pitch, docs/model.md §2) at large ``m``. Where ``G`` is smooth in
 ``ω`` so are they, and so is the 2 × 2 load matrix ``A(iω)``, whose derivative ``dA/dω`` each
 sample gives too (with ``dG/ds``). Between two samples the roots are followed on the cubic
 Hermite interpolant of ``A`` (exact at both ends; :func:`_follow`: each root continued in small
@@ -52,7 +52,7 @@ to a relative step ``MIN_STEP`` in ω; intervals left unresolved there, and cros
 iteration does not converge (two crossings about to merge), are reported, not fatal.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
-:class:`fsistab.params.Solid` (MODEL.md §2, §10).
+:class:`fsistab.params.Solid` (docs/model.md §2, §10).
 """
 
 from __future__ import annotations
@@ -331,6 +331,110 @@ def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[f
     return min(rates) / velocity_range[1] / BAND_MARGIN, BAND_MARGIN * max(rates) / velocity_range[0]
 
 
+class _Samples:
+    """The sweep's samples, by frequency (:class:`SweepSample`): :meth:`add` factorises new
+    frequencies ``threads`` at a time (at most ``MAX_SAMPLES`` in all) and reports progress."""
+
+    def __init__(self, fluid: FluidOperators, solid: Solid, counter: FactorCounter, threads, say):
+        self.fluid, self.solid, self.counter, self.threads, self.say = fluid, solid, counter, threads, say
+        self.start = counter.count
+        self.by_frequency: dict[float, SweepSample] = {}
+
+    def add(self, *frequencies: float) -> None:
+        samples, fluid = self.by_frequency, self.fluid
+        new = [float(w) for w in dict.fromkeys(frequencies) if w not in samples]
+        if len(samples) + len(new) > MAX_SAMPLES:
+            raise ConvergenceError(f"the frequency sweep needed more than {MAX_SAMPLES} samples")
+        data = transfer_samples(
+            fluid, [1j * w for w in new], self.counter, refine=False, threads=self.threads
+        )
+        samples.update(
+            (w, velocity_roots(d, self.solid, fluid.theta0, fluid.loads0))
+            for w, d in zip(new, data, strict=True)
+        )
+        if new:
+            made = self.counter.count - self.start
+            self.say(
+                f"frequency sweep: {len(samples)} samples up to ω = {max(new):.5g}, {made} factorisations"
+            )
+
+
+def _initial_grid(solid: Solid, low: float, high: float, wake_frequency: float | None) -> np.ndarray:
+    """The initial frequencies: log-spaced at ratio ``INITIAL_RATIO`` over :func:`frequency_band`,
+    with five more at 0.9–1.1 times ``wake_frequency`` inside it."""
+    omega_low, omega_high = frequency_band(solid, (low, high))
+    grid = np.geomspace(
+        omega_low,
+        omega_high,
+        max(3, math.ceil(math.log(omega_high / omega_low) / math.log(INITIAL_RATIO)) + 1),
+    )
+    if wake_frequency is not None and omega_low < wake_frequency < omega_high:
+        grid = np.concatenate([grid, wake_frequency * np.array([0.9, 0.95, 1.0, 1.05, 1.1])])
+    return np.unique(grid)
+
+
+def _widen_band(samples: _Samples, static, low: float, high: float) -> None:
+    """Widen the band until no root can put a neutral point of the range beyond it. At low
+    frequency the roots of the static branches tend to the divergence speeds ``1/U*_D`` (ω = 0,
+    found exactly from ``G(0)``), which may lie in the range: those do not call for a wider band."""
+    by_frequency, solid = samples.by_frequency, samples.solid
+    for _ in range(MAX_WIDENINGS):
+        lowest = by_frequency[min(by_frequency)]
+        in_range = [u for u in lowest.roots if 1.0 / high <= u.real <= 1.0 / low]
+        if not in_range:
+            break
+        static_roots = (
+            [1.0 / v for v, _ in _divergence_velocities(static.get(), solid, samples.fluid)] if static else []
+        )
+        if len(in_range) <= sum(1.0 / high <= u <= 1.0 / low for u in static_roots):
+            break
+        samples.add(min(by_frequency) / INITIAL_RATIO**2)
+    for _ in range(MAX_WIDENINGS):
+        highest = by_frequency[max(by_frequency)]
+        if not np.any(highest.roots.real <= 1.0 / low):
+            break
+        samples.add(max(by_frequency) * INITIAL_RATIO**2)
+
+
+def _newton_starts(intervals, low: float, high: float) -> list[tuple[float, float, float, float]]:
+    """``(ω, U*, a, b)`` for each bracketed crossing with U* near the range: its interpolated
+    position and two frequencies a quarter of its interval apart around it, whose exact samples
+    bring the interpolant's error down by about ``4⁴`` so that Newton on ``det T`` starts closer."""
+    starts = []
+    for w0, w1, crossings in intervals:
+        for omega, velocity in crossings or []:
+            if low / 1.1 <= velocity <= high * 1.1:
+                eighth = 0.125 * (w1 - w0)
+                starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth)))
+    return starts
+
+
+def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: float, unresolved: list):
+    """Each crossing of ``starts`` converged on the exact transfer function (:func:`_converge`)
+    from its start on the cubic between the two closer samples; one that does not converge (e.g.
+    two crossings about to merge) is added to ``unresolved`` and reported, not fatal. The
+    thresholds in ``[low, high]``, each once."""
+    by_frequency, solid, say = samples.by_frequency, samples.solid, samples.say
+    found = []
+    for omega, velocity, a, b in starts:
+        closer = _follow(by_frequency[a], by_frequency[b], [], solid, relevant, strict=False)
+        if closer:
+            omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
+        try:
+            threshold = _converge(samples.fluid, solid, omega, velocity, samples.counter)
+        except ConvergenceError as error:
+            unresolved.append((a, b))
+            say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
+            continue
+        if low <= threshold.reduced_velocity <= high and not any(
+            abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
+            and abs(threshold.frequency - p.frequency) < 1e-7
+            for p in found
+        ):
+            found.append(threshold)
+    return found
+
+
 def sweep_thresholds(
     fluid: FluidOperators,
     solid: Solid,
@@ -357,89 +461,31 @@ def sweep_thresholds(
         raise InputError(f"the velocity range must satisfy 0 < low < high, got {velocity_range}")
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
-    start = counter.count
-    theta0, loads0 = fluid.theta0, fluid.loads0
-    samples: dict[float, SweepSample] = {}
-
-    def add(*frequencies: float) -> None:
-        new = [float(w) for w in dict.fromkeys(frequencies) if w not in samples]
-        if len(samples) + len(new) > MAX_SAMPLES:
-            raise ConvergenceError(f"the frequency sweep needed more than {MAX_SAMPLES} samples")
-        data = transfer_samples(fluid, [1j * w for w in new], counter, refine=False, threads=threads)
-        samples.update((w, velocity_roots(d, solid, theta0, loads0)) for w, d in zip(new, data, strict=True))
-        if new:
-            made = counter.count - start
-            say(f"frequency sweep: {len(samples)} samples up to ω = {max(new):.5g}, {made} factorisations")
-
-    omega_low, omega_high = frequency_band(solid, (low, high))
-    grid = np.geomspace(
-        omega_low,
-        omega_high,
-        max(3, math.ceil(math.log(omega_high / omega_low) / math.log(INITIAL_RATIO)) + 1),
-    )
-    if wake_frequency is not None and omega_low < wake_frequency < omega_high:
-        grid = np.concatenate([grid, wake_frequency * np.array([0.9, 0.95, 1.0, 1.05, 1.1])])
+    samples = _Samples(fluid, solid, counter, threads, say)
+    grid = _initial_grid(solid, low, high, wake_frequency)
     with ThreadPoolExecutor(1) as pool:
         static = _StaticSample(fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
-        add(*np.unique(grid))
-        # widen the band until no root can put a neutral point of the range beyond it; at low
-        # frequency the roots of the static branches tend to the divergence speeds 1/U*_D (ω = 0,
-        # found exactly from G(0)), which may lie in the range: those do not call for a wider band
-        for _ in range(MAX_WIDENINGS):
-            lowest = samples[min(samples)]
-            in_range = [u for u in lowest.roots if 1.0 / high <= u.real <= 1.0 / low]
-            if not in_range:
-                break
-            static_roots = (
-                [1.0 / v for v, _ in _divergence_velocities(static.get(), solid, fluid)] if static else []
-            )
-            if len(in_range) <= sum(1.0 / high <= u <= 1.0 / low for u in static_roots):
-                break
-            add(min(samples) / INITIAL_RATIO**2)
-        for _ in range(MAX_WIDENINGS):
-            highest = samples[max(samples)]
-            if not np.any(highest.roots.real <= 1.0 / low):
-                break
-            add(max(samples) * INITIAL_RATIO**2)
+        samples.add(*grid)
+        _widen_band(samples, static, low, high)
         relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
-        intervals, unresolved = _bisect(samples, add, solid, relevant, sample_threads(threads))
+        intervals, unresolved = _bisect(
+            samples.by_frequency, samples.add, solid, relevant, sample_threads(threads)
+        )
         if unresolved:
             where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
             say(f"frequency sweep: {len(unresolved)} interval(s) of ω unresolved at {MIN_STEP:g}: {where}")
-        # converge each bracketed crossing on the exact transfer function: two exact samples a
-        # quarter of its interval apart around the interpolated crossing (factorised together, all
-        # crossings at once) bring the interpolant's error down by about 4⁴, so that Newton on
-        # det T starts closer; G(0) is made meanwhile in the other thread
-        starts = []
-        for w0, w1, crossings in intervals:
-            for omega, velocity in crossings or []:
-                if low / 1.1 <= velocity <= high * 1.1:
-                    eighth = 0.125 * (w1 - w0)
-                    starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth)))
-        add(*(w for _, _, a, b in starts for w in (a, b)))
+        # the exact samples around every crossing factorised together; G(0) is made meanwhile in
+        # the other thread
+        starts = _newton_starts(intervals, low, high)
+        samples.add(*(w for _, _, a, b in starts for w in (a, b)))
         if static is not None:
             static.prefetch()
-        found = []
-        for omega, velocity, a, b in starts:
-            closer = _follow(samples[a], samples[b], [], solid, relevant, strict=False)
-            if closer:
-                omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
-            try:
-                threshold = _converge(fluid, solid, omega, velocity, counter)
-            except ConvergenceError as error:  # e.g. two crossings about to merge: reported, not fatal
-                unresolved.append((a, b))
-                say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
-                continue
-            if low <= threshold.reduced_velocity <= high and not any(
-                abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
-                and abs(threshold.frequency - p.frequency) < 1e-7
-                for p in found
-            ):
-                found.append(threshold)
+        found = _converge_crossings(samples, starts, relevant, low, high, unresolved)
         if static is not None:
             found += _divergence(static.get(), solid, fluid, (low, high))
     found.sort(key=lambda t: t.reduced_velocity)
-    return SweepResult(tuple(found), np.array(sorted(samples)), tuple(unresolved), counter.count - start)
+    frequencies = np.array(sorted(samples.by_frequency))
+    return SweepResult(tuple(found), frequencies, tuple(unresolved), counter.count - samples.start)
 
 
 class _StaticSample:
@@ -516,7 +562,7 @@ def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np
     """The neutral point at ``sample``'s frequency and ``solid``'s ``(m, U*)`` with the exact tangent
     of its neutral curve, ``d(log m, log U*)/dω`` from ``F(log m, log U*, ω) = 0``, and the crossing
     rate ``∂(Re σ)/∂(log U*)`` at fixed m, ``(u F_u/F_s).real`` (> 0: onset)
-    (:func:`fsistab.transfer_map._root_with_tangent`, MODEL.md §7–§8). Where the tangent is not
+    (:func:`fsistab.transfer_map._root_with_tangent`, docs/model.md §7–§8). Where the tangent is not
     defined (``F_m m`` and ``F_u u`` parallel: a fold of the curve in ω, where ``ω`` is stationary
     along it) its derivatives are infinite."""
     omega = sample.s.imag

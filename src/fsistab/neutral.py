@@ -1,4 +1,4 @@
-"""Neutral curves in the (m, U*) plane by pseudo-arclength continuation (MODEL.md §8).
+"""Neutral curves in the (m, U*) plane by pseudo-arclength continuation (docs/model.md §8).
 
 A point of a dynamic neutral curve solves, in the unknowns ``y = (Re q̂, Im q̂, ω, U*, μ = log m)``::
 
@@ -31,14 +31,16 @@ on which side of it the system is unstable (:func:`sides_from_role`).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
-from fsistab.continuation import ContinuationSettings, TestFunction, continuation
-from fsistab.critical import AugmentedProblem, CriticalPoint, find_thresholds
+from fsistab.continuation import ContinuationIterator, ContinuationSettings, Event, TestFunction
+from fsistab.critical import AugmentedProblem, CriticalPoint, Threshold, find_thresholds
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.neutral_map import (
@@ -86,6 +88,54 @@ class NeutralCurve:
         return np.column_stack([np.log(self.mass_ratios), self.reduced_velocities])
 
 
+def _zero_frequency(y: np.ndarray) -> float:
+    """The test function that ends a neutral curve where its frequency reaches zero (relative to
+    the solid's scale ``1/U*`` when that is above 1): a codimension-two point with divergence."""
+    return float(y[-3] - 1e-4 * max(1.0, 1.0 / y[-2]))
+
+
+def _neutral_point(problem: AugmentedProblem, y: np.ndarray, iterations: int) -> NeutralPoint:
+    q, omega, velocity, log_mass = problem.unpack(y)
+    return NeutralPoint(math.exp(log_mass), velocity, omega, q, iterations)
+
+
+def _turning_point(problem: AugmentedProblem, event: Event) -> TurningPoint:
+    _, omega, velocity, log_mass = problem.unpack(event.point)
+    return TurningPoint(math.exp(log_mass), velocity, omega, event.index, event.localised)
+
+
+def _neutral_stop(iterator: ContinuationIterator, n: int) -> str:
+    """Why a neutral curve ended: ``mass_bound``, ``velocity_bound``, ``zero_frequency``,
+    ``max_points`` or ``step_too_small``."""
+    if iterator.stop == "bound":
+        return "mass_bound" if iterator.stop_event.component == 2 * n + 2 else "velocity_bound"
+    return "zero_frequency" if iterator.stop == "event:zero_frequency" else iterator.stop
+
+
+def _neutral_iterator(
+    problem: AugmentedProblem,
+    y0: np.ndarray,
+    settings: ContinuationSettings,
+    mass_range: tuple[float, float],
+    velocity_range: tuple[float, float],
+    orientation: tuple[float, float],
+) -> ContinuationIterator:
+    """The continuation of the neutral curve of ``problem`` through ``y0`` (module doc) oriented by
+    ``orientation = (ΔU*, Δlog m)``: it ends at the bounds of ``mass_range`` and ``velocity_range``
+    or where the frequency reaches zero."""
+    n = problem.n
+    d0 = np.zeros(problem.size)
+    d0[-2:] = orientation
+    return ContinuationIterator(
+        problem.curve(),
+        y0,
+        d0,
+        settings,
+        bounds={2 * n + 2: (math.log(mass_range[0]), math.log(mass_range[1])), 2 * n + 1: velocity_range},
+        events={"zero_frequency": TestFunction(_zero_frequency, terminal=True, localise=False)},
+    )
+
+
 def continue_neutral_curve(
     fluid: FluidOperators,
     start: CriticalPoint,
@@ -109,12 +159,12 @@ def continue_neutral_curve(
     Arclength in the plane ``(U*, log m)``; ``direction`` −1 starts towards smaller m, or
     ``initial_direction = (ΔU*, Δlog m)`` orients the first step (to resume past a turning point).
     Steps grow after quick convergence and halve after a failure or a turn of the tangent by more
-    than 0.5 rad within one step (:func:`fsistab.continuation.continuation`); the curve stops when it leaves
-    ``mass_range``/``velocity_range`` or the frequency reaches zero (a codimension-two point with
-    the divergence curve), or after ``max_points``. Turning points in m are reported (and located
-    on the curve when ``locate_folds``, a few extra factorisations each). ``on_point`` is called
-    for every accepted point (to save progress), ``on_fold`` for every turning point, before the
-    point that follows it.
+    than 0.5 rad within one step (:class:`fsistab.continuation.ContinuationIterator`); the curve
+    stops when it leaves ``mass_range``/``velocity_range`` or the frequency reaches zero (a
+    codimension-two point with the divergence curve), or after ``max_points``. Turning points in m
+    are reported (and located on the curve when ``locate_folds``, a few extra factorisations
+    each). ``on_point`` is called for every accepted point (to save progress), ``on_fold`` for
+    every turning point, before the point that follows it.
     """
     if start.kind != "flutter":
         raise InputError("continue_neutral_curve follows dynamic (ω > 0) neutral curves")
@@ -123,6 +173,11 @@ def continue_neutral_curve(
     counter = counter if counter is not None else FactorCounter()
     first = counter.count
     problem = AugmentedProblem(fluid, template, counter)
+    settings = ContinuationSettings.neutral_curve(
+        step=step, min_step=min_step, max_step=max_step, max_points=max_points,
+        tol=1e-10, locate_tol=1e-6, locate_folds=locate_folds,
+    )  # fmt: skip
+    orientation = initial_direction if initial_direction is not None else (0.0, float(np.sign(direction)))
     n = problem.n
     y0 = problem.pack(
         np.asarray(start.mode, dtype=complex),
@@ -130,62 +185,29 @@ def continue_neutral_curve(
         start.reduced_velocity,
         math.log(start.mass_ratio),
     )
-    d0 = np.zeros(problem.size)
-    d0[-2:] = initial_direction if initial_direction is not None else (0.0, float(np.sign(direction)))
     points = [
         NeutralPoint(
             start.mass_ratio, start.reduced_velocity, start.frequency, y0[:n] + 1j * y0[n : 2 * n], 0
         )
     ]
     turning: list[TurningPoint] = []
-
-    def point_of(y: np.ndarray, iterations: int) -> NeutralPoint:
-        q, omega, velocity, log_mass = problem.unpack(y)
-        return NeutralPoint(math.exp(log_mass), velocity, omega, q, iterations)
-
-    def accept(y: np.ndarray, iterations: int) -> None:
-        points.append(point_of(y, iterations))
-        if on_point:
-            on_point(points[-1])
-
-    def fold(event) -> None:
-        _, omega, velocity, log_mass = problem.unpack(event.point)
-        turning.append(TurningPoint(math.exp(log_mass), velocity, omega, event.index, event.localised))
-        if on_fold:
-            on_fold(turning[-1])
-
-    def zero_frequency(y: np.ndarray) -> float:
-        return float(y[-3] - 1e-4 * max(1.0, 1.0 / y[-2]))
-
+    iterator = _neutral_iterator(problem, y0, settings, mass_range, velocity_range, orientation)
     try:
-        branch = continuation(
-            problem.curve(),
-            y0,
-            d0,
-            ContinuationSettings.neutral_curve(
-                step=step,
-                min_step=min_step,
-                max_step=max_step,
-                max_points=max_points,
-                tol=1e-10,
-                locate_tol=1e-6,
-                locate_folds=locate_folds,
-            ),
-            bounds={2 * n + 2: (math.log(mass_range[0]), math.log(mass_range[1])), 2 * n + 1: velocity_range},
-            events={"zero_frequency": TestFunction(zero_frequency, terminal=True, localise=False)},
-            record=lambda y: y[-3:],
-            on_point=accept,
-            on_event=lambda e: fold(e) if e.kind == "fold" else None,
-        )
+        for accepted in itertools.islice(iterator, 1, None):  # the points after the start
+            for event in accepted.events:
+                if event.kind == "fold":
+                    turning.append(_turning_point(problem, event))
+                    if on_fold:
+                        on_fold(turning[-1])
+            points.append(_neutral_point(problem, accepted.point, accepted.iterations))
+            if on_point:
+                on_point(points[-1])
     except ConvergenceError:  # no step from the start converged: a one-point curve
         return NeutralCurve(tuple(points), (), "step_too_small", counter.count - first, ())
-    stop = branch.stop
-    if stop == "bound":
-        stop = "mass_bound" if branch.stop_event.component == 2 * n + 2 else "velocity_bound"
-    elif stop == "event:zero_frequency":
-        stop = "zero_frequency"
     folds = tuple(t.index for t in turning)
-    return NeutralCurve(tuple(points), folds, stop, counter.count - first, tuple(turning))
+    return NeutralCurve(
+        tuple(points), folds, _neutral_stop(iterator, problem.n), counter.count - first, tuple(turning)
+    )
 
 
 CURVE_FIELDS = {
@@ -247,6 +269,23 @@ def saved_turning_points(table) -> list[TurningPoint]:
     ]
 
 
+class _CurveRecorder:
+    """Saves a neutral curve in its table as it is traced: each point (with its mode, the state to
+    resume from) after the ``points`` already there, each turning point with the point that follows
+    it, numbered along the whole curve (``offset`` the index of the continuation's start)."""
+
+    def __init__(self, table, points: list[NeutralPoint], offset: int):
+        self.table, self.points, self.offset = table, points, offset
+
+    def save(self, point: NeutralPoint) -> None:
+        self.points.append(point)
+        self.table.append(_point_record(point), kind="point", state={"last_mode": point.mode})
+
+    def save_fold(self, fold: TurningPoint) -> None:
+        fold = replace(fold, index=fold.index + self.offset)
+        self.table.append(_fold_record(fold), kind="fold", save=False)
+
+
 def trace_curve_resumable(
     fluid: FluidOperators,
     start: CriticalPoint,
@@ -283,16 +322,10 @@ def trace_curve_resumable(
     else:
         points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
         table.append(_point_record(start), kind="point", state={"last_mode": start.mode}, save=False)
-    offset = len(points) - 1
-
-    def save(point: NeutralPoint) -> None:
-        points.append(point)
-        table.append(_point_record(point), kind="point", state={"last_mode": point.mode})
-
-    def save_fold(fold: TurningPoint) -> None:  # saved with the next point
-        table.append(_fold_record(replace(fold, index=fold.index + offset)), kind="fold", save=False)
-
-    curve = continue_neutral_curve(fluid, start, template, on_point=save, on_fold=save_fold, **options)
+    recorder = _CurveRecorder(table, points, len(points) - 1)
+    curve = continue_neutral_curve(
+        fluid, start, template, on_point=recorder.save, on_fold=recorder.save_fold, **options
+    )
     table.finish({"stop": curve.stop})
     return points
 
@@ -348,6 +381,46 @@ def _on_traced_curve(curves: Sequence[MapCurve], kind: str, mass_ratio: float, v
     return False
 
 
+def _trace_both_ways(
+    fluid: FluidOperators,
+    threshold: Threshold,
+    solid: Solid,
+    seed_mass: float,
+    index: int,
+    files: tuple[Path, str],
+    attrs: dict,
+    *,
+    mass_range: tuple[float, float],
+    max_points: int,
+    counter: FactorCounter,
+    say: Callable[[str], None],
+) -> tuple[MapCurve, int]:
+    """Curve ``index`` of a map: the neutral curve through ``threshold`` (of a sweep at
+    ``seed_mass`` with the solid ``solid``) continued towards smaller and larger m
+    (:func:`trace_curve_resumable`, files ``neutral_{tag}_curve{index}_{down|up}.nc`` in the
+    directory of ``files = (directory, tag)``), the first half reversed: the map's curve (not yet
+    characterised) and the seed's index in its points."""
+    halves, turning, stops = [], [], []
+    for direction in (-1, 1):
+        name = "down" if direction < 0 else "up"
+        path = files[0] / f"neutral_{files[1]}_curve{index}_{name}.nc"
+        identity = {**attrs, "kind": threshold.kind, "direction": direction}
+        say(f"curve {index} ({threshold.kind} from m = {seed_mass:g}) towards {name}")
+        traced = trace_curve_resumable(
+            fluid, threshold.point, solid, path, identity,
+            direction=direction, mass_range=mass_range, max_points=max_points, counter=counter,
+        )  # fmt: skip
+        table = curve_table(path, identity)  # the saved half: its turning points and stop
+        halves.append(traced)
+        turning.extend(saved_turning_points(table))
+        stops.append(str(table.final_attrs.get("stop", "")))
+    ordered = tuple(reversed(halves[0])) + tuple(halves[1][1:])
+    curve = MapCurve(
+        threshold.kind, seed_mass, threshold.boundary, ordered, tuple(turning), (stops[0], stops[1])
+    )
+    return curve, len(halves[0]) - 1
+
+
 def trace_neutral_map(
     fluid: FluidOperators,
     template: Solid,
@@ -361,7 +434,7 @@ def trace_neutral_map(
     counter: FactorCounter | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> NeutralMap:
-    """The stability map of MODEL.md §8 in the plane ``(m, U*)``.
+    """The stability map of docs/model.md §8 in the plane ``(m, U*)``.
 
     Each seed sweep (:func:`fsistab.critical.find_thresholds`) gives thresholds; every dynamic one
     not already on a traced curve is continued towards smaller and larger m
@@ -373,14 +446,11 @@ def trace_neutral_map(
     the wake frequency) only tell which thresholds lie on curves already traced.
     ``template`` gives the solid parameters other than ``m`` and ``U*``.
     """
-    from pathlib import Path
-
     out_dir = Path(out_dir)
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     curves: list[MapCurve] = []
     seeds_at: list[int] = []  # per curve: the seed's index in its points
-    k = 0
     static = FluidFactor(fluid, 0.0, counter)  # J_ff: divergence of every sweep and the slope
     for seed in seeds:
         say(f"sweep in U* at m = {seed.mass_ratio:g}")
@@ -398,40 +468,12 @@ def trace_neutral_map(
                 curves, threshold.kind, threshold.point.mass_ratio, threshold.reduced_velocity
             ):
                 continue
-            halves, turning, stops = [], [], []
-            for direction in (-1, 1):
-                name = "down" if direction < 0 else "up"
-                path = out_dir / f"neutral_{tag}_curve{k}_{name}.nc"
-                identity = {**attrs, "kind": threshold.kind, "direction": direction}
-                say(f"curve {k} ({threshold.kind} from m = {seed.mass_ratio:g}) towards {name}")
-                traced = trace_curve_resumable(
-                    fluid,
-                    threshold.point,
-                    solid,
-                    path,
-                    identity,
-                    direction=direction,
-                    mass_range=mass_range,
-                    max_points=max_points,
-                    counter=counter,
-                )
-                table = curve_table(path, identity)  # the saved half: its turning points and stop
-                halves.append(traced)
-                turning.extend(saved_turning_points(table))
-                stops.append(str(table.final_attrs.get("stop", "")))
-            ordered = tuple(reversed(halves[0])) + tuple(halves[1][1:])
-            curves.append(
-                MapCurve(
-                    threshold.kind,
-                    seed.mass_ratio,
-                    threshold.boundary,
-                    ordered,
-                    tuple(turning),
-                    (stops[0], stops[1]),
-                )
-            )
-            seeds_at.append(len(halves[0]) - 1)
-            k += 1
+            curve, seed_index = _trace_both_ways(
+                fluid, threshold, solid, seed.mass_ratio, len(curves), (out_dir, tag), attrs,
+                mass_range=mass_range, max_points=max_points, counter=counter, say=say,
+            )  # fmt: skip
+            curves.append(curve)
+            seeds_at.append(seed_index)
     # labels and unstable sides by the transfer method's rule (find_thresholds' kinds only matched
     # thresholds to the curves already traced)
     curves = [characterised(curve, index, mass_range) for curve, index in zip(curves, seeds_at, strict=True)]

@@ -45,7 +45,7 @@ class TurningPoint:
 
 
 def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarray) -> np.ndarray:
-    """``U*_D(m)`` of :func:`divergence_velocity` on ``mass_ratios`` (MODEL.md §8), as the map
+    """``U*_D(m)`` of :func:`divergence_velocity` on ``mass_ratios`` (docs/model.md §8), as the map
     stores it: NaN (no line to draw) where the slope is not positive."""
     velocities = np.asarray(divergence_velocity(moment_slope, r_theta, mass_ratios))
     return np.where(np.isinf(velocities), np.nan, velocities)
@@ -150,7 +150,7 @@ def frequency_following(
     two points or no change in U* and m).
 
     The solid's frequencies in the fluid are ``(Ω/U*, 1/U*) · √(m/(m + m_a))`` (in-vacuo
-    ``Ω/U*``, ``1/U*``, MODEL.md §2-§3, lowered by an added mass ``m_a``): along a curve they move
+    ``Ω/U*``, ``1/U*``, docs/model.md §2-§3, lowered by an added mass ``m_a``): along a curve they move
     by ``Δ log U*``, and by up to ``½ Δ log m`` more through the mass ratio for a light body.
     Along a flutter curve the critical frequency follows them (at large m ``U* ∝ √m`` and
     ``ω U*`` stays O(1): a following near 1); along a VIV curve it stays locked at the frequency of
@@ -238,7 +238,7 @@ class MapCrossing:
 
 @dataclass(frozen=True)
 class NeutralMap:
-    """Every neutral curve found in the ``(m, U*)`` plane (MODEL.md §8): dynamic curves (flutter,
+    """Every neutral curve found in the ``(m, U*)`` plane (docs/model.md §8): dynamic curves (flutter,
     VIV) with their turning points, the divergence curve ``U*_D(m)`` of the static moment slope,
     and the codimension-two crossings of all of them; ``unresolved`` the frequency intervals
     ``(low, high, reason)`` the transfer method left unresolved (none by continuation)."""
@@ -265,26 +265,9 @@ def map_crossings(
     curves fold. With ``r_theta`` and ``moment_slope`` a crossing with divergence is put on the
     exact divergence curve ``U*_D = r_θ √(m/slope)`` (Newton along the dynamic curve's segment)
     instead of its polyline. Each carries both curves' frequencies there (0 for divergence)."""
-    crossings = []
     planes = [c.plane_points for c in curves]
     frequencies = [np.array([p.frequency for p in c.points]) for c in curves]
-
-    def frequency_at(k: int, segment: int, point: np.ndarray) -> float:
-        if k < 0:
-            return 0.0
-        plane, w = planes[k], frequencies[k]
-        if len(plane) < 2:
-            return float(w[0]) if len(w) else math.nan
-        d = plane[segment + 1] - plane[segment]
-        a = float(np.clip((point - plane[segment]) @ d / max(float(d @ d), 1e-300), 0.0, 1.0))
-        return float(w[segment] + a * (w[segment + 1] - w[segment]))
-
-    def record(i: int, j: int, found) -> None:
-        for c in found:
-            point = np.array([math.log(c.mass_ratio), c.reduced_velocity])
-            pair = (frequency_at(i, c.segments[0], point), frequency_at(j, c.segments[1], point))
-            crossings.append(MapCrossing(i, j, c, pair))
-
+    crossings = []
     ok = np.isfinite(divergence)
     if ok.sum() > 1:
         planes_div = np.column_stack([np.log(masses[ok]), divergence[ok]])
@@ -292,13 +275,39 @@ def map_crossings(
             refine = None
             if r_theta is not None and moment_slope is not None and moment_slope > 0:
                 refine = _on_divergence(plane, r_theta / math.sqrt(moment_slope))
-            record(i, -1, curve_crossings(plane, planes_div, refine))
+            crossings += _with_frequencies(
+                i, -1, curve_crossings(plane, planes_div, refine), planes, frequencies
+            )
     for i in range(len(planes)):
         own = [c for c in curve_crossings(planes[i], planes[i]) if c.segments[1] > c.segments[0] + 1]
-        record(i, i, own)
+        crossings += _with_frequencies(i, i, own, planes, frequencies)
         for j in range(i + 1, len(planes)):
-            record(i, j, curve_crossings(planes[i], planes[j]))
+            crossings += _with_frequencies(i, j, curve_crossings(planes[i], planes[j]), planes, frequencies)
     return tuple(crossings)
+
+
+def _frequency_at(plane: np.ndarray, w: np.ndarray, segment: int, point: np.ndarray) -> float:
+    """The frequency of a curve (points ``plane``, frequencies ``w``) at ``point`` of its segment
+    ``segment``, interpolated linearly along the segment."""
+    if len(plane) < 2:
+        return float(w[0]) if len(w) else math.nan
+    d = plane[segment + 1] - plane[segment]
+    a = float(np.clip((point - plane[segment]) @ d / max(float(d @ d), 1e-300), 0.0, 1.0))
+    return float(w[segment] + a * (w[segment + 1] - w[segment]))
+
+
+def _with_frequencies(i: int, j: int, found, planes, frequencies) -> list[MapCrossing]:
+    """The crossings ``found`` of curves ``i`` and ``j`` (``-1``: divergence, frequency 0) with both
+    curves' frequencies there."""
+    crossings = []
+    for c in found:
+        point = np.array([math.log(c.mass_ratio), c.reduced_velocity])
+        pair = tuple(
+            0.0 if k < 0 else _frequency_at(planes[k], frequencies[k], segment, point)
+            for k, segment in ((i, c.segments[0]), (j, c.segments[1]))
+        )
+        crossings.append(MapCrossing(i, j, c, pair))
+    return crossings
 
 
 def _on_divergence(plane: np.ndarray, coefficient: float):

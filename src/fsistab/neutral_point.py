@@ -1,15 +1,15 @@
-"""The neutral point of MODEL.md §8, independent of how the coupled problem is discretised.
+"""The neutral point of docs/model.md §8, independent of how the coupled problem is discretised.
 
 The static neutral point (divergence, ``ω = 0``) of the pitching body has a closed form: the
 static moment does not depend on the heave, so ``J(U*) q̂ = 0`` reduces to the torsional balance
-``m r_θ² / U*² = dC_M/dθ`` (MODEL.md §8, §9), i.e. ``U*_D = √(m r_θ² / (dC_M/dθ))``. Every module
+``m r_θ² / U*² = dC_M/dθ`` (docs/model.md §8, §9), i.e. ``U*_D = √(m r_θ² / (dC_M/dθ))``. Every module
 that needs a divergence velocity (the sparse map of :mod:`fsistab.neutral`, the transfer map, the
 Theodorsen model, the threshold estimates of :mod:`fsistab.critical`) takes it from
 :func:`divergence_velocity`.
 
 A dynamic neutral point (``ω > 0``) is one problem — the problem is separate from the solver
 (:func:`fsistab.continuation.newton`) and from the curve driver
-(:func:`fsistab.continuation.continuation`), as in BifurcationKit.jl. A *formulation* gives the
+(:class:`fsistab.continuation.ContinuationIterator`), as in BifurcationKit.jl. A *formulation* gives the
 residual ``F(y)`` and a bordered solve ``[F_y; bᵀ] δ = rhs`` (a
 :class:`~fsistab.continuation.CurveProblem`) for real unknowns ``y = (state…, ω, U*-coordinate, p)``
 with ``p`` the parameter of the plane (``log m``, ``log Re`` or ``α0``); ``F`` has one equation
@@ -18,7 +18,7 @@ fewer than unknowns. One neutral point is ``F(y) = 0`` with ``p`` held
 solved by the one Newton; a neutral curve is the continuation of the same ``F``. This module is
 NumPy-only (the analytic Theodorsen model uses it without the finite elements). Formulations:
 
-- :class:`fsistab.critical.AugmentedProblem`, the augmented sparse system of MODEL.md §8 in the
+- :class:`fsistab.critical.AugmentedProblem`, the augmented sparse system of docs/model.md §8 in the
   ``(m, U*)`` plane, ``y = (Re q̂, Im q̂, ω, U*, log m)``::
 
       (iω M(m) + J(U*, m)) q̂ = 0,   Re(ĥ) = 0 (phase),   q̂ᴴ M q̂ = 1 (amplitude);
@@ -55,7 +55,7 @@ def _checked(name: str, value, positive: bool) -> np.ndarray:
 
 
 def divergence_velocity(moment_slope, r_theta, mass_ratio):
-    """Torsional divergence velocity ``U*_D = √(m r_θ² / (dC_M/dθ))`` (MODEL.md §8, §9).
+    """Torsional divergence velocity ``U*_D = √(m r_θ² / (dC_M/dθ))`` (docs/model.md §8, §9).
 
     ``moment_slope`` is the steady slope ``dC_M/dθ`` about the elastic axis; the arguments
     broadcast like NumPy arrays. Where ``moment_slope <= 0`` the static moment restores the pitch

@@ -1,10 +1,10 @@
-"""Analytic typical section with Theodorsen's unsteady aerodynamics (MODEL.md §9).
+"""Analytic typical section with Theodorsen's unsteady aerodynamics (docs/model.md §9).
 
 A rigid flat plate on a heave spring and a pitch spring attached at the elastic axis, loaded by
 Theodorsen's potential-flow lift and moment. Its flutter and divergence boundaries are the cheap
 reference against which the viscous global-stability results are read (REFERENCE.md §C–§E).
 
-Conventions (those of the project, MODEL.md §1–§3, never the textbooks'):
+Conventions (those of the project, docs/model.md §1–§3, never the textbooks'):
 
 * length unit the chord ``c`` (semi-chord ``b = 1/2``), time unit ``c/U∞``; the plate spans
   ``X ∈ [-1/2, 1/2]`` with its leading edge at ``X = -1/2``;
@@ -16,28 +16,28 @@ Conventions (those of the project, MODEL.md §1–§3, never the textbooks'):
   downstream (textbooks' ``x_θ`` in semi-chords is ``2 x_θ`` here);
 * ``m = m̃/(½ρc²)``, ``U* = U∞/(c ω_θ)``, ``Ω = ω_h/ω_θ``, ``ω_h = √(K_h/m̃)``,
   ``ω_θ = √(K_θ/I_EA)``, ``r_θ = √(I_EA/(m̃c²))`` the radius of gyration **about the elastic axis**
-  (MODEL.md §2 defines it about G; the two coincide when ``x_θ = 0``, the plate of the paper);
+  (docs/model.md §2 defines it about G; the two coincide when ``x_θ = 0``, the plate of the paper);
 * coefficients ``C_L = L/(½ρU∞²c)`` (up), ``C_M = M/(½ρU∞²c²)`` about the elastic axis,
   counter-clockwise positive; slopes ``dC_L/dθ`` and ``dC_M/dθ`` (thin airfoil ``-2π`` and ``π/2``
   about mid-chord), the moment slope about the elastic axis being ``dC_M/dθ - a dC_L/dθ``
-  (thin airfoil ``(π/2)(1 + 4a)``, MODEL.md §9);
+  (thin airfoil ``(π/2)(1 + 4a)``, docs/model.md §9);
 * eigenvalues ``σ = λ + iω`` of ``(h, θ) ∝ e^{σt}``, ``ω`` in units of ``U∞/c``; the reduced
   frequency on the semi-chord is ``k = ω/2``, and ``ω/ω_θ = ω U*``.
 
-Solid equations with unbalance (MODEL.md §3 generalised). The centre of mass at ``X = a + x_θ``
+Solid equations with unbalance (docs/model.md §3 generalised). The centre of mass at ``X = a + x_θ``
 moves up by ``h + x_θ θ``, so the kinetic energy is ``½m̃(ḣ + x_θ θ̇)² + ½I_G θ̇²`` and, divided by
 ``m̃`` and ``I_EA = m̃ r_θ² = I_G + m̃ x_θ²``::
 
     h'' + x_θ θ''          + 2ζ_h (Ω/U*) h' + (Ω/U*)² h = C_L / m
     (x_θ/r_θ²) h'' + θ''   + 2ζ_θ (1/U*) θ' + (1/U*)² θ = C_M / (m r_θ²)
 
-Theodorsen's loads (MODEL.md §9 with ``C(k)``; ``dC_L/dθ``, ``dC_M/dθ`` about the elastic axis)::
+Theodorsen's loads (docs/model.md §9 with ``C(k)``; ``dC_L/dθ``, ``dC_M/dθ`` about the elastic axis)::
 
     C_L = -(π/2)[θ' + h'' - a θ''] + C(k) dC_L/dθ [θ + h' + (1/4 - a) θ']
     C_M = (π/4)[2a h'' - (1/16 + 2a²) θ''] + (π/4)(2a - 1/2) θ'
           + C(k) dC_M/dθ [θ + h' + (1/4 - a) θ']
 
-The non-circulatory ``h''`` term of ``C_M`` is ``(π/2) a h''``: MODEL.md §9 prints ``(π/4) a h''``,
+The non-circulatory ``h''`` term of ``C_M`` is ``(π/2) a h''``: docs/model.md §9 prints ``(π/4) a h''``,
 which would make the added-mass matrix non-symmetric (the heave–pitch added mass of a plate is
 ``(π/4)·a`` in units of ``ρc²``, times 2 for the coefficient, in both rows); the two agree for the
 paper's ``a = 0``. Converting Theodorsen's textbook loads (``h`` down, ``α`` nose-up, ``b``) with
@@ -74,7 +74,8 @@ CONVENTIONS = (
 
 
 def theodorsen_function(k):
-    """Theodorsen's function ``C(k) = H₁⁽²⁾(k) / (H₁⁽²⁾(k) + i H₀⁽²⁾(k))`` (MODEL.md §9, REFERENCE.md §C).
+    """Theodorsen's function ``C(k) = H₁⁽²⁾(k) / (H₁⁽²⁾(k) + i H₀⁽²⁾(k))`` (docs/model.md §9,
+    REFERENCE.md §C).
 
     ``k`` is the reduced frequency on the semi-chord (``k = ω/2`` in chord units), a scalar or an
     array. Exact Hankel functions (SciPy) in between the limits ``C(0) = 1`` (returned exactly for
@@ -130,7 +131,7 @@ class AirfoilSlopes:
 
     @classmethod
     def from_static(cls, slopes) -> AirfoilSlopes:
-        """From a :class:`fsistab.slopes.StaticSlopes` (viscous slopes of MODEL.md §9)."""
+        """From a :class:`fsistab.slopes.StaticSlopes` (viscous slopes of docs/model.md §9)."""
         return cls(
             lift=slopes.lift,
             moment=slopes.moment,
@@ -198,7 +199,7 @@ class TypicalSection:
         static_unbalance: float = 0.0,
         slopes: AirfoilSlopes | None = None,
     ) -> TypicalSection:
-        """Section from scalar parameters (defaults: the plate of MODEL.md §2, thin airfoil)."""
+        """Section from scalar parameters (defaults: the plate of docs/model.md §2, thin airfoil)."""
         solid = Solid(
             mass_ratio=mass_ratio,
             reduced_velocity=reduced_velocity,
@@ -221,12 +222,12 @@ class TypicalSection:
 
     @property
     def moment_slope_elastic_axis(self) -> float:
-        """``dC_M/dθ`` about the elastic axis (thin airfoil ``(π/2)(1 + 4a)``, MODEL.md §9)."""
+        """``dC_M/dθ`` about the elastic axis (thin airfoil ``(π/2)(1 + 4a)``, docs/model.md §9)."""
         return self.slopes.moment_about(self.elastic_axis)
 
     @property
     def r_theta_centre_of_mass(self) -> float:
-        """Radius of gyration about the centre of mass, ``√(r_θ² - x_θ²)`` (MODEL.md §2's r_θ)."""
+        """Radius of gyration about the centre of mass, ``√(r_θ² - x_θ²)`` (docs/model.md §2's r_θ)."""
         return math.sqrt(self.solid.r_theta**2 - self.static_unbalance**2)
 
     def attrs(self) -> dict:
@@ -258,7 +259,7 @@ def _velocity_range(velocity_range) -> tuple[float, float]:
 
 def load_matrices(section: TypicalSection, theodorsen_value):
     """Theodorsen's loads ``(C_L, C_M)ᵀ = (s² L₂ + s L₁ + L₀)(ĥ, θ̂)ᵀ`` for ``(h, θ) ∝ e^{st}`` with
-    ``C(k)`` frozen at ``theodorsen_value`` (MODEL.md §9, with the symmetric ``(π/2) a h''`` term of
+    ``C(k)`` frozen at ``theodorsen_value`` (docs/model.md §9, with the symmetric ``(π/2) a h''`` term of
     the module docstring; ``C_M`` about the elastic axis). Leading axes of ``theodorsen_value``
     broadcast."""
     a = section.elastic_axis
@@ -282,7 +283,7 @@ def load_matrices(section: TypicalSection, theodorsen_value):
 
 def structural_matrices(section: TypicalSection, reduced_velocity: float):
     """Solid inertia, damping and stiffness ``(S₂, S₁, S₀)`` of the module docstring's equations,
-    heave row × ``m``, pitch row × ``m r_θ²`` (MODEL.md §3 with the unbalance ``x_θ``)."""
+    heave row × ``m``, pitch row × ``m r_θ²`` (docs/model.md §3 with the unbalance ``x_θ``)."""
     s = section.solid
     m, x = s.mass_ratio, section.static_unbalance
     w = 1.0 / reduced_velocity
@@ -303,7 +304,7 @@ def quadratic_matrices(section: TypicalSection, theodorsen_value, reduced_veloci
 
 
 def flutter_matrix(section: TypicalSection, frequency, reduced_velocity: float | None = None):
-    """``D(iω; m, U*)`` of ``D (ĥ, θ̂)ᵀ = 0`` for ``(h, θ) ∝ e^{iωt}``, ``C = C(ω/2)`` (MODEL.md §9)."""
+    """``D(iω; m, U*)`` of ``D (ĥ, θ̂)ᵀ = 0`` for ``(h, θ) ∝ e^{iωt}``, ``C = C(ω/2)`` (docs/model.md §9)."""
     u = _positive_velocity(section.solid.reduced_velocity if reduced_velocity is None else reduced_velocity)
     omega = np.asarray(frequency, dtype=float)
     m2, m1, m0 = quadratic_matrices(section, theodorsen_function(omega / 2), u)
@@ -312,13 +313,13 @@ def flutter_matrix(section: TypicalSection, frequency, reduced_velocity: float |
 
 
 def flutter_determinant(section: TypicalSection, frequency, reduced_velocity: float | None = None):
-    """``det D(iω; m, U*)``: zero for real ``ω > 0`` on a flutter boundary (MODEL.md §9)."""
+    """``det D(iω; m, U*)``: zero for real ``ω > 0`` on a flutter boundary (docs/model.md §9)."""
     return np.linalg.det(flutter_matrix(section, frequency, reduced_velocity))
 
 
 def divergence_velocity(section: TypicalSection) -> float:
     """Torsional divergence ``U*_D = √(m r_θ² / (dC_M/dθ))`` with the slope about the elastic axis
-    (MODEL.md §8, §9, :func:`fsistab.neutral_point.divergence_velocity`); ``nan`` when the slope is
+    (docs/model.md §8, §9, :func:`fsistab.neutral_point.divergence_velocity`); ``nan`` when the slope is
     not positive (no divergence)."""
     velocity = divergence_velocity_formula(
         section.moment_slope_elastic_axis, section.solid.r_theta, section.mass_ratio
@@ -355,7 +356,7 @@ def divergence_velocity_from_determinant(
 
 
 @dataclass(frozen=True)
-class CriticalPoint:
+class TheodorsenPoint:
     """A neutral point along U* at fixed m: ``kind`` flutter or divergence, ``frequency`` ω (U∞/c),
     ``boundary`` onset (unstable just above U*) or restabilisation, ``residual`` |det D|/scale."""
 
@@ -458,10 +459,10 @@ def flutter_points(
     section: TypicalSection,
     velocity_range=(1e-2, 1e2),
     points_per_decade: int = 400,
-) -> list[CriticalPoint]:
+) -> list[TheodorsenPoint]:
     """Every flutter boundary (real ``ω > 0``, ``U*`` in ``velocity_range``) at ``section``'s m.
 
-    ``det D(iω; U*)`` (MODEL.md §9) is, for each ``ω``, a quartic in ``w = 1/U*`` (the loads depend
+    ``det D(iω; U*)`` (docs/model.md §9) is, for each ``ω``, a quartic in ``w = 1/U*`` (the loads depend
     on ω only); its four roots are computed on a log grid of ``ω`` (``points_per_decade``) covering
     the solid frequencies of the U* range, and a boundary is a real root ``w`` in the range. Sign
     changes of ``∏ Im w_j`` over the roots near the range locate them (no root matching); cells
@@ -501,7 +502,7 @@ def flutter_points(
             brackets += [
                 (fine[j], fine[j + 1]) for j in np.nonzero(np.sign(values[1:]) != np.sign(values[:-1]))[0]
             ]
-    found: list[CriticalPoint] = []
+    found: list[TheodorsenPoint] = []
     for a, b in brackets:
         omega = brentq(lambda om: float(indicator_at(om)[0]), a, b, xtol=1e-15, rtol=1e-14)
         w_all = _w_roots(section, omega)[0]
@@ -524,7 +525,7 @@ def flutter_points(
             continue
         boundary = _boundary(section, velocity, omega)
         found.append(
-            CriticalPoint("flutter", s.mass_ratio, float(velocity), float(omega), boundary, residual)
+            TheodorsenPoint("flutter", s.mass_ratio, float(velocity), float(omega), boundary, residual)
         )
     return sorted(found, key=lambda p: p.reduced_velocity)
 
@@ -540,16 +541,16 @@ def _boundary(section: TypicalSection, velocity: float, omega: float, delta: flo
     return "onset" if above.real > below.real else "restabilisation"
 
 
-def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> CriticalPoint | None:
-    """Torsional divergence as a :class:`CriticalPoint` (ω = 0) if its U* is in ``velocity_range``."""
+def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> TheodorsenPoint | None:
+    """Torsional divergence as a :class:`TheodorsenPoint` (ω = 0) if its U* is in ``velocity_range``."""
     lo, hi = _velocity_range(velocity_range)
     velocity = divergence_velocity(section)
     if not (math.isfinite(velocity) and lo <= velocity <= hi):
         return None
-    return CriticalPoint("divergence", section.mass_ratio, velocity, 0.0, "onset", 0.0)
+    return TheodorsenPoint("divergence", section.mass_ratio, velocity, 0.0, "onset", 0.0)
 
 
-def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[CriticalPoint]:
+def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[TheodorsenPoint]:
     """Every flutter boundary and the divergence in ``velocity_range``, sorted by U*."""
     found = flutter_points(section, velocity_range)
     divergence = divergence_point(section, velocity_range)
@@ -566,12 +567,19 @@ def _quadratic_roots(m2, m1, m0) -> np.ndarray:
     return np.linalg.eigvals(np.vstack([top, bottom]))
 
 
+def _pk_root_near(section: TypicalSection, reduced_velocity: float, k: float, near: complex) -> complex:
+    """The root of the quadratic problem with ``C(k)`` frozen (:func:`quadratic_matrices`) nearest
+    ``near``."""
+    roots = _quadratic_roots(*quadratic_matrices(section, theodorsen_function(k), reduced_velocity))
+    return complex(roots[np.argmin(np.abs(roots - near))])
+
+
 def pk_root(
     section: TypicalSection, reduced_velocity: float, guess: complex, tol: float = 1e-12, maxit: int = 60
 ) -> complex:
     """p–k method: the eigenvalue ``σ = λ + iω`` near ``guess`` of the quadratic problem
     ``det(σ² M₂ + σ M₁ + M₀) = 0`` with ``C(k)`` frozen at the reduced frequency ``k = ω/2`` of the
-    root itself (:func:`quadratic_matrices`, MODEL.md §9).
+    root itself (:func:`quadratic_matrices`, docs/model.md §9).
 
     The fixed point ``k = Im σ(k)/2`` is found by a few plain iterations (the classical p–k loop),
     then by secant steps on ``Im σ(k)/2 - k``: the plain loop creeps when ``ω → 0`` (``C(k)`` has an
@@ -580,13 +588,6 @@ def pk_root(
     for ``e^{σt}``) only where ``λ = 0``, where it solves ``det D(iω) = 0``.
     """
     u = _positive_velocity(reduced_velocity)
-    near = complex(guess)
-
-    def root_at(k: float) -> complex:
-        nonlocal near
-        roots = _quadratic_roots(*quadratic_matrices(section, theodorsen_function(k), u))
-        near = complex(roots[np.argmin(np.abs(roots - near))])
-        return near
 
     def mismatch(k: float, sigma: complex) -> float:  # φ(k) = k(σ(k)) - k
         return max(sigma.imag, 0.0) / 2 - k
@@ -594,8 +595,9 @@ def pk_root(
     def done(k: float, sigma: complex) -> bool:
         return abs(mismatch(k, sigma)) <= tol * max(abs(sigma), 1e-300)
 
+    near = complex(guess)
     k = max(near.imag, 0.0) / 2
-    sigma = root_at(k)
+    sigma = near = _pk_root_near(section, u, k, near)
     previous = None
     for iteration in range(maxit):
         if done(k, sigma):
@@ -608,11 +610,11 @@ def pk_root(
             previous = (k, f1)
             k = k - f1 * (k - k0) / (f1 - f0) if f1 != f0 else k + f1
             if k < 0:
-                at_zero = root_at(0.0)
+                at_zero = near = _pk_root_near(section, u, 0.0, near)
                 if done(0.0, at_zero):
                     return at_zero  # a real root of the static problem (C(0) = 1)
                 k = previous[0] / 2
-        sigma = root_at(k)
+        sigma = near = _pk_root_near(section, u, k, near)
     raise ConvergenceError(
         f"p-k iteration did not converge at U* = {u:.6g} near sigma = {complex(guess):.4g}"
     )
@@ -672,7 +674,7 @@ def pk_branches(section: TypicalSection, velocities):
 def neutral_curves(
     section: TypicalSection, mass_ratios, velocity_range=(1e-2, 1e2), points_per_decade: int = 400
 ):
-    """Flutter and divergence neutral curves ``U*(m)`` over ``mass_ratios`` (MODEL.md §8, §9).
+    """Flutter and divergence neutral curves ``U*(m)`` over ``mass_ratios`` (docs/model.md §8, §9).
 
     Returns an xarray Dataset on the coordinate ``mass_ratio``: ``reduced_velocity`` and
     ``frequency`` of the flutter boundaries (dim ``boundary``, sorted by U* at each m, NaN-padded;

@@ -22,7 +22,7 @@ from fsistab.linalg import FactorCounter, ShiftedSolver, residual_norm, shift_in
 
 
 @dataclass
-class Branch:
+class EigenBranch:
     """One eigenvalue followed along ``parameters``; ``values[i]`` is σ at ``parameters[i]``."""
 
     name: str
@@ -105,7 +105,7 @@ def track_branches(
     inverse_scaling: Sequence[str] = (),
     counter: FactorCounter | None = None,
     progress: Callable[[int, float], None] | None = None,
-) -> dict[str, Branch]:
+) -> dict[str, EigenBranch]:
     """Follow each eigenpair of ``starts`` (computed at ``parameters[0]``) along ``parameters``.
 
     ``system_at(p)`` builds the coupled system at parameter ``p`` (cheap: solid blocks only).
@@ -113,7 +113,7 @@ def track_branches(
     Conjugates are folded to ``ω ≥ 0``.
     """
     counter = counter if counter is not None else FactorCounter()
-    branches = {name: Branch(name, inverse_scaling=name in inverse_scaling) for name in starts}
+    branches = {name: EigenBranch(name, inverse_scaling=name in inverse_scaling) for name in starts}
     for name, pair in starts.items():
         b = branches[name]
         b.parameters.append(parameters[0])
