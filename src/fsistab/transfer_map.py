@@ -324,75 +324,52 @@ def transfer_neutral_map(
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
     and ``U*``; divergence from ``G(0)``. Without ``omega_range`` the range is
-    :func:`default_frequency_range`. With ``follow_low`` (the default without ``omega_range``) the
-    range is extended down by halving while a curve leaves it inside the mass range (down to
-    ``LOWEST_FREQUENCY``): the flutter curve's restabilisation branch, whose frequency falls as m
-    grows. A curve that leaves the final range inside the mass range is reported as an unresolved
-    interval of reason ``range`` beyond that end. Each curve is labelled ``flutter`` or ``viv``
-    from its own roots (:func:`fsistab.neutral_map.curve_kind`); ``wake_frequency``, if given, is only
-    a guess that adds initial frequencies around it (:func:`initial_frequencies`) and widens the
-    default range (:func:`default_frequency_range`).
+    :func:`default_frequency_range` and (``follow_low``, the default then) extended down by
+    halving while a curve leaves it inside the mass range, down to ``LOWEST_FREQUENCY`` (the
+    flutter curve's restabilisation branch). ``wake_frequency``, if given, is only a guess that adds
+    initial frequencies around it and widens the default range; curves are labelled ``flutter`` or
+    ``viv`` from their own roots (:func:`fsistab.neutral_map.curve_kind`).
 
-    Starts from :func:`initial_frequencies`, samples every interval that straddles an unresolved
-    resonance at its pole's frequency (:func:`unresolved_resonance`) — with exact samples, a sharp
-    one (:func:`sharp_resonance`) by a reduced fluid model of ``resonance_blocks`` Krylov blocks
-    built there (0: an exact sample), whose certified interval is then sampled at no factorisation
-    (saved next to ``samples_path`` and reused); with exact samples and a range that starts below
-    ``LOW_MODEL_REACH``, ``G(0)`` and the lowest frequencies likewise come from one real model at
-    s = 0, built beside the initial exact samples — and bisects every interval
-    whose roots are not matched within ``tolerance`` (in ``log m``, ``log U*``) by their tangents,
-    down to a relative step ``min_step``. With exact samples, a run of intervals still unresolved
-    there (not a fold in ``ω``) goes on with a certified rational fit of the exact samples around
-    it (:func:`fsistab.rational_fit.certified_transfer`, ``FIT_MARGINS`` samples on each side),
-    bisected down to ``FIT_MIN_STEP`` with no factorisation (at most ``FITTED_SAMPLES`` such
-    frequencies). With ``fit_first`` (the default) such a fit is tried before each round's exact
-    bisections too (unmatched roots or a possible sweep), on each run of intervals to bisect and
-    ``FIT_FIRST_SPAN`` exact samples beyond it: where it is certified, the bisections there are made
-    on it. Intervals still unresolved then (folds in ``ω``, or where no fit is certified) are
-    listed in ``unresolved`` with their reasons, :class:`UnresolvedInterval`; two branches born or
-    dying together at a fold are joined. Intervals where a curve may cross the whole mass range
-    between the samples (:func:`resultant_tracks`) are bisected down to ``SWEEP_STEP``; at most
-    ``max_samples`` frequencies. With exact samples only (one factorisation each) ``tolerance`` is
-    ``EXACT_TOLERANCE``, ``min_step`` 1e-3 and ``max_samples`` 400 by default; ``max_samples`` then counts the
-    exact samples, not the fitted ones. With ``samples_path`` each sample is saved as it is
-    computed (atomically) and saved samples of the same mesh and flow are reused, for any solid
-    parameters.
+    From ``initial`` log-spaced frequencies (and every saved one) the refinement policy
+    (:class:`fsistab.map_refinement.RefinementPolicy`) samples until every root in the mass range is
+    matched to its neighbour's within ``tolerance`` in ``(log m, log U*)`` by its tangent, down to the
+    relative step ``min_step``, at most ``max_samples`` frequencies that cost a factorisation (or a
+    reduced model); intervals it leaves are listed with their reasons (:class:`UnresolvedInterval`).
 
-    With ``reduced`` (:class:`fsistab.reduced_model.ReducedModels`), a frequency inside the
-    certified interval of a reduced model is evaluated from it (no factorisation); a frequency
-    closer than two model half-widths to an exact sample (a region being refined) gets a new
-    model, built there; an isolated one is sampled exactly. Factorisations then stop growing with
-    the refinement, and the defaults are finer: ``tolerance`` 3e-3 (Hermite error ~1e-5),
-    ``min_step`` 1e-7, ``max_samples`` 4000.
+    Where the samples come from (:mod:`fsistab.map_sources`): with ``reduced``
+    (:class:`fsistab.reduced_model.ReducedModels`) a frequency is evaluated from the model whose
+    certified interval holds it, or from a new model if it lies near an exact sample (a region being
+    refined); defaults ``tolerance`` 3e-3, ``min_step`` 1e-7, ``max_samples`` 4000. Without, exact
+    samples (one factorisation each, ``threads`` at a time, each saved as it finishes), reduced
+    models of ``resonance_blocks`` Krylov blocks at a sharp resonance and at ``s = 0`` (0: none;
+    saved next to ``samples_path``), and certified rational fits of the exact samples where exact
+    bisection stops at ``min_step`` or, with ``fit_first``, before each exact bisection; defaults
+    ``tolerance`` ``EXACT_TOLERANCE``, ``min_step`` 1e-3, ``max_samples`` 400 (the fitted frequencies
+    not counted). With ``samples_path`` every sample is saved and a rerun of the same mesh and flow
+    reuses them, for any solid parameters; models lost from a damaged file are rebuilt where they
+    were built (:meth:`fsistab.reduced_model.ReducedModels.restore`).
 
-    The exact samples of each round (the initial frequencies, then each round's bisections) are
-    factorised ``threads`` at a time, each saved as it finishes
-    (:func:`fsistab.transfer.iter_transfer_samples`).
+    The result's ``factorisations`` are this run's (counted by ``counter``), its
+    ``factorisations_total`` those of every run that built the samples and models it reuses.
     """
-    tolerance = tolerance if tolerance is not None else (3e-3 if reduced is not None else EXACT_TOLERANCE)
-    min_step = min_step if min_step is not None else (1e-7 if reduced is not None else 1e-3)
-    max_samples = max_samples if max_samples is not None else (4000 if reduced is not None else 400)
-    follow = omega_range is None if follow_low is None else follow_low
-    omega_range = default_frequency_range(wake_frequency) if omega_range is None else omega_range
-    _check_ranges(mass_range, omega_range, tolerance, min_step)
+    exact = reduced is None
+    policy = _refinement_policy(
+        mass_range,
+        omega_range,
+        follow_low,
+        wake_frequency,
+        tolerance,
+        min_step,
+        max_samples,
+        exact,
+        fit_first,
+    )
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     start = counter.count
-    low, high = mass_range
-    policy = RefinementPolicy(
-        inner=(low, high),
-        wide=(low / 4, high * 4),  # roots followed; those in mass_range must be matched
-        omega_range=omega_range,
-        tolerance=tolerance,
-        min_step=min_step,
-        max_samples=max_samples,
-        exact=reduced is None,
-        follow=follow,
-        fit_first=fit_first,
-    )
     # finished samples (checksummed; a damaged file is reported and recomputed, another flow's refused)
     store = SampleStore.at(samples_path, fluid)
-    resonances = _resonance_models(fluid, samples_path, resonance_blocks, say) if reduced is None else None
+    resonances = _resonance_models(fluid, samples_path, resonance_blocks, say) if exact else None
     reused = store.reused_factorisations + sum(len(m.models) for m in (reduced, resonances) if m is not None)
     for models in (reduced, resonances):
         if models is not None:
@@ -406,7 +383,7 @@ def transfer_neutral_map(
     sources.resonances.charge(counter)
     tracker = RootTracker(template, policy.wide, fluid.theta0, fluid.loads0)
     engine = MapEngine(policy, sources, store, tracker, counter, say)
-    run = engine.run(initial_frequencies(omega_range, initial, wake_frequency))
+    run = engine.run(initial_frequencies(policy.omega_range, initial, wake_frequency))
     curves = _assemble(tracker.roots, tracker.tracks, mass_range)
     lambdas, rates = divergence_lines(run.static, template, fluid.theta0, fluid.loads0)
     return TransferMap(
@@ -414,13 +391,38 @@ def transfer_neutral_map(
         lambdas,
         rates,
         np.array(sorted({0.0, *tracker.roots})),
-        (float(low), float(high)),
+        (float(policy.inner[0]), float(policy.inner[1])),
         counter.count - start,
         unresolved_intervals(run.unresolved, curves),
         len(sources.fits.fits),
         run.interpolated,
         len(sources.resonances.covers),
         factorisations_total=counter.count - start + reused,
+    )
+
+
+def _refinement_policy(
+    mass_range, omega_range, follow_low, wake_frequency, tolerance, min_step, max_samples, exact, fit_first
+) -> RefinementPolicy:
+    """The policy of :func:`transfer_neutral_map`'s arguments, defaults filled in and checked (one
+    clear error before any work)."""
+    tolerance = tolerance if tolerance is not None else (EXACT_TOLERANCE if exact else 3e-3)
+    min_step = min_step if min_step is not None else (1e-3 if exact else 1e-7)
+    max_samples = max_samples if max_samples is not None else (400 if exact else 4000)
+    follow = omega_range is None if follow_low is None else follow_low
+    omega_range = default_frequency_range(wake_frequency) if omega_range is None else omega_range
+    _check_ranges(mass_range, omega_range, tolerance, min_step)
+    low, high = mass_range
+    return RefinementPolicy(
+        inner=(low, high),
+        wide=(low / 4, high * 4),  # roots followed; those in mass_range must be matched
+        omega_range=omega_range,
+        tolerance=tolerance,
+        min_step=min_step,
+        max_samples=max_samples,
+        exact=exact,
+        follow=follow,
+        fit_first=fit_first,
     )
 
 
