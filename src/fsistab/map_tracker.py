@@ -161,9 +161,8 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
     as ``√(ω − ω_b)`` to leading order, in ``v`` and in ``m``, so between the birth and the sample
     where they exist their ``m`` stay between the two values there. A young pair that lies outside
     the band on one side there never entered it: no curve to look for. This settles an interval at
-    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (on the plate at Re 2900, default mesh,
-    such a pair born at m ≈ −2.3 near ω = 9.14 was bisected by a chain of 13 samples; settled at
-    ``min_step`` it costs 4 factorisations fewer, the same map)."""
+    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (a chain of samples that finds
+    nothing)."""
     if abs(len(left) - len(right)) != 2:
         return False
     longer, shorter, free = _born(left, right)

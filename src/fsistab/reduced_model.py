@@ -146,12 +146,11 @@ def krylov_model(
     # the whole basis allocated once (columns filled block by block, no copy per block)
     store = np.empty((fluid.n_fluid, (blocks + 1) * inputs.shape[1]), dtype=factor.dtype, order="F")
     size, ends = 0, []
-    # refined solves by default: with UMFPACK's default strategy unrefined ones (relative residual
-    # ~1e-7) left a model error near 1e-11 that the nested-model estimate does not see, and the
-    # certificate must bound the true error. With the symmetric nested-dissection analysis of
-    # FluidFactor the plain residual is ~5e-13: a 205-vector model at ω = 10.915 on the default mesh
-    # made with plain solves differs from the refined one by 2e-9-2e-8 in G (the estimates of both:
-    # 3e-9-3e-8), both within 2e-8 of exact samples, in 110 s instead of 154 s (refine=False)
+    # refined solves by default: the certificate must bound the true error, and an unrefined solve
+    # with a large residual leaves a model error the nested-model estimate does not see. With the
+    # symmetric nested-dissection analysis of FluidFactor the plain residual (~5e-13) is far below
+    # the models' tolerance, and plain solves (refine=False) make the same model to within its
+    # estimate, faster
     block = factor.solve(inputs, refine)
     for j in range(blocks + 1):
         scale = float(np.linalg.norm(block, axis=0).max())
@@ -181,7 +180,7 @@ def krylov_model(
 
 def _adjoint_product(basis: np.ndarray, other: np.ndarray) -> np.ndarray:
     """``Vᴴ X`` as ``conj(Vᵀ conj(X))``: ``Vᵀ`` is a view, so only the thin ``X`` is conjugated,
-    not the basis (on the default mesh a 205-vector basis is 1.4 GB). NumPy's product releases the
+    not the basis (the basis is the largest array of a model). NumPy's product releases the
     GIL, which SciPy's BLAS wrappers do not: the map builds its models beside the exact samples."""
     if not np.iscomplexobj(basis):
         return basis.T @ other
@@ -192,7 +191,7 @@ def _projected(basis: np.ndarray, operator) -> np.ndarray:
     """``Vᴴ A V`` for a sparse ``A``, ``PROJECTION_COLUMNS`` columns of ``A V`` at a time: the
     product is never held whole (another copy of the basis's size). A real ``A`` multiplies the
     real and imaginary parts of a complex basis separately: SciPy would otherwise convert ``A`` to
-    complex, twice as slow (3.4 s against 1.7 s for 32 columns, 400 k rows of 30 entries)."""
+    complex, twice as slow."""
     size = basis.shape[1]
     result = np.empty((size, size), dtype=basis.dtype)
     for start in range(0, size, PROJECTION_COLUMNS):
