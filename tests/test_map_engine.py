@@ -23,11 +23,12 @@ from fsistab.linalg import FactorCounter
 from fsistab.map_engine import MapEngine, MapSources
 from fsistab.map_refinement import FIT_MIN_STEP, RefinementPolicy, initial_frequencies, resonance, runs
 from fsistab.map_roots import AxisSample, NeutralRoot, neutral_roots
-from fsistab.map_samples import SampleStore
+from fsistab.map_samples import SAMPLE_FIELDS, SampleStore
 from fsistab.map_sources import Certified, RationalFitSource, ResonanceSource
 from fsistab.map_tracker import RootTracker, _match
 from fsistab.params import MAX_FREQUENCY, Solid
 from fsistab.reduced_model import ReducedModels, models_table, read_models
+from fsistab.store import ResumableTable
 from fsistab.transfer_map import _assemble, transfer_neutral_map
 
 PITCH = Solid(dofs=("pitch",), zeta_theta=0.05)
@@ -215,6 +216,29 @@ def test_the_loop_refines_a_curve_that_is_not_a_power_law_until_it_is_resolved()
         ((u, _, _),) = curve.crossings_at(mass)
         assert u == pytest.approx(_curve(omega, B * (1 + omega))[1], rel=1e-3)
     assert FIT_MIN_STEP < policy.min_step
+
+
+def test_the_store_saves_exact_samples_at_once_and_counts_them_when_read_back(tmp_path):
+    """Three exact samples and two from a certified model: the exact ones are saved as they come,
+    the reduced ones with the next save; read back, the samples are sorted by frequency and the
+    three exact ones are the factorisations a resumed map reuses."""
+    path = tmp_path / "samples.nc"
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
+    for omega in (2.0, 0.5, 1.0):
+        store.keep(_pitch_sample(omega))
+    store.keep(AxisSample(1.5, _pitch_sample(1.5).transfer, np.zeros((3, 4)), reduced=True))
+    assert SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS)).frequencies() == [
+        0.5,
+        1.0,
+        2.0,
+    ]
+    store.keep(AxisSample(0.7, _pitch_sample(0.7).transfer, np.zeros((3, 4)), reduced=True))
+    store.save()
+    again = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
+    assert again.frequencies() == [0.5, 0.7, 1.0, 1.5, 2.0] and again.reused_factorisations == 3
+    assert again[1.5].reduced and not again[2.0].reduced
+    assert again.snap(1.0 * (1 + 1e-12)) == 1.0 and again.snap(1.01) == 1.01
+    assert again.exact_frequencies().tolist() == [0.5, 1.0, 2.0]
 
 
 # --- on the coarse plate --------------------------------------------------------------------------
