@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from damage import damage
 
 from fsistab.coupled import CoupledSystem
 from fsistab.critical import divergence_point, flutter_point, wake_mode_near
@@ -92,6 +93,29 @@ def test_saved_models_are_reused_and_a_mismatch_is_refused(fluid, cover, tmp_pat
     bad = tmp_path / "models.nc"
     bad.write_bytes(b"not netcdf")
     assert ReducedModels(fluid, path=bad).models == []  # damaged: reported, rebuilt (test_store)
+
+
+def test_models_lost_from_a_damaged_file_are_rebuilt_where_they_were(fluid, cover, tmp_path):
+    """A copy of the cover's file, damaged: read back it is reported and moved aside (no model);
+    :meth:`ReducedModels.restore` rebuilds every model from the index beside it, one factorisation
+    each, at the same shifts with the same intervals and the same matrices to the bit, and saves
+    them: the file is valid again. An intact file restores nothing."""
+    models, path, built = cover
+    copy = tmp_path / "models.nc"
+    copy.write_bytes(path.read_bytes())
+    (tmp_path / "models_index.nc").write_bytes(path.with_name("models_index.nc").read_bytes())
+    damage(copy, "flipped")
+    counter = FactorCounter()
+    lost = ReducedModels(fluid, tolerance=TOLERANCE, blocks=24, path=copy, counter=counter)
+    assert lost.models == [] and (tmp_path / "models.nc.damaged").exists()
+    assert lost.restore() == len(models.models) == built == counter.count
+    again = ReducedModels(fluid, tolerance=TOLERANCE, blocks=24, path=copy, counter=counter)
+    assert again.restore() == 0 and counter.count == built
+    for restored in (lost.models, again.models):
+        for saved, original in zip(restored, models.models, strict=True):
+            assert saved.shift == original.shift and saved.interval == original.interval
+            for name in ("jr", "mr", "br0", "br1", "lf", "lm", "load_s", "load_mass_s"):
+                assert np.array_equal(getattr(saved, name), getattr(original, name)), name
 
 
 def test_bad_input_is_refused_before_any_factorisation(fluid):

@@ -1,4 +1,4 @@
-"""Local rational models of the fluid's transfer function from its exact samples (MODEL.md §7):
+"""Local rational models of the fluid's transfer function from its exact samples (docs/model.md §7):
 the neutral map's refinement wherever they certify one (before an exact bisection, and below
 the smallest exact step), at no factorisation.
 
@@ -30,7 +30,7 @@ A model is trusted on an interval only when it is **certified** there (:func:`ce
    sample spacing there (a pole the samples do not resolve, as the wake mode between the map's
    initial frequencies, would make the interpolant wrong between them).
 
-Units: ``s = iω`` in the body's time unit ``L/U∞`` (MODEL.md §2, §10); loads as in
+Units: ``s = iω`` in the body's time unit ``L/U∞`` (docs/model.md §2, §10); loads as in
 :func:`fsistab.transfer.exact_transfer`.
 """
 

@@ -1,5 +1,5 @@
 """Reduced models of the fixed-body fluid: ``G(iω)`` on the whole imaginary axis from a few
-factorisations, with a controlled error (MODEL.md §7, issue 6).
+factorisations, with a controlled error (docs/model.md §7, issue 6).
 
 The aerodynamic transfer matrix (:func:`fsistab.transfer.exact_transfer`)::
 
@@ -29,7 +29,7 @@ factorisation and ``d + 1`` block back-substitutions per model. The coupled eige
 gives certified unstable modes (:meth:`ReducedModels.unstable_eigenvalues`).
 
 Units: ``s = λ + iω`` in the body's time unit ``L/U∞`` (chord for the plate, diameter for the
-cylinder, MODEL.md §2, §10); loads as in :func:`fsistab.transfer.exact_transfer`.
+cylinder, docs/model.md §2, §10); loads as in :func:`fsistab.transfer.exact_transfer`.
 """
 
 from __future__ import annotations
@@ -146,12 +146,11 @@ def krylov_model(
     # the whole basis allocated once (columns filled block by block, no copy per block)
     store = np.empty((fluid.n_fluid, (blocks + 1) * inputs.shape[1]), dtype=factor.dtype, order="F")
     size, ends = 0, []
-    # refined solves by default: with UMFPACK's default strategy unrefined ones (relative residual
-    # ~1e-7) left a model error near 1e-11 that the nested-model estimate does not see, and the
-    # certificate must bound the true error. With the symmetric nested-dissection analysis of
-    # FluidFactor the plain residual is ~5e-13: a 205-vector model at ω = 10.915 on the default mesh
-    # made with plain solves differs from the refined one by 2e-9-2e-8 in G (the estimates of both:
-    # 3e-9-3e-8), both within 2e-8 of exact samples, in 110 s instead of 154 s (refine=False)
+    # refined solves by default: the certificate must bound the true error, and an unrefined solve
+    # with a large residual leaves a model error the nested-model estimate does not see. With the
+    # symmetric nested-dissection analysis of FluidFactor the plain residual (~5e-13) is far below
+    # the models' tolerance, and plain solves (refine=False) make the same model to within its
+    # estimate, faster
     block = factor.solve(inputs, refine)
     for j in range(blocks + 1):
         scale = float(np.linalg.norm(block, axis=0).max())
@@ -181,7 +180,7 @@ def krylov_model(
 
 def _adjoint_product(basis: np.ndarray, other: np.ndarray) -> np.ndarray:
     """``Vᴴ X`` as ``conj(Vᵀ conj(X))``: ``Vᵀ`` is a view, so only the thin ``X`` is conjugated,
-    not the basis (on the default mesh a 205-vector basis is 1.4 GB). NumPy's product releases the
+    not the basis (the basis is the largest array of a model). NumPy's product releases the
     GIL, which SciPy's BLAS wrappers do not: the map builds its models beside the exact samples."""
     if not np.iscomplexobj(basis):
         return basis.T @ other
@@ -192,7 +191,7 @@ def _projected(basis: np.ndarray, operator) -> np.ndarray:
     """``Vᴴ A V`` for a sparse ``A``, ``PROJECTION_COLUMNS`` columns of ``A V`` at a time: the
     product is never held whole (another copy of the basis's size). A real ``A`` multiplies the
     real and imaginary parts of a complex basis separately: SciPy would otherwise convert ``A`` to
-    complex, twice as slow (3.4 s against 1.7 s for 32 columns, 400 k rows of 30 entries)."""
+    complex, twice as slow."""
     size = basis.shape[1]
     result = np.empty((size, size), dtype=basis.dtype)
     for start in range(0, size, PROJECTION_COLUMNS):
@@ -270,11 +269,42 @@ class ReducedModels:
         self.counter = counter if counter is not None else FactorCounter()
         self._say = progress or (lambda message: None)
         self.identity = {**flow_identity(fluid), "blocks": self.blocks, "tolerance": self.tolerance}
-        # models saved before (checksummed; a damaged file is reported and rebuilt, another run's refused)
+        # models saved before (checksummed; a damaged file is reported and moved aside, another
+        # run's refused); the index of where they were built survives it (:meth:`restore`)
         self._table = models_table(self.path, self.identity) if self.path is not None else None
         self.models: list[KrylovModel] = read_models(self._table) if self._table is not None else []
+        self._index = index_table(self.path, self.identity) if self.path is not None else None
         if self.models:
             self._say(f"{len(self.models)} reduced models reused from {self.path}")
+            self._index_missing()
+
+    def _index_missing(self) -> None:
+        """List in the index the models read back that it lacks (a file saved without one)."""
+        listed = set(_indexed(self._index))
+        missing = [m for m in self.models if _built_key(m.shift, m.interval) not in listed]
+        for model in missing:
+            self._index.append(index_record(model), save=False)
+        if missing:
+            self._index.save()
+
+    def restore(self) -> int:
+        """Rebuild the models of the index that the models file lost (damaged, reported and moved
+        aside when it was read): each at its shift, one factorisation, with its certified interval;
+        the rebuilt models are the lost ones (the same operators, shift and Krylov blocks) and are
+        saved again. Returns how many were rebuilt."""
+        if self._index is None:
+            return 0
+        have = {_built_key(m.shift, m.interval) for m in self.models}
+        lost = [key for key in _indexed(self._index) if key not in have]
+        if lost:
+            self._say(f"rebuilding {len(lost)} reduced models lost from {self.path}")
+        for shift, interval in lost:
+            shift = 1j * shift.imag if shift.imag > 0 else 0.0
+            model = krylov_model(self.fluid, shift, self.blocks, self.counter, refine=self.refine)
+            model = replace(model, interval=interval)
+            self.models.append(model)
+            self._table.append(model_record(model))
+        return len(lost)
 
     def covering(self, omega: float) -> KrylovModel | None:
         """The model whose certified interval contains ``omega`` (closest shift), or None."""
@@ -312,6 +342,7 @@ class ReducedModels:
         self.models.append(model)
         if self._table is not None:
             self._table.append(model_record(model))
+            self._index.append(index_record(model))
         interval = f"[{lo:.5g}, {hi:.5g}]"
         self._say(
             f"reduced model {len(self.models)} at ω = {omega:.5g}: size {model.size}, certified {interval}"
@@ -344,7 +375,7 @@ class ReducedModels:
 
 
 def coupled_eigenvalues(model: KrylovModel, solid: Solid, theta0: float, loads0: np.ndarray) -> np.ndarray:
-    """Eigenvalues ``σ`` of the coupled problem ``σ M q + J q = 0`` (MODEL.md §7) with the fluid
+    """Eigenvalues ``σ`` of the coupled problem ``σ M q + J q = 0`` (docs/model.md §7) with the fluid
     replaced by ``model``'s Galerkin projection: the solid rows of :func:`fsistab.coupled.solid_blocks`,
     fluid rows ``Vᴴ(J_fs + σ M_fs) q_s + K_r(σ) y``. Dense, size ``n_s + k``; finite eigenvalues
     only. Valid where the model is accurate: see :meth:`ReducedModels.unstable_eigenvalues`."""
@@ -430,3 +461,26 @@ def read_models(table: ResumableTable) -> list[KrylovModel]:
         )
         for r in table.records
     ]
+
+
+INDEX_FIELDS = {"built": ("built_shift", "built_interval")}
+
+
+def index_table(path: Path, identity: dict) -> ResumableTable:
+    """The index of the reduced models saved at ``path``: the shift and certified interval of each,
+    in the order built (``<stem>_index.nc`` beside it, same identity). Small and written apart, it
+    tells which models to rebuild when the models file is found damaged (:meth:`ReducedModels.restore`)."""
+    return ResumableTable(path.with_name(path.stem + "_index.nc"), identity, INDEX_FIELDS)
+
+
+def index_record(model: KrylovModel) -> dict:
+    return {"built_shift": model.shift, "built_interval": np.array(model.interval, dtype=float)}
+
+
+def _built_key(shift: complex, interval) -> tuple[complex, tuple[float, float]]:
+    return complex(shift), (float(interval[0]), float(interval[1]))
+
+
+def _indexed(table: ResumableTable) -> list[tuple[complex, tuple[float, float]]]:
+    """The ``(shift, interval)`` of every model in an :func:`index_table`, in the order built."""
+    return [_built_key(r["built_shift"], r["built_interval"]) for r in table.records]

@@ -1,0 +1,214 @@
+"""The root tracker of the transfer map: the neutral roots and the resultant's real roots
+("tracks") at every sampled frequency, and how those of two neighbouring frequencies correspond
+(docs/model.md §8).
+
+Between two samples every neutral root is predicted at the other from its exact tangent in
+``log ω`` (:func:`_match`); an interval is resolved when every root inside the mass range is matched
+within the tolerance (:func:`_resolved`). The resultant's real roots, with their ``m`` of any sign,
+show a curve that crosses the whole mass range inside one interval and leaves no root at either end
+(:func:`_swept`, :func:`_side_jump`); a pair born outside the range on one side never entered it
+(:func:`_born_outside`). :class:`RootTracker` holds the roots and tracks by frequency; what to do
+about an interval is the refinement policy's (:mod:`fsistab.map_refinement`).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+
+from fsistab.map_roots import (
+    AxisSample,
+    NeutralRoot,
+    _roots_on_tracks,
+    log_step,
+    resultant_tracks,
+    second_order_loads,
+)
+from fsistab.params import Solid
+
+SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
+YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
+SAME_FREQUENCY = 1e-9  # two frequencies this close (relative) are one (saved grids, bisections)
+
+
+class RootTracker:
+    """The neutral roots (``m`` in ``wide``) and the resultant tracks
+    (:func:`fsistab.map_roots.resultant_tracks`) at each frequency added, for the solid parameters
+    of ``solid`` other than ``m`` and ``U*``; the fluid's steady angle ``theta0`` and loads
+    ``loads0`` turn a sample's ``G`` into the loads ``A``."""
+
+    def __init__(self, solid: Solid, wide: tuple[float, float], theta0: float, loads0: np.ndarray):
+        self.solid, self.wide = solid, wide
+        self.theta0, self.loads0 = theta0, loads0
+        self.roots: dict[float, list[NeutralRoot]] = {}
+        self.tracks: dict[float, np.ndarray] = {}
+
+    def knows(self, omega: float) -> bool:
+        """Whether ``omega`` was added already, up to rounding (``SAME_FREQUENCY``)."""
+        return any(abs(omega - w) <= SAME_FREQUENCY * omega for w in self.roots)
+
+    def add(self, sample: AxisSample) -> None:
+        """The tracks and the neutral roots of one sample (ω > 0)."""
+        omega = sample.frequency
+        loads, rate = second_order_loads(sample, self.theta0, self.loads0)
+        self.tracks[omega] = resultant_tracks(loads, omega, self.solid)
+        self.roots[omega] = _roots_on_tracks(self.tracks[omega], loads, rate, omega, self.solid, self.wide)
+
+    @property
+    def grid(self) -> list[float]:
+        """The frequencies added, in increasing order."""
+        return sorted(self.roots)
+
+    def resolved(self, w0: float, w1: float, tolerance: float, inner: tuple[float, float]) -> bool:
+        """Whether every root in ``inner`` at ``w0`` and ``w1`` is matched within ``tolerance``."""
+        return _resolved(self.roots[w0], self.roots[w1], log_step(w0, w1), tolerance, inner)
+
+    def fold(self, w0: float, w1: float) -> bool:
+        """Whether a pair of roots of the range (or of the resultant's real roots) is born or dies
+        together between ``w0`` and ``w1``: a fold in ω, which no step resolves."""
+        roots, tracks = self.roots, self.tracks
+        return min(abs(len(roots[w0]) - len(roots[w1])), abs(len(tracks[w0]) - len(tracks[w1]))) >= 2
+
+    def swept(self, w0: float, w1: float, settled: bool = False) -> bool:
+        """:func:`_swept` between the tracks at ``w0`` and ``w1``, on the followed range."""
+        return _swept(self.tracks[w0], self.tracks[w1], self.wide, settled)
+
+    def born_outside(self, w0: float, w1: float) -> bool:
+        """:func:`_born_outside` between the tracks at ``w0`` and ``w1``, on the followed range."""
+        return _born_outside(self.tracks[w0], self.tracks[w1], self.wide)
+
+    def leaves(self, omega: float, inner: tuple[float, float]) -> bool:
+        """:func:`_leaves` at the frequency ``omega``."""
+        return _leaves(self.roots[omega], inner)
+
+
+def _side(m: float, band: tuple[float, float]) -> int:
+    """Where a resultant root's ``m`` lies: -1 at ``m ≤ 0``, 0 below ``band``, 1 in it, 2 above."""
+    return -1 if m <= 0 else 0 if m < band[0] else 1 if m <= band[1] else 2
+
+
+def _born(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Of two frequencies' resultant tracks, the longer, the shorter and the rows of the longer that
+    are born or die in between: each root of the shorter is the nearest in ``v`` of the longer."""
+    longer, shorter = (left, right) if len(left) > len(right) else (right, left)
+    free = list(range(len(longer)))
+    for v, _ in shorter:
+        free.remove(min(free, key=lambda i: abs(longer[i, 0] - v)))
+    return longer, shorter, free
+
+
+def _swept(left: np.ndarray, right: np.ndarray, band: tuple[float, float], settled: bool = False) -> bool:
+    """Whether a pair of real resultant roots is born or dies between two frequencies, or a root
+    (matched by nearest ``v``) passes from one side of ``band`` to the other, or through
+    ``m = 0``/``∞``, without being in the band at either frequency, or (unless ``settled``) a root
+    changed sides other than across an edge of the band, matched or not (:func:`_side_jump`).
+    ``settled``: the two
+    frequencies are ``SWEEP_STEP`` apart, too close for a root to go round through the band, so a
+    root that changes sign beyond the band at both (``|m| > band[1]``) passes through ``m = ∞``,
+    one below it at both (``|m| < band[0]``) through ``m = 0``, and roots born or dying all on one
+    side of the band (outside it) were born or died there: none of these is a sweep."""
+
+    if len(left) != len(right):  # real roots born or dying in between
+        if not settled:
+            return True
+        longer, _, free = _born(left, right)
+        sides = {_side(m, band) for m in longer[free, 1]}
+        if len(sides) > 1 or 1 in sides:
+            return True
+    elif not settled and _side_jump(left, right, band):
+        # a root changed sides other than across an edge of the band, matched below or not: a
+        # curve near-vertical in ω moves fast in v too (on the plate at Re 2900 with a resolved far
+        # wake, from v = 1.21, m = −36.8 to v = 2.30, m = 0.91 in 0.017 of ω, through m = ∞ and
+        # the whole band: a VIV curve within ω 11.25–11.26)
+        return True
+    for v, m in left:
+        if not len(right):
+            return False
+        k = int(np.argmin(np.abs(right[:, 0] - v)))
+        if abs(right[k, 0] - v) > 0.25 * v:
+            continue
+        a, b = _side(m, band), _side(right[k, 1], band)
+        if a != b and 1 not in (a, b):
+            low, high = sorted((abs(m), abs(right[k, 1])))
+            if settled and (low > band[1] or high < band[0]):
+                continue  # through ∞ or 0 next to where it was: a pole of the neutral mass
+            return True
+    return False
+
+
+def _side_jump(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether the sides (:func:`_side`) of two frequencies' resultant roots differ by more than
+    roots entering or leaving ``band`` across its edges (below ↔ in, in ↔ above), whichever root is
+    whose: a root that went from ``m < 0`` into the band, or from one side of it to the other, went
+    through ``m = 0`` or ``∞`` and may have crossed the whole band."""
+    lost = Counter(_side(m, band) for m in left[:, 1])
+    gained = Counter(_side(m, band) for m in right[:, 1])
+    lost, gained = lost - gained, gained - lost
+    for a, b in ((0, 1), (1, 0), (1, 2), (2, 1)):  # across an edge: the band's roots are matched
+        k = min(lost[a], gained[b])
+        lost[a] -= k
+        gained[b] -= k
+    return bool(+lost or +gained)
+
+
+def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether the only change between two frequencies is a pair of real resultant roots born (or
+    dying) on one side outside ``band``, close together at the frequency where they exist
+    (``|Δv| ≤ YOUNG_PAIR v``), with every other root matched and not sweeping (:func:`_swept`).
+
+    A pair is born where the track folds in ``ω`` (a double real root): from there both roots move
+    as ``√(ω − ω_b)`` to leading order, in ``v`` and in ``m``, so between the birth and the sample
+    where they exist their ``m`` stay between the two values there. A young pair that lies outside
+    the band on one side there never entered it: no curve to look for. This settles an interval at
+    ``min_step`` instead of bisecting it down to ``SWEEP_STEP`` (a chain of samples that finds
+    nothing)."""
+    if abs(len(left) - len(right)) != 2:
+        return False
+    longer, shorter, free = _born(left, right)
+    (v1, m1), (v2, m2) = longer[free]
+    if abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
+        return False
+    side = _side(m1, band)
+    if side != _side(m2, band) or side == 1:
+        return False
+    kept = np.delete(longer, free, axis=0)
+    return not _swept(shorter, kept, band)
+
+
+def _match(
+    left: list[NeutralRoot], right: list[NeutralRoot], step: float, limit: float
+) -> list[tuple[int, int, float]]:
+    """Pairs ``(i, j, d)`` of roots at two adjacent frequencies ``step`` apart in ``log ω``
+    (:func:`log_step`), ``d`` the larger of the two tangent predictions' errors (∞-norm in
+    ``(log m, log U*)``), greedy by ``d`` below ``limit``."""
+    pairs = []
+    for i, a in enumerate(left):
+        for j, b in enumerate(right):
+            forward = np.abs(a.plane + step * a.log_tangent - b.plane).max()
+            backward = np.abs(b.plane - step * b.log_tangent - a.plane).max()
+            pairs.append((max(forward, backward), i, j))
+    used_left, used_right, matches = set(), set(), []
+    for d, i, j in sorted(pairs):
+        if d < limit and i not in used_left and j not in used_right:
+            used_left.add(i)
+            used_right.add(j)
+            matches.append((i, j, d))
+    return matches
+
+
+def _resolved(left, right, step, tolerance, inner) -> bool:
+    """Every root inside ``inner`` (a mass range) on either side is matched within ``tolerance``."""
+    matches = _match(left, right, step, tolerance)
+    done_left = {i for i, _, _ in matches}
+    done_right = {j for _, j, _ in matches}
+    need = lambda roots, done: all(  # noqa: E731
+        k in done or not inner[0] <= r.mass_ratio <= inner[1] for k, r in enumerate(roots)
+    )
+    return need(left, done_left) and need(right, done_right)
+
+
+def _leaves(roots: list[NeutralRoot], inner: tuple[float, float]) -> bool:
+    """Whether a curve crosses the end of the sampled range at one of ``roots`` (those at the
+    lowest or highest frequency): a root with its mass inside ``inner``."""
+    return any(inner[0] <= r.mass_ratio <= inner[1] for r in roots)

@@ -1,0 +1,277 @@
+"""The parts of the transfer map's engine on small synthetic transfer functions with known neutral
+curves (sample sources, refinement policy, root tracker, the loop), and on the coarse plate the
+rebuild of a damaged models file and the factorisation counts over a resume.
+
+The synthetic fluid: pitch only, ``θ0 = 0`` and no steady load, so that ``A_θθ(s) = 2 (G_Mθ + s
+G_Mθ̇)`` (:func:`fsistab.transfer.aerodynamic_loads`). With ``A_θθ(iω) = a + i β(ω)`` the neutral
+condition ``m r² (u² − ω² + 2iζuω) = a + iβ`` gives, with ``k = m r²``,
+
+    ``k(u² − ω²) = a``,  ``2kζuω = β``  ⇒  ``k = K/ω²``, ``K = (−a + √(a² + β²/ζ²))/2``,
+    ``U* = 1/u = 2Kζ/(βω)``:
+
+one neutral curve, a power law ``m ∝ ω⁻²``, ``U* ∝ ω⁻¹`` for a constant ``β``.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from damage import damage
+from scipy.optimize import brentq
+
+from fsistab.linalg import FactorCounter
+from fsistab.map_engine import MapEngine, MapSources
+from fsistab.map_refinement import FIT_MIN_STEP, RefinementPolicy, initial_frequencies, resonance, runs
+from fsistab.map_roots import AxisSample, NeutralRoot, neutral_roots
+from fsistab.map_samples import SAMPLE_FIELDS, SampleStore
+from fsistab.map_sources import Certified, RationalFitSource, ResonanceSource
+from fsistab.map_tracker import RootTracker, _match
+from fsistab.params import MAX_FREQUENCY, Solid
+from fsistab.reduced_model import ReducedModels, models_table, read_models
+from fsistab.store import ResumableTable
+from fsistab.transfer_map import _assemble, transfer_neutral_map
+
+PITCH = Solid(dofs=("pitch",), zeta_theta=0.05)
+A, B = 1.0, 0.5  # A_θθ(iω) = A + iB (power law) or A + iB(1 + ω) (not)
+
+
+def _pitch_sample(omega: float, slope: bool = False) -> AxisSample:
+    """``G`` with ``A_θθ(iω) = A + iB`` (or ``A + iB(1 + ω)`` with ``slope``: ``G_Mθ̇ = B/2``);
+    ``G`` constant: ``dG/ds = 0``."""
+    g = np.zeros((3, 4), dtype=complex)
+    g[2, 1] = (A + 1j * B) / 2
+    if slope:
+        g[2, 3] = B / 2
+    return AxisSample(omega, g, np.zeros((3, 4), dtype=complex))
+
+
+def _curve(omega: float, beta: float) -> tuple[float, float]:
+    """``(m, U*)`` of the neutral point at ``omega`` (module docstring)."""
+    k = (-A + math.sqrt(A * A + beta * beta / PITCH.zeta_theta**2)) / 2
+    return k / (PITCH.r_theta**2 * omega**2), 2 * k * PITCH.zeta_theta / (beta * omega)
+
+
+class _Synthetic:
+    """An exact source of the synthetic ``G``: each sample counted as one factorisation."""
+
+    def __init__(self, counter: FactorCounter, slope: bool = False):
+        self.counter, self.slope = counter, slope
+
+    def sample(self, omega: float) -> AxisSample:
+        self.counter.count += 1
+        return _pitch_sample(omega, self.slope)
+
+    def samples(self, frequencies):
+        for omega in frequencies:
+            yield self.sample(omega)
+
+
+def _policy(**kwargs) -> RefinementPolicy:
+    settings = dict(
+        inner=(1.0, 1e4),
+        wide=(0.25, 4e4),
+        omega_range=(0.05, 10.0),
+        tolerance=3e-2,
+        min_step=1e-3,
+        max_samples=400,
+        exact=True,
+    )
+    return RefinementPolicy(**{**settings, **kwargs})
+
+
+def _engine(policy, slope=False):
+    counter, store = FactorCounter(), SampleStore()
+    sources = MapSources(_Synthetic(counter, slope), ResonanceSource(None), RationalFitSource(store))
+    tracker = RootTracker(PITCH, policy.wide, 0.0, np.zeros(3))
+    return MapEngine(policy, sources, store, tracker, counter, lambda message: None), counter
+
+
+def test_roots_of_a_synthetic_transfer_function_are_the_analytic_neutral_points():
+    """One root per frequency, at the (m, U*) of the module docstring (to 1e-12), with the tangent
+    of the power law: d log m/dω = −2/ω, d log U*/dω = −1/ω."""
+    for omega in (0.3, 1.0, 4.0):
+        (root,) = neutral_roots(_pitch_sample(omega), PITCH, 0.0, np.zeros(3), (1.0, 1e4))
+        m, u = _curve(omega, B)
+        assert root.mass_ratio == pytest.approx(m, rel=1e-12)
+        assert root.reduced_velocity == pytest.approx(u, rel=1e-12)
+        assert root.dlog_mass == pytest.approx(-2 / omega, rel=1e-9)
+        assert root.dlog_velocity == pytest.approx(-1 / omega, rel=1e-9)
+
+
+def _power_root(omega: float, scale: float = 1.0) -> NeutralRoot:
+    m, u = _curve(omega, B)
+    return NeutralRoot(omega, scale * m, u, -2 / omega, -1 / omega, 1.0)
+
+
+def test_the_tracker_matches_roots_along_their_tangents_and_not_across_curves():
+    """Two power-law curves 10 × apart in m at ω = 1 and 1.1: each root is matched to its own
+    (prediction error 0: the curves are straight in log ω), never to the other (error log 10)."""
+    left = [_power_root(1.0), _power_root(1.0, 10.0)]
+    right = [_power_root(1.1, 10.0), _power_root(1.1)]
+    matches = _match(left, right, math.log(1.1), 0.25)
+    assert sorted((i, j) for i, j, _ in matches) == [(0, 1), (1, 0)]
+    assert max(d for *_, d in matches) < 1e-12
+    assert _match(left[:1], right[:1], math.log(1.1), 0.25) == []  # log 10 > 0.25 apart
+
+
+def test_the_policy_bisects_unmatched_intervals_and_leaves_a_fold_at_min_step():
+    """Roots that do not match: the midpoint is sampled; an interval narrower than min_step with
+    exact samples is left to a rational fit (stuck); a fold (two roots born) is not, and at min_step
+    it is unresolved; a matched interval needs nothing."""
+    policy = _policy()
+    tracker = RootTracker(PITCH, policy.wide, 0.0, np.zeros(3))
+    empty = np.zeros((0, 2))
+    tracker.roots = {1.0: [_power_root(1.0)], 1.1: [_power_root(1.1)], 2.0: [_power_root(2.0, 3.0)]}
+    tracker.tracks = {w: empty for w in tracker.roots}
+    nothing = Certified(ResonanceSource(None), RationalFitSource(SampleStore()))
+    survey = policy.survey(tracker, _pitch_sample, nothing, {}, sharp=False)
+    assert survey.todo == [(2.0 - 1.1, 1.1, 2.0, (1.1 + 2.0) / 2)]  # 1.0-1.1 matched; not 1.1-2.0 (m × 3)
+    assert survey.pending == [(1.1, 2.0)] and not survey.stuck and not survey.unresolved
+    w1 = 1.1 * (1 + 1e-4)  # narrower than min_step
+    tracker.roots = {1.1: [_power_root(1.1)], w1: [_power_root(w1, 3.0)]}
+    tracker.tracks = {w: empty for w in tracker.roots}
+    survey = policy.survey(tracker, _pitch_sample, nothing, {}, sharp=False)
+    assert survey.stuck == [(1.1, w1)] and not survey.todo
+    tracker.roots[w1] = tracker.roots[w1] + [_power_root(w1, 5.0), _power_root(w1, 7.0)]  # a pair born
+    tracker.tracks = {1.1: np.array([[1.0, 45.0]]), w1: np.array([[1.0, 135.0], [2.0, 225.0], [2.1, 315.0]])}
+    survey = policy.survey(tracker, _pitch_sample, nothing, {}, sharp=False)
+    assert survey.unresolved == {(1.1, w1): "min_step"} and not survey.stuck and not survey.todo
+
+
+def test_the_budget_keeps_the_widest_intervals_and_marks_the_rest():
+    """With room for two costly frequencies the two widest intervals are sampled, the third is over
+    the budget; a frequency a certified model covers is free."""
+    policy = _policy(max_samples=12)
+    todo = [(0.1, 1.0, 1.1, 1.05), (0.5, 2.0, 2.5, 2.25), (0.3, 3.0, 3.3, 3.15), (0.2, 5.0, 5.2, 5.1)]
+    covered = lambda omega: object() if omega == 5.1 else None  # noqa: E731
+    batch, over = policy.budget(todo, spent=10, interpolated=0, fitted=covered)
+    assert batch == [2.25, 3.15, 5.1] and over == [(0.1, 1.0, 1.1, 1.05)]
+    assert runs([(2.0, 3.0), (1.0, 2.0), (5.0, 6.0)]) == [[(1.0, 2.0), (2.0, 3.0)], [(5.0, 6.0)]]
+
+
+def test_a_source_that_cannot_answer_says_so_and_the_next_one_samples():
+    """No resonance model and no fit: the certified sources answer None; a rational fit from too
+    few exact samples is not certified; the engine then takes the exact sample (one factorisation)."""
+    store = SampleStore()
+    fits = RationalFitSource(store)
+    certified = Certified(ResonanceSource(None), fits)
+    assert certified.sample(1.0) is None and fits.sample(1.0) is None
+    assert not ResonanceSource(None).enabled
+    for omega in (0.9, 1.1):
+        store.keep(_pitch_sample(omega))
+    assert not fits.certify(0.95, 1.05, lambda message: None)  # two samples certify nothing
+    engine, counter = _engine(_policy())
+    sample = engine.sample(2.0)
+    assert counter.count == 1 and not sample.reduced and sample.frequency == 2.0
+    assert engine.sample(2.0) is sample and counter.count == 1  # kept: not sampled again
+
+
+def test_the_pole_two_samples_point_to_is_that_of_a_one_pole_transfer_function():
+    """``G(s) = R/(s − λ)`` in every entry, samples at ω = 0.8 and 1.2 around λ = −0.01 + 1.0i:
+    the fit p(t)/(t − μ) holds it exactly, so the pole is λ (to 1e-9) and its share of G is large."""
+    pole = -0.01 + 1.0j
+    residue = np.arange(1, 13, dtype=complex).reshape(3, 4)
+
+    def one_pole(omega):
+        s = 1j * omega
+        return AxisSample(omega, residue / (s - pole), -residue / (s - pole) ** 2)
+
+    found, share = resonance(one_pole(0.8), one_pole(1.2))
+    assert abs(found - pole) < 1e-9
+    assert share > 0.1
+
+
+def test_the_loop_on_a_power_law_curve_needs_no_refinement_and_finds_the_exact_crossing():
+    """A power law is straight in (log ω, log m, log U*): the tangents predict every root exactly,
+    so no interval is refined (8 initial frequencies and ω = 0: 9 samples) and the curve crosses
+    m = 100 at the U* and ω of the module docstring (to 1e-8: the Hermite cubic is exact, its root
+    is taken from a companion matrix whose higher coefficients vanish only to round-off)."""
+    policy = _policy()
+    engine, counter = _engine(policy)
+    run = engine.run(initial_frequencies(policy.omega_range, 8, None))
+    assert counter.count == 9 and len(run.tracker.roots) == 8
+    (curve,) = _assemble(run.tracker.roots, run.tracker.tracks, policy.inner)
+    omega = math.sqrt((-A + math.sqrt(A * A + B * B / PITCH.zeta_theta**2)) / 2 / (PITCH.r_theta**2 * 100.0))
+    ((u, w, _),) = curve.crossings_at(100.0)
+    assert u == pytest.approx(_curve(omega, B)[1], rel=1e-8)
+    assert w == pytest.approx(omega, rel=1e-8)
+    assert run.unresolved == {}  # the curve leaves the mass range inside the frequency range
+
+
+def test_the_loop_refines_a_curve_that_is_not_a_power_law_until_it_is_resolved():
+    """``A_θθ = A + iB(1 + ω)``: the curve bends in log ω, the initial 8 frequencies do not
+    resolve it and the loop refines (exact bisections, and rational fits of the samples); at
+    tolerance 1e-2 the Hermite curve's crossings of m = 10, 100, 1000 are the analytic ones (m(ω)
+    solved by bracketing) to 1e-3 (the error is about the square of the tolerance)."""
+    policy = _policy(tolerance=1e-2)
+    engine, counter = _engine(policy, slope=True)
+    run = engine.run(initial_frequencies(policy.omega_range, 8, None))
+    # each frequency (and ω = 0) one exact sample, except those a certified rational fit gave
+    assert len(run.tracker.roots) > 8 and counter.count == len(run.tracker.roots) + 1 - run.interpolated
+    # m(ω = 10) ≈ 6.5 is inside the mass range: the curve leaves the frequency range at its top
+    assert list(run.unresolved.items()) == [((10.0, max(MAX_FREQUENCY, 20.0)), "range")]
+    (curve,) = _assemble(run.tracker.roots, run.tracker.tracks, policy.inner)
+    for mass in (10.0, 100.0, 1000.0):
+        omega = brentq(lambda w, m=mass: math.log(_curve(w, B * (1 + w))[0] / m), 0.01, 20.0, xtol=1e-14)
+        ((u, _, _),) = curve.crossings_at(mass)
+        assert u == pytest.approx(_curve(omega, B * (1 + omega))[1], rel=1e-3)
+    assert FIT_MIN_STEP < policy.min_step
+
+
+def test_the_store_saves_exact_samples_at_once_and_counts_them_when_read_back(tmp_path):
+    """Three exact samples and two from a certified model: the exact ones are saved as they come,
+    the reduced ones with the next save; read back, the samples are sorted by frequency and the
+    three exact ones are the factorisations a resumed map reuses."""
+    path = tmp_path / "samples.nc"
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
+    for omega in (2.0, 0.5, 1.0):
+        store.keep(_pitch_sample(omega))
+    store.keep(AxisSample(1.5, _pitch_sample(1.5).transfer, np.zeros((3, 4)), reduced=True))
+    assert SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS)).frequencies() == [
+        0.5,
+        1.0,
+        2.0,
+    ]
+    store.keep(AxisSample(0.7, _pitch_sample(0.7).transfer, np.zeros((3, 4)), reduced=True))
+    store.save()
+    again = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
+    assert again.frequencies() == [0.5, 0.7, 1.0, 1.5, 2.0] and again.reused_factorisations == 3
+    assert again[1.5].reduced and not again[2.0].reduced
+    assert again.snap(1.0 * (1 + 1e-12)) == 1.0 and again.snap(1.01) == 1.01
+    assert again.exact_frequencies().tolist() == [0.5, 1.0, 2.0]
+
+
+# --- on the coarse plate --------------------------------------------------------------------------
+
+SETTINGS = dict(mass_range=(3000.0, 8000.0), omega_range=(0.01, 0.2), initial=8)
+
+
+def test_a_damaged_models_file_is_rebuilt_and_the_counts_add_up_over_a_resume(plate_operators, tmp_path):
+    """The map of test_transfer_map's s = 0 model (exact samples and one real model at s = 0):
+    a rerun factorises nothing and counts the first run's factorisations in total. The models file
+    damaged: the rerun reports it, rebuilds the model at s = 0 (one factorisation this run; in
+    total the same as the first run's), the file is valid again with the same model to the bit,
+    and the map is the same."""
+    path = tmp_path / "s.nc"
+    first = transfer_neutral_map(plate_operators, Solid(), samples_path=path, **SETTINGS)
+    assert first.resonance_models == 1 and first.factorisations_total == first.factorisations > 1
+    again = transfer_neutral_map(plate_operators, Solid(), samples_path=path, **SETTINGS)
+    assert again.factorisations == 0 and again.factorisations_total == first.factorisations
+    models_path = tmp_path / "s_resonance_models.nc"
+    identity = ReducedModels(plate_operators, tolerance=1e-7, blocks=40).identity
+    (model,) = read_models(models_table(models_path, identity))
+    damage(models_path, "flipped")
+    messages = []
+    rerun = transfer_neutral_map(
+        plate_operators, Solid(), samples_path=path, progress=messages.append, **SETTINGS
+    )
+    assert any("rebuilding 1 reduced models" in m for m in messages)
+    # the total: this run's model and the first run's exact samples (its model's file was lost)
+    assert rerun.factorisations == 1 and rerun.factorisations_total == first.factorisations
+    (rebuilt,) = read_models(models_table(models_path, identity))  # valid again
+    assert rebuilt.shift == model.shift and rebuilt.interval == model.interval
+    for name in ("jr", "mr", "br0", "br1", "lf", "lm"):
+        assert np.array_equal(getattr(rebuilt, name), getattr(model, name)), name
+    assert np.array_equal(rerun.frequencies, first.frequencies)
+    for m in (3000.0, 6000.0, 8000.0):
+        assert rerun.crossings_at(m) == first.crossings_at(m)
