@@ -177,9 +177,11 @@ class Interrupted(KeyboardInterrupt):
 
 
 def _files(paths: Iterable[Path] | str) -> str:
+    """``2 files: a.nc, b.nc``: the distinct files of ``paths`` in the order first written (a
+    resumable table saved after each record is one file, not one per save)."""
     if isinstance(paths, str):
         return paths
-    names = [str(path) for path in paths]
+    names = list(dict.fromkeys(str(path) for path in paths))
     if not names:
         return "nothing"
     shown = ", ".join(names[:_SHOWN_FILES]) + (", …" if len(names) > _SHOWN_FILES else "")
@@ -188,7 +190,8 @@ def _files(paths: Iterable[Path] | str) -> str:
 
 def interruption_message(elapsed: float, saved: Iterable[Path] | str, resume_hint: str) -> str:
     """``interrupted after 12.3 s; saved: 2 files: a.nc, b.nc; rerun the same command to resume``
-    (at most five files named, then ``…``; ``saved`` may also be a ready-made description)."""
+    (each file once, at most five named, then ``…``; ``saved`` may also be a ready-made
+    description)."""
     return f"interrupted after {elapsed:.1f} s; saved: {_files(saved)}; {resume_hint}"
 
 
