@@ -16,8 +16,9 @@ are ``"degree"`` where the code uses degrees (``alpha0_deg``, ``alpha0``), slope
 ``long_name`` and no ``units``. Frequencies ``ω`` and growth rates ``λ`` are those of
 ``σ = λ + iω`` of ``σ M q + J q = 0`` (docs/model.md §7) in the body's time unit.
 
-A variable name missing here is written without units; :func:`undescribed` lists such names and
-the tests fail on them (tests/test_schema.py). Add a new variable here with its meaning and unit.
+A variable name missing here is written without units, with an
+:class:`UndescribedVariableWarning`, which the test suite turns into an error: add a new variable
+here with its meaning and unit (:func:`undescribed` lists the names a dataset lacks).
 """
 
 from __future__ import annotations
@@ -39,6 +40,11 @@ CONVENTIONS = "CF-1.10"
 PROVENANCE_ATTRS = ("Conventions", "fsistab_version", "software_versions", "source", "history")
 # distributions whose versions a file records (besides fsistab's own)
 SOFTWARE = ("ngsolve", "netgen-mesher", "numpy", "scipy", "xarray", "h5netcdf", "h5py")
+
+
+class UndescribedVariableWarning(UserWarning):
+    """A variable written without ``units`` or ``long_name``: its name is missing from
+    :data:`VARIABLES` (the test suite turns this warning into an error)."""
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ import logging
 import os
 import secrets
 import tempfile
+import warnings
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -30,7 +31,7 @@ import numpy as np
 import xarray as xr
 
 from fsistab.errors import CacheError, InputError
-from fsistab.schema import PROVENANCE_ATTRS, describe
+from fsistab.schema import PROVENANCE_ATTRS, UndescribedVariableWarning, describe, undescribed
 
 NETCDF_ENGINE = "h5netcdf"
 CHECKSUM_ATTR = "fsistab_checksum"
@@ -258,6 +259,13 @@ def write_dataset(ds: xr.Dataset, path: Path) -> Path:
 
     path = Path(path)
     ds = describe(ds)
+    missing = undescribed(ds)
+    if missing:
+        warnings.warn(
+            f"{path.name}: no units or long_name for {', '.join(missing)} (add them to fsistab.schema)",
+            UndescribedVariableWarning,
+            stacklevel=2,
+        )
     ds.attrs = {k: v for k, v in ds.attrs.items() if k != CHECKSUM_ATTR}
     with atomic_path(path, ".nc") as tmp:
         ds.to_netcdf(tmp, engine=NETCDF_ENGINE)
