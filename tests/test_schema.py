@@ -258,7 +258,8 @@ COMMANDS = {
     "onset": ["onset", "--body", "cylinder", "--guess", "47"],
     "study": ["study", "--body", "cylinder", "--Re", "40", "--slopes", "--modes"],
     "study-thresholds": [
-        "study", "--Re", "2900", "--thresholds", "1000", "--reduced-velocity-range", "4", "5", "--points", "3",
+        "study", "--Re", "2900", "--thresholds", "1000", "--reduced-velocity-range", "4", "5",
+        "--points", "3",
     ],
     "sensitivity": [
         "sensitivity", "--Re", "2900", "--mass-ratio", "1000", "--reduced-velocity-range", "4", "5",
