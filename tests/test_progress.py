@@ -235,6 +235,25 @@ def test_a_library_loaded_inside_the_block_gets_the_user_threads_back():
     assert result["after"] == dict.fromkeys(result["inside"], 2) and not result["env"]
 
 
+def test_at_the_command_line_start_only_the_variables_are_set():
+    """Before NumPy is imported no BLAS is loaded: the variables alone pin the libraries that load
+    later, and threadpoolctl is not even imported (the command line answers ``--help`` at once)."""
+    code = (
+        "import os, sys\n"
+        "for name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):\n"
+        "    os.environ.pop(name, None)\n"
+        "import fsistab\n"
+        "with fsistab.blas_threads() as pinned:\n"
+        "    assert 'threadpoolctl' not in sys.modules and 'numpy' not in sys.modules\n"
+        "    import numpy\n"
+        "    from threadpoolctl import threadpool_info\n"
+        "    counts = {i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}\n"
+        "    print(pinned, os.environ['OPENBLAS_NUM_THREADS'], counts)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout == "True 1 {1}\n", done.stderr
+
+
 def test_importing_fsistab_changes_no_global_state():
     code = (
         "import os, logging; before = dict(os.environ); import fsistab; "

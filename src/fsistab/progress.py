@@ -224,26 +224,30 @@ def blas_threads(environ: MutableMapping[str, str] | None = None) -> Iterator[bo
     slow every factorisation down. The block sets the variables to 1, so that the libraries that
     load inside it (NumPy and NGSolve, which the command line imports lazily) and the processes it
     starts (a dask ``LocalCluster``'s workers) use one thread, and limits the libraries already
-    loaded (``threadpoolctl``). On exit the variables and the libraries' thread counts come back;
-    a library first loaded inside the block gets the count of a library of the same kind loaded
-    before (the user's BLAS setting), if there was one. A block inside another pins nothing more.
-    Usable as a decorator too (``@blas_threads()``).
+    loaded (``threadpoolctl``; none is before NumPy is imported, and then it is not even imported,
+    which keeps the command line's start quick). On exit the variables and the libraries' thread
+    counts come back; a library first loaded inside the block gets the count of a library of the
+    same kind loaded before (the user's BLAS setting), if there was one. A block inside another
+    pins nothing more. Usable as a decorator too (``@blas_threads()``).
     """
     environ = os.environ if environ is None else environ
     if any(name in environ for name in BLAS_THREADS):
         yield False
         return
-    from threadpoolctl import ThreadpoolController
+    before = None
+    if "numpy" in sys.modules:  # else no BLAS is loaded yet (the command line at its start)
+        from threadpoolctl import ThreadpoolController
 
-    before = {lib.filepath: lib.num_threads for lib in ThreadpoolController().lib_controllers}
+        before = {lib.filepath: lib.num_threads for lib in ThreadpoolController().lib_controllers}
+        ThreadpoolController().limit(limits=1)
     environ.update(dict.fromkeys(BLAS_THREADS, "1"))
     try:
-        ThreadpoolController().limit(limits=1)
         yield True
     finally:
         for name in BLAS_THREADS:
             environ.pop(name, None)
-        _restore_threads(before)
+        if before is not None:
+            _restore_threads(before)
 
 
 def _restore_threads(before: dict[str, int]) -> None:
