@@ -114,6 +114,16 @@ def test_reporting_passes_a_callback_through_or_logs(caplog):
     assert [r.getMessage().split("] ", 1)[1] for r in caplog.records] == ["from the API"]
 
 
+def test_a_workflow_runs_pinned_and_reporting(monkeypatch, caplog):
+    for name in progress.BLAS_THREADS:
+        monkeypatch.delenv(name, raising=False)
+    with caplog.at_level(logging.INFO, logger="fsistab"), progress.running(None) as say:
+        assert all(os.environ[name] == "1" for name in progress.BLAS_THREADS)
+        say("fluid operators")
+    assert not any(name in os.environ for name in progress.BLAS_THREADS)
+    assert [r.getMessage().split("] ", 1)[1] for r in caplog.records] == ["fluid operators"]
+
+
 @pytest.fixture
 def fsistab_logger():
     """The logger ``fsistab`` restored after the test (handlers and level)."""

@@ -173,6 +173,18 @@ def reporting(progress: Progress = None) -> Iterator[Callable[[str], None]]:
         yield reporter
 
 
+@contextmanager
+def running(progress: Progress = None) -> Iterator[Callable[[str], None]]:
+    """What every workflow runs in, called from Python or from the command line: BLAS on one thread
+    (:func:`blas_threads`) and its progress callback (:func:`reporting`), yielded::
+
+        with running(progress) as say:
+            say("steady state")
+    """
+    with blas_threads(), reporting(progress) as say:
+        yield say
+
+
 class _ProgressHandler(logging.Handler):
     """fsistab's records as plain lines on a stream (stderr by default, resolved at each record):
     progress as it comes, warnings prefixed ``warning:``."""
