@@ -10,7 +10,7 @@ logger ``fsistab``: the Python API's progress, silent until the user turns it on
 :func:`blas_threads` runs a block with BLAS on one thread unless the user chose a number: fsistab
 runs its own threads (two sparse factorisations at once), and BLAS threads beside them slow it
 down on shared cores. Importing fsistab changes nothing; the command line and each workflow run
-inside the block.
+inside the block (a workflow through :func:`running`, which also gives it its progress callback).
 
 :func:`interruptible` turns SIGINT and SIGTERM into an exception inside its block, then says how
 long the run lasted, which files were saved and how to resume, and exits with the conventional
