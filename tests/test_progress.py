@@ -1,6 +1,7 @@
 """Progress lines and clean interruption (fsistab.progress): issue #13, item 5."""
 
 import io
+import logging
 import os
 import re
 import signal
@@ -9,12 +10,13 @@ import sys
 import textwrap
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
+import fsistab
 from fsistab import progress
-from fsistab.params import Flow
-from fsistab.progress import Interrupted, Reporter, interruptible
+from fsistab.progress import Interrupted, Reporter, interruptible, reporting
 
 
 class FakeClock:
@@ -84,25 +86,192 @@ def test_label_prefixes_messages_and_done_prints_the_final_line(clock):
     assert stream.getvalue() == "[    1.0 s] neutral: curve 1\n[    3.5 s] neutral: curve 1\n"
 
 
-def test_adapters_format_the_library_callbacks():
+def test_with_a_logger_the_lines_are_info_records_and_nothing_is_printed(clock, caplog):
     stream = io.StringIO()
-    counter = type("Counter", (), {"count": 7})()
-    with Reporter(stream=stream) as reporter:
-        reporter.steady(Flow(2900.0, 5.0), 4)  # steady.solve_steady: progress(step_flow, iterations)
-        reporter.count("transfer samples")(3, 40)  # transfer: progress(done, total)
-        reporter.tracking(12, counter)(0, 4.5)  # critical/tracking: progress(i, velocity)
-        step = reporter.step(
-            "point {0}, U* = {1:.3f}, {factorisations} LU", factorisations=lambda: counter.count
-        )
-        counter.count = 9
-        step(2, 5.25)
-    messages = [line.split("] ", 1)[1] for line in stream.getvalue().splitlines()]
-    assert messages == [
-        "continuation: Re = 2900, alpha0 = 5 deg converged in 4 Newton iterations",
-        "transfer samples 3/40",
-        "tracking branches: point 1/12, U* = 4.5, 7 factorisations",
-        "point 2, U* = 5.250, 9 LU",
+    logger = logging.getLogger("fsistab")
+    with caplog.at_level(logging.INFO, logger="fsistab"):
+        with Reporter(stream=stream, interactive=True, logger=logger) as reporter:
+            assert not reporter.interactive  # never a spinner in a log
+            clock.now += 2.0
+            reporter("steady state")
+            reporter("steady state")
+            clock.now += 1.5
+            reporter.done("map")
+    assert stream.getvalue() == ""
+    assert [(r.name, r.levelno, r.getMessage()) for r in caplog.records] == [
+        ("fsistab", logging.INFO, "[    2.0 s] steady state"),
+        ("fsistab", logging.INFO, "[    3.5 s] map"),
     ]
+
+
+def test_reporting_passes_a_callback_through_or_logs(caplog):
+    seen = []
+    with reporting(seen.append) as say:
+        say("given")
+    assert seen == ["given"]
+    with caplog.at_level(logging.INFO, logger="fsistab"), reporting(None) as say:
+        say("from the API")
+    assert [r.getMessage().split("] ", 1)[1] for r in caplog.records] == ["from the API"]
+
+
+def test_a_workflow_runs_pinned_and_reporting(monkeypatch, caplog):
+    for name in progress.BLAS_THREADS:
+        monkeypatch.delenv(name, raising=False)
+    with caplog.at_level(logging.INFO, logger="fsistab"), progress.running(None) as say:
+        assert all(os.environ[name] == "1" for name in progress.BLAS_THREADS)
+        say("fluid operators")
+    assert not any(name in os.environ for name in progress.BLAS_THREADS)
+    assert [r.getMessage().split("] ", 1)[1] for r in caplog.records] == ["fluid operators"]
+
+
+@pytest.fixture
+def fsistab_logger():
+    """The logger ``fsistab`` restored after the test (handlers and level)."""
+    logger = logging.getLogger("fsistab")
+    handlers, level = list(logger.handlers), logger.level
+    yield logger
+    logger.handlers[:] = handlers
+    logger.setLevel(level)
+
+
+def test_the_api_is_silent_until_show_progress(fsistab_logger, capsys):
+    with reporting(None) as say:
+        say("not shown")
+    assert capsys.readouterr().err == ""
+    handler = fsistab.show_progress()
+    assert fsistab.show_progress() is handler  # once
+    with reporting(None) as say:
+        say("steady state")
+    fsistab_logger.warning("damaged entry moved aside")
+    fsistab_logger.debug("not at INFO")
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and re.fullmatch(r"\[ +\d+\.\d s\] steady state", lines[0])
+    assert lines[1] == "warning: damaged entry moved aside"
+    fsistab_logger.removeHandler(handler)
+    with reporting(None) as say:
+        say("off again")
+    assert capsys.readouterr().err == ""
+
+
+def test_show_progress_writes_to_a_given_stream_and_keeps_a_lower_level(fsistab_logger):
+    fsistab_logger.setLevel(logging.DEBUG)
+    stream = io.StringIO()
+    fsistab.show_progress(stream)
+    assert fsistab_logger.level == logging.DEBUG  # the user's lower level is kept
+    fsistab_logger.info("one\nline")
+    assert stream.getvalue() == "one line\n"
+
+
+# --- BLAS threads --------------------------------------------------------------------------------
+
+
+def _blas_threads() -> dict[str, int]:
+    from threadpoolctl import threadpool_info
+
+    return {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+
+def test_blas_threads_pin_one_thread_in_the_block_and_restore_after():
+    import numpy  # noqa: F401 - its BLAS is loaded
+    from threadpoolctl import threadpool_limits
+
+    environ = {"PATH": "/bin"}
+    with threadpool_limits(limits=2, user_api="blas"):  # the user's setting before the block
+        before = _blas_threads()
+        assert before and set(before.values()) == {2}
+        with progress.blas_threads(environ) as pinned:
+            assert pinned
+            assert set(_blas_threads().values()) == {1}
+            assert {k: environ[k] for k in progress.BLAS_THREADS} == dict.fromkeys(progress.BLAS_THREADS, "1")
+            with progress.blas_threads(environ) as inner:  # nested: nothing more
+                assert not inner
+        assert _blas_threads() == before
+        assert environ == {"PATH": "/bin"}
+
+
+@pytest.mark.parametrize("variable", ["OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"])
+def test_blas_threads_leave_a_user_choice_alone(variable):
+    from threadpoolctl import threadpool_limits
+
+    environ = {variable: "2"}
+    with threadpool_limits(limits=2, user_api="blas"):
+        with progress.blas_threads(environ) as pinned:
+            assert not pinned and environ == {variable: "2"}
+            assert set(_blas_threads().values()) == {2}
+
+
+def test_blas_threads_as_a_decorator():
+    environ = {}
+
+    @progress.blas_threads(environ)
+    def work():
+        return dict(environ)
+
+    assert work() == dict.fromkeys(progress.BLAS_THREADS, "1") and environ == {}
+
+
+_LOADED_INSIDE = textwrap.dedent(
+    """
+    import json, os
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.pop(name, None)
+    import numpy
+    from threadpoolctl import threadpool_info, threadpool_limits
+    import fsistab
+
+    def counts():
+        return {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+    threadpool_limits(limits=2, user_api="blas")  # as on a two-core machine, whatever this one has
+    before = counts()
+    with fsistab.blas_threads():
+        import scipy.linalg  # its own OpenBLAS, loaded inside the block
+        inside = counts()
+    env = "OMP_NUM_THREADS" in os.environ
+    print(json.dumps({"before": before, "inside": inside, "after": counts(), "env": env}))
+    """
+)
+
+
+def test_a_library_loaded_inside_the_block_gets_the_user_threads_back():
+    import json
+
+    done = subprocess.run([sys.executable, "-c", _LOADED_INSIDE], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout)
+    new = set(result["inside"]) - set(result["before"])
+    assert new, "scipy loaded no BLAS of its own"
+    assert set(result["inside"].values()) == {1}
+    assert result["after"] == dict.fromkeys(result["inside"], 2) and not result["env"]
+
+
+def test_at_the_command_line_start_only_the_variables_are_set():
+    """Before NumPy is imported no BLAS is loaded: the variables alone pin the libraries that load
+    later, and threadpoolctl is not even imported (the command line answers ``--help`` at once)."""
+    code = (
+        "import os, sys\n"
+        "for name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):\n"
+        "    os.environ.pop(name, None)\n"
+        "import fsistab\n"
+        "with fsistab.blas_threads() as pinned:\n"
+        "    assert 'threadpoolctl' not in sys.modules and 'numpy' not in sys.modules\n"
+        "    import numpy\n"
+        "    from threadpoolctl import threadpool_info\n"
+        "    counts = {i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}\n"
+        "    print(pinned, os.environ['OPENBLAS_NUM_THREADS'], counts)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout == "True 1 {1}\n", done.stderr
+
+
+def test_importing_fsistab_changes_no_global_state():
+    code = (
+        "import os, logging; before = dict(os.environ); import fsistab; "
+        "assert dict(os.environ) == before; "
+        "logger = logging.getLogger('fsistab'); assert not logger.handlers and logger.level == 0; print('ok')"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout == "ok\n", done.stderr
 
 
 def test_a_terminal_gets_the_spinner_not_timed_lines():
@@ -221,6 +390,13 @@ def test_the_message_names_at_most_five_files():
     assert message == "interrupted after 3.1 s; saved: 7 files: f0.nc, f1.nc, f2.nc, f3.nc, f4.nc, …; rerun"
     assert progress.interruption_message(0.0, [], "rerun") == "interrupted after 0.0 s; saved: nothing; rerun"
     assert "saved: 1 file: a.nc;" in progress.interruption_message(0.0, ["a.nc"], "rerun")
+
+
+def test_a_file_saved_many_times_is_named_once():
+    """A resumable table is saved after each record: 52 saves of 2 files are 2 files."""
+    saves = [Path("out/samples.nc"), Path("out/models.nc")] * 26
+    message = progress.interruption_message(1.0, saves, "rerun")
+    assert message == "interrupted after 1.0 s; saved: 2 files: out/samples.nc, out/models.nc; rerun"
 
 
 # --- interruptible, a real process receiving the signal --------------------------------------

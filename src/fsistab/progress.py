@@ -1,10 +1,16 @@
-"""Progress reporting and clean interruption of long computations (the command-line shell's side).
+"""Progress reporting, clean interruption and the BLAS threads of long computations: what the
+command line and the Python API share.
 
 :class:`Reporter` shows a spinner on a terminal and, when the stream is not a terminal (a log file,
 a pipe, a batch job), prints one plain line per step, ``[   12.3 s] message``, so that a long run
-leaves a readable log. Library functions report progress through callbacks of various shapes;
-:meth:`Reporter.step` and the small adapters (:meth:`Reporter.steady`, :meth:`Reporter.count`,
-:meth:`Reporter.tracking`) turn them into messages.
+leaves a readable log. Given a ``logger`` instead, it emits the same lines as INFO records of the
+logger ``fsistab``: the Python API's progress, silent until the user turns it on
+(:func:`show_progress`, or any logging configuration). :func:`reporting` picks between the two.
+
+:func:`blas_threads` runs a block with BLAS on one thread unless the user chose a number: fsistab
+runs its own threads (two sparse factorisations at once), and BLAS threads beside them slow it
+down on shared cores. Importing fsistab changes nothing; the command line and each workflow run
+inside the block (a workflow through :func:`running`, which also gives it its progress callback).
 
 :func:`interruptible` turns SIGINT and SIGTERM into an exception inside its block, then says how
 long the run lasted, which files were saved and how to resume, and exits with the conventional
@@ -17,18 +23,23 @@ the message is written::
 
 from __future__ import annotations
 
+import logging
+import os
 import re
 import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, MutableMapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
 _ANSI = re.compile(r"\x1b\[[0-9;?]*[ -/]*[@-~]|\x1b\][^\x07]*\x07")
 _SHOWN_FILES = 5
+LOGGER = "fsistab"
+# the variables that set the BLAS and OpenMP threads: a user who set any of them chose
+BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def one_line(message: str) -> str:
@@ -51,13 +62,21 @@ class Reporter:
     when ``stream`` is not a terminal, prints ``[elapsed s] message`` and flushes. A message equal
     to the previous one is printed once. ``label``, when given, prefixes every message.
     ``interactive`` forces (True) or suppresses (False) the spinner; by default it is shown when
-    ``stream`` (default ``sys.stderr``) is a terminal.
+    ``stream`` (default ``sys.stderr``) is a terminal. With ``logger``, the lines go to it as INFO
+    records instead of to a stream, and there is no spinner.
     """
 
-    def __init__(self, stream: TextIO | None = None, interactive: bool | None = None, label: str = ""):
+    def __init__(
+        self,
+        stream: TextIO | None = None,
+        interactive: bool | None = None,
+        label: str = "",
+        logger: logging.Logger | None = None,
+    ):
         self._stream = stream
         self._interactive = interactive
         self._label = one_line(label)
+        self._logger = logger
         self._start: float | None = None
         self._last: str | None = None
         self._status = None
@@ -70,6 +89,8 @@ class Reporter:
 
     @property
     def interactive(self) -> bool:
+        if self._logger is not None:
+            return False
         return _is_terminal(self.stream) if self._interactive is None else bool(self._interactive)
 
     @property
@@ -102,7 +123,11 @@ class Reporter:
         return f"{self._label}: {message}" if self._label else message
 
     def _line(self, text: str) -> None:
-        self.stream.write(f"[{self.elapsed:7.1f} s] {text}\n")
+        line = f"[{self.elapsed:7.1f} s] {text}"
+        if self._logger is not None:
+            self._logger.info("%s", line)
+            return
+        self.stream.write(line + "\n")
         self.stream.flush()
 
     def update(self, message: str) -> None:
@@ -132,40 +157,125 @@ class Reporter:
             self._line(text)
         self._last = text
 
-    # adapters for the library's callbacks ------------------------------------------------------
 
-    def step(self, fmt: str, **live: Callable[[], object]) -> Callable[..., None]:
-        """A callback of any shape: its positional arguments fill ``fmt`` (``str.format``:
-        ``{0}``, ``{1:.4g}``, ``{0.reynolds}``), and each keyword of ``live`` is a function called
-        at each step, e.g. ``factorisations=lambda: counter.count`` for ``{factorisations}``."""
+Progress = Callable[[str], None] | None
 
-        def callback(*args) -> None:
-            self.update(fmt.format(*args, **{name: value() for name, value in live.items()}))
 
-        return callback
+@contextmanager
+def reporting(progress: Progress = None) -> Iterator[Callable[[str], None]]:
+    """The progress callback of one workflow call: ``progress`` when the caller gave one (the
+    command line's :class:`Reporter`), else a :class:`Reporter` whose timed lines are INFO records
+    of the logger ``fsistab`` (shown by :func:`show_progress`)."""
+    if progress is not None:
+        yield progress
+        return
+    with Reporter(logger=logging.getLogger(LOGGER)) as reporter:
+        yield reporter
 
-    def steady(self, flow, iterations: int) -> None:
-        """Callback of :func:`fsistab.steady.solve_steady`: ``progress(step_flow, iterations)``."""
-        self.update(
-            f"continuation: Re = {flow.reynolds:.4g}, alpha0 = {flow.alpha0_deg:.3g} deg "
-            f"converged in {iterations} Newton iterations"
-        )
 
-    def count(self, what: str) -> Callable[[int, int], None]:
-        """Callback ``progress(done, total)`` (transfer samples, points of a list): ``what done/total``."""
-        return self.step(f"{one_line(what)} {{0}}/{{1}}")
+@contextmanager
+def running(progress: Progress = None) -> Iterator[Callable[[str], None]]:
+    """What every workflow runs in, called from Python or from the command line: BLAS on one thread
+    (:func:`blas_threads`) and its progress callback (:func:`reporting`), yielded::
 
-    def tracking(self, total: int, counter=None) -> Callable[[int, float], None]:
-        """Callback ``progress(i, velocity)`` of the branch tracking (``i`` from 0), with the
-        number of factorisations of ``counter`` (a :class:`fsistab.linalg.FactorCounter`) if given."""
+        with running(progress) as say:
+            say("steady state")
+    """
+    with blas_threads(), reporting(progress) as say:
+        yield say
 
-        def callback(i: int, velocity: float) -> None:
-            text = f"tracking branches: point {i + 1}/{total}, U* = {velocity:.4g}"
-            if counter is not None:
-                text += f", {counter.count} factorisations"
-            self.update(text)
 
-        return callback
+class _ProgressHandler(logging.Handler):
+    """fsistab's records as plain lines on a stream (stderr by default, resolved at each record):
+    progress as it comes, warnings prefixed ``warning:``."""
+
+    def __init__(self, stream: TextIO | None = None, level: int = logging.INFO):
+        super().__init__(level)
+        self._stream = stream
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            text = one_line(record.getMessage())
+            if record.levelno >= logging.WARNING:
+                text = f"{record.levelname.lower()}: {text}"
+            stream = self._stream if self._stream is not None else sys.stderr
+            stream.write(text + "\n")
+            stream.flush()
+        except Exception:  # progress must never end the run
+            self.handleError(record)
+
+
+def show_progress(stream: TextIO | None = None, level: int = logging.INFO) -> logging.Handler:
+    """Print the progress of fsistab's workflows called from Python, one timed line per step, on
+    ``stream`` (default stderr): attaches a plain handler to the logger ``fsistab`` and lowers its
+    level to ``level`` if it is higher or unset. A second call returns the handler already there.
+    ``logging.getLogger("fsistab").removeHandler(handler)`` turns it off again."""
+    logger = logging.getLogger(LOGGER)
+    for handler in logger.handlers:
+        if isinstance(handler, _ProgressHandler):
+            return handler
+    handler = _ProgressHandler(stream, level)
+    logger.addHandler(handler)
+    if logger.level == logging.NOTSET or logger.level > level:
+        logger.setLevel(level)
+    return handler
+
+
+# --- BLAS threads ------------------------------------------------------------------------------
+
+
+@contextmanager
+def blas_threads(environ: MutableMapping[str, str] | None = None) -> Iterator[bool]:
+    """Run the block with BLAS and OpenMP on one thread, unless the user set any of
+    :data:`BLAS_THREADS` in ``environ`` (default ``os.environ``): then nothing changes (OpenBLAS
+    reads its own variable before ``OMP_NUM_THREADS``, so setting one would override the user's
+    choice). Yields whether it pinned the threads.
+
+    fsistab runs its own threads (two sparse factorisations at once,
+    :func:`fsistab.linalg.sample_threads`); BLAS threads beside them oversubscribe the cores and
+    slow every factorisation down. The block sets the variables to 1, so that the libraries that
+    load inside it (NumPy and NGSolve, which the command line imports lazily) and the processes it
+    starts (a dask ``LocalCluster``'s workers) use one thread, and limits the libraries already
+    loaded (``threadpoolctl``; none is before NumPy is imported, and then it is not even imported,
+    which keeps the command line's start quick). On exit the variables and the libraries' thread
+    counts come back; a library first loaded inside the block gets the count of a library of the
+    same kind loaded before (the user's BLAS setting), if there was one. A block inside another
+    pins nothing more. Usable as a decorator too (``@blas_threads()``).
+    """
+    environ = os.environ if environ is None else environ
+    if any(name in environ for name in BLAS_THREADS):
+        yield False
+        return
+    before = None
+    if "numpy" in sys.modules:  # else no BLAS is loaded yet (the command line at its start)
+        from threadpoolctl import ThreadpoolController
+
+        before = {lib.filepath: lib.num_threads for lib in ThreadpoolController().lib_controllers}
+        ThreadpoolController().limit(limits=1)
+    environ.update(dict.fromkeys(BLAS_THREADS, "1"))
+    try:
+        yield True
+    finally:
+        for name in BLAS_THREADS:
+            environ.pop(name, None)
+        if before is not None:
+            _restore_threads(before)
+
+
+def _restore_threads(before: dict[str, int]) -> None:
+    """Give each loaded BLAS/OpenMP library its thread count of ``before`` (by file); one loaded
+    since gets the largest count of the libraries of its kind in ``before``, else keeps its own."""
+    from threadpoolctl import ThreadpoolController
+
+    libraries = ThreadpoolController().lib_controllers
+    by_kind: dict[str, int] = {}
+    for lib in libraries:
+        if lib.filepath in before:
+            by_kind[lib.internal_api] = max(by_kind.get(lib.internal_api, 0), before[lib.filepath])
+    for lib in libraries:
+        count = before.get(lib.filepath, by_kind.get(lib.internal_api))
+        if count is not None and count != lib.num_threads:
+            lib.set_num_threads(count)
 
 
 class Interrupted(KeyboardInterrupt):
@@ -177,9 +287,11 @@ class Interrupted(KeyboardInterrupt):
 
 
 def _files(paths: Iterable[Path] | str) -> str:
+    """``2 files: a.nc, b.nc``: the distinct files of ``paths`` in the order first written (a
+    resumable table saved after each record is one file, not one per save)."""
     if isinstance(paths, str):
         return paths
-    names = [str(path) for path in paths]
+    names = list(dict.fromkeys(str(path) for path in paths))
     if not names:
         return "nothing"
     shown = ", ".join(names[:_SHOWN_FILES]) + (", …" if len(names) > _SHOWN_FILES else "")
@@ -188,7 +300,8 @@ def _files(paths: Iterable[Path] | str) -> str:
 
 def interruption_message(elapsed: float, saved: Iterable[Path] | str, resume_hint: str) -> str:
     """``interrupted after 12.3 s; saved: 2 files: a.nc, b.nc; rerun the same command to resume``
-    (at most five files named, then ``…``; ``saved`` may also be a ready-made description)."""
+    (each file once, at most five named, then ``…``; ``saved`` may also be a ready-made
+    description)."""
     return f"interrupted after {elapsed:.1f} s; saved: {_files(saved)}; {resume_hint}"
 
 

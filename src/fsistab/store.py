@@ -20,7 +20,9 @@ import hashlib
 import json
 import logging
 import os
+import secrets
 import tempfile
+import warnings
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -29,6 +31,7 @@ import numpy as np
 import xarray as xr
 
 from fsistab.errors import CacheError, InputError
+from fsistab.schema import PROVENANCE_ATTRS, UndescribedVariableWarning, describe, undescribed
 
 NETCDF_ENGINE = "h5netcdf"
 CHECKSUM_ATTR = "fsistab_checksum"
@@ -90,22 +93,64 @@ def _record(path: Path) -> None:
         written.append(path)
 
 
+def _new_temporary(path: Path, suffix: str) -> Path:
+    """Create an empty file of a fresh name beside ``path`` (``.<name>.<random>.part<suffix>``)
+    with mode ``0666`` less the process's umask, as any file the user creates: ``mkstemp`` would
+    make it 0600 whatever the umask, which breaks shared caches and group folders. The kernel
+    applies the umask at creation, so no thread ever reads or changes it."""
+    for _ in range(100):
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.part{suffix}"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:  # pragma: no cover - 48 random bits
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(f"no free temporary name beside {path}")  # pragma: no cover
+
+
+def _sync_file(path: Path) -> None:
+    """Flush ``path``'s data to the disk (before the rename that publishes it)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _sync_directory(path: Path) -> None:
+    """Flush directory ``path``'s entries to the disk (after a rename in it), where the system
+    allows it: some file systems and platforms cannot open or sync a directory."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def atomic_path(path: Path, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path next to ``path``; rename it to ``path`` only if the block succeeds.
 
-    On an exception nothing is left behind: neither ``path`` (an older file there is untouched) nor
-    the temporary.
+    The file is synced to the disk before the rename and the directory after it, so ``path`` is
+    either the old file or the whole new one, also after a crash. It is created with the process's
+    umask (``0644`` under umask 022; a writer that recreates it gets the same). On an exception
+    nothing is left behind: neither ``path`` (an older file there is untouched) nor the temporary.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     # the suffix stays last: some writers (Netgen) append their own extension otherwise
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part" + suffix, dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp)
+    tmp = _new_temporary(path, suffix)
     try:
         yield tmp
+        _sync_file(tmp)
         os.replace(tmp, path)
+        _sync_directory(path.parent)
         _record(path)
     finally:
         if tmp.exists():
@@ -200,16 +245,27 @@ def file_checksum(path: Path) -> str:
 
 
 def write_dataset(ds: xr.Dataset, path: Path) -> Path:
-    """Write ``ds`` as NetCDF-4 atomically, with its content checksum in attribute ``fsistab_checksum``.
+    """Write ``ds`` as NetCDF-4 atomically, described and with its content checksum in attribute
+    ``fsistab_checksum``: every result and cache file goes through here.
 
-    The checksum is that of the file as a reader decodes it (NetCDF turns a one-element list
-    attribute into a scalar, fixed-width strings into objects, ...), added to the temporary file
-    before it is renamed, so :func:`read_dataset` finds it equal unless the file changed.
+    The file describes itself (:func:`fsistab.schema.describe`): ``units`` and ``long_name`` on
+    every variable from the data dictionary, and the provenance attributes (``Conventions``,
+    versions, ``history`` with the command line); the caller's dataset is not changed. The
+    checksum is that of the file as a reader decodes it (NetCDF turns a one-element list attribute
+    into a scalar, fixed-width strings into objects, ...), added to the temporary file before it is
+    renamed, so :func:`read_dataset` finds it equal unless the file changed.
     """
     import h5py
 
     path = Path(path)
-    ds = ds.copy(deep=False)
+    ds = describe(ds)
+    missing = undescribed(ds)
+    if missing:
+        warnings.warn(
+            f"{path.name}: no units or long_name for {', '.join(missing)} (add them to fsistab.schema)",
+            UndescribedVariableWarning,
+            stacklevel=2,
+        )
     ds.attrs = {k: v for k, v in ds.attrs.items() if k != CHECKSUM_ATTR}
     with atomic_path(path, ".nc") as tmp:
         ds.to_netcdf(tmp, engine=NETCDF_ENGINE)
@@ -218,6 +274,17 @@ def write_dataset(ds: xr.Dataset, path: Path) -> Path:
         with h5py.File(tmp, "r+") as f:
             f.attrs[CHECKSUM_ATTR] = checksum
     return path
+
+
+def _check_root_attributes(path: Path) -> None:
+    """Open ``path`` with h5py and decode its root attributes, raising what h5py raises when the
+    file or its header is damaged. h5netcdf reads a root attribute half-way through opening a file
+    and, when that fails, its half-built file object prints an ``Exception ignored`` traceback
+    when collected; failing here first keeps the report to one line."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        dict(f.attrs)
 
 
 def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
@@ -231,6 +298,7 @@ def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
     if not path.is_file():
         raise CacheError(f"file not found: {path}")
     try:
+        _check_root_attributes(path)
         with xr.open_dataset(path, engine=NETCDF_ENGINE) as ds:
             ds = ds.load()
     except Exception as exc:  # h5py/netCDF raise many types for a damaged file
@@ -402,7 +470,8 @@ def verify_sidecar(path: Path) -> None:
 TABLE_ATTR = "fsistab_table"  # the layout of a resumable table (JSON): kinds, their fields, state, ragged
 COMPLETE_ATTR = "complete"
 DEFAULT_KIND = "record"
-_RESERVED = {"part", COMPLETE_ATTR, TABLE_ATTR, CHECKSUM_ATTR}
+# the layout's and the provenance's attributes (fsistab.schema), never part of a record's identity
+_RESERVED = {"part", COMPLETE_ATTR, TABLE_ATTR, CHECKSUM_ATTR, *PROVENANCE_ATTRS}
 
 
 class ResumableTable:
@@ -451,6 +520,7 @@ class ResumableTable:
         self._records: dict[str, list[dict[str, np.ndarray]]] = {kind: [] for kind in self.kinds}
         self._state: dict[str, np.ndarray] = {}
         self._final: dict | None = None
+        self._history = ""
 
     def _load(self) -> None:
         ds = read_resumable(self.path, self.identity)
@@ -479,6 +549,7 @@ class ResumableTable:
                 {name: column[i] for name, column in columns.items()} for i in range(count)
             ]
         self._state = {name: _stored_values(ds[name]) for name in self.state_names if name in ds}
+        self._history = str(ds.attrs.get("history", ""))  # the runs that wrote the records so far
         if ds.attrs.get(COMPLETE_ATTR):
             skip = {*self.identity, *_RESERVED}
             self._final = {str(k): _plain(v) for k, v in ds.attrs.items() if k not in skip}
@@ -547,7 +618,8 @@ class ResumableTable:
     def dataset(self) -> xr.Dataset:
         """The table as a dataset: each kind's fields along a dimension named after the kind (complex
         values encoded by :func:`complex_variable`, attribute ``complex = 1``), the state, and the
-        attributes: identity, final attributes, ``complete`` (0/1) and the layout."""
+        attributes: identity, final attributes, ``complete`` (0/1), the layout and the ``history``
+        of the runs that wrote the records loaded (:func:`write_dataset` adds this run's line)."""
         variables, ragged = {}, []
         fields = {}
         for kind, records in self._records.items():
@@ -569,6 +641,7 @@ class ResumableTable:
             **(self._final or {}),
             COMPLETE_ATTR: int(self._final is not None),
             TABLE_ATTR: json_attr(layout),
+            **({"history": self._history} if self._history else {}),
         }
         return xr.Dataset(variables, attrs=attrs)
 
