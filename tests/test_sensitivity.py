@@ -24,6 +24,7 @@ from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
 from fsistab.params import Cylinder, Flow, Solid
+from fsistab.plots import plot_sensitivity_maps
 from fsistab.sensitivity import (
     CONTROL_DIAMETER,
     PARAMETERS,
@@ -41,15 +42,14 @@ from fsistab.sensitivity import (
     gaussian_force,
     maps_at,
     maps_dataset,
-    plot_sensitivity_maps,
     sensitivity_maps,
     structural_sensitivity,
     threshold_derivatives,
     threshold_sensitivities,
     threshold_sensitivity,
-    write_maps_vtk,
 )
 from fsistab.steady import SteadyProblem, solve_steady
+from fsistab.vtk import write_maps_vtk
 
 pytestmark = pytest.mark.skipif(not umfpack.available(), reason="NGSolve's wheel exports no UMFPACK")
 

@@ -427,33 +427,6 @@ def plot_spectrum(ds, path: Path, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
-def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Path) -> Path:
-    """Real and imaginary parts of the velocity and pressure of each mode, as one VTK file.
-
-    ``modes`` maps a name to a fluid vector (the fluid unknowns, indexed by ``fluid_index``). The
-    file is ``path`` with ``.vtu`` appended (unless it ends so), written atomically
-    (:func:`fsistab.store.atomic_path`).
-    """
-    from ngsolve import GridFunction, VTKOutput
-
-    from fsistab.store import atomic_path
-
-    coefs, names = [], []
-    for name, vector in modes.items():
-        for part, values in (("re", vector.real), ("im", vector.imag)):
-            field = GridFunction(steady.space)
-            field.vec.FV().NumPy()[fluid_index] = values
-            coefs += [field.components[0], field.components[1]]
-            names += [f"{name}_velocity_{part}", f"{name}_pressure_{part}"]
-    path = Path(path)  # a name with dots (alpha0 = 2.5) keeps them: ".vtu" is appended
-    target = path if path.suffix == ".vtu" else path.with_name(path.name + ".vtu")
-    with atomic_path(target, ".vtu") as tmp:
-        # VTKOutput appends ".vtu" to the name it is given: give it the temporary without it
-        stem = str(tmp.with_suffix(""))
-        VTKOutput(steady.mesh, coefs=coefs, names=names, filename=stem, subdivision=1).Do()
-    return target
-
-
 # --- modes -----------------------------------------------------------------------------------------
 
 
@@ -1244,4 +1217,109 @@ def plot_study_maps(ds, path: Path, title: str = "") -> Path:
     ax.grid(alpha=0.3, which="both")
     ax.legend(title="flutter/VIV —, divergence --", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.set_title(title)
+    return save_figure(fig, path)
+
+
+# --- adjoint sensitivity maps (fsistab.sensitivity) --------------------------------------------------
+
+
+def map_window(kind: str):
+    """The region drawn around the body (body lengths): near the plate, the cylinder's near wake."""
+    return ((-1.0, 2.5), (-0.8, 0.8)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
+
+
+def _map_panel(fig, ax, sampled, values, window, label, symmetric=True) -> None:
+    from matplotlib.ticker import MaxNLocator
+
+    tri = sampled.triangulation
+    xy = np.column_stack([tri.x, tri.y])
+    inside = (
+        (xy[:, 0] >= window[0][0])
+        & (xy[:, 0] <= window[0][1])
+        & (xy[:, 1] >= window[1][0])
+        & (xy[:, 1] <= window[1][1])
+    )
+    finite = np.abs(values[inside & np.isfinite(values)])
+    vmax = float(np.quantile(finite, 0.995)) if finite.size else 1.0
+    vmax = vmax if vmax > 0 else 1.0
+    if symmetric:
+        levels, cmap, shown = np.linspace(-vmax, vmax, 41), "RdBu_r", np.clip(values, -vmax, vmax)
+    else:
+        levels, cmap, shown = np.linspace(0, vmax, 41), "viridis", np.clip(values, 0, vmax)
+    cs = ax.tricontourf(tri, shown, levels=levels, cmap=cmap, extend="both" if symmetric else "max")
+    cs.set_rasterized(True)
+    bar = fig.colorbar(cs, ax=ax, label=label, shrink=0.85, format="%.2g")
+    ticks = MaxNLocator(7, symmetric=symmetric).tick_values(-vmax if symmetric else 0.0, vmax)
+    bar.set_ticks(ticks[(ticks >= (-vmax if symmetric else 0.0)) & (ticks <= vmax)])
+    ax.set_xlim(*window[0])
+    ax.set_ylim(*window[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("X")
+    ax.set_ylabel("Y")
+
+
+def plot_sensitivity_maps(maps, steady, path: Path, scale: float = 1.0) -> Path:
+    """One row per target: where a control cylinder moves the threshold (``δU*_c``, body
+    conventions: ``scale`` = :func:`fsistab.params.body_velocity_scale`) or the fixed body's
+    growth rate (``Re δσ``), and the structural sensitivity ``‖û†‖‖û‖``. Drawn on the sampled
+    mesh (:func:`sample_mesh`), the body over it."""
+    from fsistab.errors import InputError
+
+    if not maps:
+        raise InputError("no sensitivity map to draw")
+    kind = steady.mesh_spec.body.kind
+    window = map_window(kind)
+    sampled = sample_mesh(steady.mesh, 3, window)
+    with figure_style():
+        fig, axes = plt.subplots(len(maps), 2, figsize=(11.0, 2.9 * len(maps) + 0.4), squeeze=False)
+        for row, m in zip(axes, maps, strict=True):
+            control = sampled.values(m.control[0])
+            if m.slope is not None:
+                values = -control / m.slope.real * scale
+                label = f"δU*_c, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
+            else:
+                values, label = control, f"Re δσ, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
+            _map_panel(fig, row[0], sampled, values, window, label)
+            _map_panel(fig, row[1], sampled, sampled.values(m.structural), window, "‖û†‖ ‖û‖", False)
+            name = f"{m.kind}, σ = {m.value.real:+.4f}{m.value.imag:+.4f}i"
+            row[0].set_title(f"{name}: control cylinder at (X, Y)")
+            row[1].set_title(f"{m.kind}: structural sensitivity")
+            for ax in row:
+                draw_body(ax, sampled.outline)
+        fig.suptitle(
+            f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: adjoint sensitivities"
+        )
+        fig.tight_layout()
+        return save_figure(fig, path)
+
+
+# --- thresholds along U* (fsistab critical) -----------------------------------------------------------
+
+_THRESHOLD_COLOURS = {"flutter": "tab:red", "viv": "tab:blue", "divergence": "tab:green"}
+
+
+@_styled
+def plot_thresholds(ds, path: Path, title: str = "") -> Path:
+    """The thresholds of :func:`fsistab.workflows.critical_points` over the U* range searched:
+    ``ω_c/ω_n`` (the solid's natural frequency: ω_θ of the plate, ω_h of the cylinder) at each
+    ``U*_c``, coloured by kind, filled where the body loses stability (onset)
+    and open where it regains it (restabilisation); the range searched shaded."""
+    lo, hi = (float(v) for v in ds.attrs["velocity_range"])
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.axvspan(lo, hi, color="0.93", zorder=0, label="U* range searched")
+    for kind, colour in _THRESHOLD_COLOURS.items():
+        for boundary, fill in (("onset", colour), ("restabilisation", "white")):
+            sel = (ds.kind.values == kind) & (ds.boundary.values == boundary)
+            if sel.any():
+                u, ratio = ds.reduced_velocity.values[sel], ds.frequency_ratio.values[sel]
+                ax.plot(u, ratio, "o", mfc=fill, mec=colour, ms=8, ls="none", label=f"{kind} {boundary}")
+    if not ds.sizes.get("threshold", 0):
+        ax.text(0.5, 0.5, "no threshold in this range", transform=ax.transAxes, ha="center", va="center")
+    ax.set_xscale("log")
+    ax.set_xlim(lo / 1.1, hi * 1.1)
+    ax.set_xlabel("reduced velocity U*")
+    ax.set_ylabel("ω_c/ω_n (ω_θ: plate, ω_h: cylinder)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize="small")
+    ax.set_title(title or "thresholds along U*")
     return save_figure(fig, path)

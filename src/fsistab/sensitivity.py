@@ -1009,12 +1009,13 @@ def maps_at(maps: SensitivityMaps, mesh, points: np.ndarray, scale: float = 1.0)
 
 def wall_distance(mesh, points: np.ndarray) -> np.ndarray:
     """Distance from each of ``points`` to the nearest vertex of the wall (body lengths)."""
+    from ngsolve import BND
     from scipy.spatial import cKDTree
 
-    from fsistab.plots import _wall_edges
+    from fsistab.geometry import WALL
 
     coords = np.asarray(mesh.ngmesh.Coordinates())[:, :2]
-    wall = coords[np.unique(_wall_edges(mesh))]
+    wall = coords[np.unique([v.nr for e in mesh.Elements(BND) if e.mat == WALL for v in e.vertices])]
     return cKDTree(wall).query(np.asarray(points, dtype=float))[0]
 
 
@@ -1055,100 +1056,6 @@ def maps_dataset(maps: Sequence[SensitivityMaps], mesh, attrs: dict | None = Non
             **(attrs or {}),
         },
     )
-
-
-def write_maps_vtk(maps: Sequence[SensitivityMaps], mesh, path):
-    """The maps as one VTK file (``path`` + ``.vtu``) for ParaView, written atomically."""
-    from pathlib import Path
-
-    from ngsolve import VTKOutput
-
-    from fsistab.store import atomic_path
-
-    coefs, names = [], []
-    for m in maps:
-        for part, index in (("re", 0), ("im", 1)):
-            coefs += [m.force[index], m.control[index]]
-            names += [f"{m.kind}_force_{part}", f"{m.kind}_control_{part}"]
-        coefs.append(m.structural)
-        names.append(f"{m.kind}_structural")
-    path = Path(path)
-    target = path if path.suffix == ".vtu" else path.with_name(path.name + ".vtu")
-    with atomic_path(target, ".vtu") as tmp:
-        VTKOutput(mesh, coefs=coefs, names=names, filename=str(tmp.with_suffix("")), subdivision=1).Do()
-    return target
-
-
-def map_window(kind: str):
-    """The region drawn around the body (body lengths): near the plate, the cylinder's near wake."""
-    return ((-1.0, 2.5), (-0.8, 0.8)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
-
-
-def _map_panel(fig, ax, sampled, values, window, label, symmetric=True) -> None:
-    from matplotlib.ticker import MaxNLocator
-
-    tri = sampled.triangulation
-    xy = np.column_stack([tri.x, tri.y])
-    inside = (
-        (xy[:, 0] >= window[0][0])
-        & (xy[:, 0] <= window[0][1])
-        & (xy[:, 1] >= window[1][0])
-        & (xy[:, 1] <= window[1][1])
-    )
-    finite = np.abs(values[inside & np.isfinite(values)])
-    vmax = float(np.quantile(finite, 0.995)) if finite.size else 1.0
-    vmax = vmax if vmax > 0 else 1.0
-    if symmetric:
-        levels, cmap, shown = np.linspace(-vmax, vmax, 41), "RdBu_r", np.clip(values, -vmax, vmax)
-    else:
-        levels, cmap, shown = np.linspace(0, vmax, 41), "viridis", np.clip(values, 0, vmax)
-    cs = ax.tricontourf(tri, shown, levels=levels, cmap=cmap, extend="both" if symmetric else "max")
-    cs.set_rasterized(True)
-    bar = fig.colorbar(cs, ax=ax, label=label, shrink=0.85, format="%.2g")
-    ticks = MaxNLocator(7, symmetric=symmetric).tick_values(-vmax if symmetric else 0.0, vmax)
-    bar.set_ticks(ticks[(ticks >= (-vmax if symmetric else 0.0)) & (ticks <= vmax)])
-    ax.set_xlim(*window[0])
-    ax.set_ylim(*window[1])
-    ax.set_aspect("equal")
-    ax.set_xlabel("X")
-    ax.set_ylabel("Y")
-
-
-def plot_sensitivity_maps(maps: Sequence[SensitivityMaps], steady, path, scale: float = 1.0):
-    """One row per target: where a control cylinder moves the threshold (``δU*_c``, body
-    conventions: ``scale`` = :func:`fsistab.params.body_velocity_scale`) or the fixed body's
-    growth rate (``Re δσ``), and the structural sensitivity ``‖û†‖‖û‖``. Drawn on the sampled
-    mesh (:func:`fsistab.plots.sample_mesh`), the body over it."""
-    import matplotlib.pyplot as plt
-
-    from fsistab import plots
-
-    if not maps:
-        raise InputError("no sensitivity map to draw")
-    kind = steady.mesh_spec.body.kind
-    window = map_window(kind)
-    sampled = plots.sample_mesh(steady.mesh, 3, window)
-    with plots.figure_style():
-        fig, axes = plt.subplots(len(maps), 2, figsize=(11.0, 2.9 * len(maps) + 0.4), squeeze=False)
-        for row, m in zip(axes, maps, strict=True):
-            control = sampled.values(m.control[0])
-            if m.slope is not None:
-                values = -control / m.slope.real * scale
-                label = f"δU*_c, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
-            else:
-                values, label = control, f"Re δσ, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
-            _map_panel(fig, row[0], sampled, values, window, label)
-            _map_panel(fig, row[1], sampled, sampled.values(m.structural), window, "‖û†‖ ‖û‖", False)
-            name = f"{m.kind}, σ = {m.value.real:+.4f}{m.value.imag:+.4f}i"
-            row[0].set_title(f"{name}: control cylinder at (X, Y)")
-            row[1].set_title(f"{m.kind}: structural sensitivity")
-            for ax in row:
-                plots.draw_body(ax, sampled.outline)
-        fig.suptitle(
-            f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: adjoint sensitivities"
-        )
-        fig.tight_layout()
-        return plots.save_figure(fig, path)
 
 
 def control_cylinder_operators(

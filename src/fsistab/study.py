@@ -870,25 +870,9 @@ def _workers(client) -> int:
         return 0
 
 
-def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dataset:
-    """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
-    to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
-    ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
-    and where its steady state started (``steady_start``); the thresholds classified anew
-    (:func:`classify_thresholds`)."""
-    reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
-    shape = (len(reynolds), len(alpha0))
-    results = {
-        (reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)): o.result
-        for f, o in outcomes.items()
-        if o.result is not None
-    }
-    status = np.full(shape, "failed", dtype=object)
-    error = np.full(shape, "", dtype=object)
-    for f, o in outcomes.items():
-        i, j = reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)
-        status[i, j] = "done" if o.result is not None else "failed"
-        error[i, j] = o.error
+def _padded_variables(results: dict, shape: tuple[int, int]) -> tuple[dict, dict[str, int]]:
+    """Every variable of the points' datasets on ``(reynolds, alpha0, ...)``, padded to the
+    largest size of each inner dimension (NaN, ``""``, -1), and those sizes."""
     sizes: dict[str, int] = {}
     names: dict[str, tuple] = {}
     for ds in results.values():
@@ -918,8 +902,46 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             ("reynolds", "alpha0"),
             table.astype(str) if isinstance(fill, str) else table,
         )
+    return data, sizes
+
+
+def leading_modes(growth_rates: np.ndarray, frequencies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (the last axis: its modes), the growth rate and frequency of the least stable
+    mode (the first, NaN, at a point without any)."""
+    rates = np.asarray(growth_rates, dtype=float)
+    finite = np.isfinite(rates).any(axis=-1)
+    lead = np.where(finite, np.nanargmax(np.where(np.isfinite(rates), rates, -np.inf), axis=-1), 0)
+    pick = lead[..., None]
+    return np.take_along_axis(rates, pick, -1)[..., 0], np.take_along_axis(frequencies, pick, -1)[..., 0]
+
+
+def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dataset:
+    """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
+    to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
+    ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
+    and where its steady state started (``steady_start``); with modes, the least stable one
+    (``leading_growth_rate``, ``leading_frequency``); the thresholds classified anew
+    (:func:`classify_thresholds`)."""
+    reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
+    shape = (len(reynolds), len(alpha0))
+    results = {
+        (reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)): o.result
+        for f, o in outcomes.items()
+        if o.result is not None
+    }
+    status = np.full(shape, "failed", dtype=object)
+    error = np.full(shape, "", dtype=object)
+    for f, o in outcomes.items():
+        i, j = reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)
+        status[i, j] = "done" if o.result is not None else "failed"
+        error[i, j] = o.error
+    data, sizes = _padded_variables(results, shape)
     data["status"] = (("reynolds", "alpha0"), status.astype(str))
     data["error"] = (("reynolds", "alpha0"), error.astype(str))
+    if "mode_growth_rate" in data:
+        rates, frequencies = leading_modes(data["mode_growth_rate"][1], data["mode_frequency"][1])
+        data["leading_growth_rate"] = (("reynolds", "alpha0"), rates)
+        data["leading_frequency"] = (("reynolds", "alpha0"), frequencies)
     coords = {"reynolds": reynolds, "alpha0": alpha0}
     if settings.thresholds:
         coords["mass_ratio"] = np.array(settings.thresholds)
@@ -965,7 +987,7 @@ def study_client(workers: int | None = None, scheduler: str | None = None):
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"cannot connect to the dask scheduler at {scheduler}: {exc}") from None
         with client:
             yield client
@@ -990,3 +1012,25 @@ def check_execution(workers: int | None, scheduler: str | None) -> None:
         raise InputError(f"--workers must be an integer in [1, 256], got {workers!r}")
     if scheduler is not None and (not scheduler.strip() or any(c.isspace() for c in scheduler.strip())):
         raise InputError(f"--scheduler must be an address such as tcp://host:8786, got {scheduler!r}")
+    if scheduler is not None:
+        _check_scheduler_address(scheduler.strip())
+
+
+def _check_scheduler_address(scheduler: str) -> None:
+    """An address that dask.distributed can connect to: a known scheme (tcp, tls, ws, wss, ucx,
+    inproc) and, but for inproc, a host and a port. Without dask.distributed nothing is checked
+    (:func:`study_client` says that it is missing)."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.comm.registry import get_backend
+    except ImportError:
+        return
+    try:
+        scheme, location = parse_address(scheduler, strict=False)
+        get_backend(scheme)
+        if scheme != "inproc":
+            parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(
+            f"--scheduler must be an address such as tcp://host:8786, got {scheduler!r} ({exc})"
+        ) from None
