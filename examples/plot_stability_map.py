@@ -14,7 +14,7 @@ Command-line equivalent::
 Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000 flutter sets
 in at U*_F ≈ 4.5 and divergence at U*_D ≈ 7.4. The map's files (``neutral_plate_Re2900_a0_map.nc``
 and the samples and reduced models) stay in ``--out``: a rerun resumes from them, and
-``plot_theodorsen.py`` with the same ``--out`` compares with this map.
+``plot_theodorsen.py`` with the same ``--cache`` compares with this map.
 
 Usage: python examples/plot_stability_map.py [--mesh coarse] [--out DIR] [--cache DIR]
 """

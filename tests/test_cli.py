@@ -231,12 +231,13 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     again = json.loads(runner.invoke(app, args).stdout)
     assert again["factorisations"] == 0
     assert again["curves"] == payload["curves"]
-    # `fsistab theodorsen` finds the map the default method wrote and compares its lowest flutter
-    # boundary with Theodorsen's: the viscous values are the map's own points
+    # `fsistab theodorsen` finds the map the default method stored in the cache (its own --out
+    # elsewhere) and compares its lowest flutter boundary with Theodorsen's: the viscous values are
+    # the map's own points
     theodorsen = runner.invoke(
         app,
         ["theodorsen", "--mass-ratio-range", "500", "2000", "--points", "3", "--Re", "2900", "--json"]
-        + ["--out", str(tmp_path / "out")],
+        + ["--out", str(tmp_path / "theodorsen"), "--cache", str(cache)],
     )
     assert theodorsen.exit_code == 0, theodorsen.output
     comparison = json.loads(theodorsen.stdout)["comparison"]
@@ -336,22 +337,22 @@ def test_interruption_says_what_was_saved_and_how_to_resume(tmp_path, monkeypatc
     """SIGINT during a workflow: exit 130, one line naming the files written so far and the rerun."""
     from fsistab import store, workflows
 
-    def interrupted(case, cache, out, progress):
+    def interrupted(case, cache, progress):
         progress("meshing")
-        store.atomic_write_bytes(out / "partial.nc", b"data")
+        store.atomic_write_bytes(cache / "partial.nc", b"data")
         raise KeyboardInterrupt
 
     monkeypatch.setattr(workflows, "mesh_summary", interrupted)
     result = _run(["mesh", "--mesh", "coarse", "--json"], tmp_path)
     assert result.exit_code == 130 and result.stdout == ""
     last = result.stderr.splitlines()[-1]
-    assert last.startswith("interrupted after") and str(tmp_path / "out" / "partial.nc") in last
+    assert last.startswith("interrupted after") and str(tmp_path / "cache" / "partial.nc") in last
     assert "rerun the same command to resume" in last
 
 
 def test_theodorsen_tables(tmp_path):
     """The typical section of MODEL.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
-    ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in --out says so."""
+    ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in the cache says so."""
     result = _run(["theodorsen", "--mass-ratio", "1000"], tmp_path)
     assert result.exit_code == 0, result.output
     flutter = next(line for line in result.stdout.splitlines() if "flutter" in line)
@@ -360,7 +361,7 @@ def test_theodorsen_tables(tmp_path):
     result = _run(["theodorsen", "--mass-ratio-range", "1", "100", "--points", "3"], tmp_path)
     assert result.exit_code == 0, result.output
     assert "Theodorsen neutral curves" in result.stdout
-    assert "no neutral_plate_Re2900_a0_map.nc" in " ".join(result.stdout.split())
+    assert "no stability map of plate_Re2900_a0 in the cache" in " ".join(result.stdout.split())
 
 
 def test_neutral_table_from_a_map(tmp_path, monkeypatch):
@@ -391,6 +392,7 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
 
     def fake_map(case, template, settings, cache, out, progress):
         ds = workflows._map_details(neutral_map_dataset(result, attrs), result, None, MapSettings())
+        ds = ds.assign_attrs(divergence_coefficient=workflows.divergence_coefficient(ds))
         return ds.assign_attrs(factorisations_this_run=0, reduced_models=0, data=str(out / "map.nc"))
 
     monkeypatch.setattr(workflows, "stability_map", fake_map)

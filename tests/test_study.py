@@ -24,7 +24,7 @@ from damage import damage
 from typer.testing import CliRunner
 
 from fsistab import study
-from fsistab.cli import _study_lists, app
+from fsistab.cli import app
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.params import Case, MapSettings, Solid
 from fsistab.study import (
@@ -35,6 +35,7 @@ from fsistab.study import (
     mode_energies,
     point_path,
     run_study,
+    study_lists,
 )
 
 runner = CliRunner()
@@ -245,7 +246,7 @@ def test_body_dependent_checks():
 
 def test_study_lists_of_the_command_line():
     args = ["--Re", "100", "500", "--alpha0", "-4", "0", "4", "--thresholds=1000", "20"]
-    assert _study_lists(args) == {
+    assert study_lists(args) == {
         "reynolds": [100.0, 500.0],
         "alpha0": [-4.0, 0.0, 4.0],
         "thresholds": [1000.0, 20.0],
@@ -257,7 +258,7 @@ def test_study_lists_of_the_command_line():
         (["7"], "unexpected argument"),
     ):
         with pytest.raises(InputError, match=message):
-            _study_lists(bad)
+            study_lists(bad)
 
 
 @pytest.mark.parametrize(

@@ -2,12 +2,11 @@
 
 Every command parses its options, builds validated parameters (:mod:`fsistab.params`) before any
 work, checks that the mesh fits the machine (:func:`fsistab.resources.check_fits`) and that
-``--out`` and ``--cache`` are writable directories, then calls one workflow, draws its figures and
-prints a table, or with ``--json`` exactly one JSON object on stdout. Progress goes to stderr (a
-spinner on a terminal, timed lines otherwise); an interrupted run says what was saved. Bad input
-prints one line and exits with status 2. The options shared by several commands are declared once
-(the ``*_OPTIONS`` groups below) and added to each command's signature by :func:`command`.
-
+``--out`` and ``--cache`` are writable directories, then calls one workflow, has the outputs layer
+write its figures (:mod:`fsistab.figures`) and prints its report (:mod:`fsistab.reports`), or with
+``--json`` exactly one JSON object (:mod:`fsistab.payloads`) on stdout. Progress goes to stderr;
+an interrupted run says what was saved. Bad input prints one line and exits with status 2. The
+options are declared once in groups (``*_OPTIONS``) and added to each command by :func:`command`.
 Imports of the numerical modules are lazy, so that ``--help`` and bad input answer at once.
 """
 
@@ -54,8 +53,7 @@ class _PlainWarnings(logging.Handler):
 def _install_warning_handler() -> None:
     logger = logging.getLogger("fsistab")
     if not any(isinstance(h, _PlainWarnings) for h in logger.handlers):
-        handler = _PlainWarnings(level=logging.WARNING)
-        logger.addHandler(handler)
+        logger.addHandler(_PlainWarnings(level=logging.WARNING))
     if logger.level == logging.NOTSET:
         logger.setLevel(logging.WARNING)
 
@@ -93,10 +91,7 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _main(
-    version: Annotated[
-        bool,
-        typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit."),
-    ] = False,
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True)] = False,
 ) -> None:
     """Global linear stability of spring-mounted bodies in viscous flow (fsistab)."""
 
@@ -109,6 +104,8 @@ def _option(kind, flag: str, help_text: str, default=None) -> tuple:
     return Annotated[kind, typer.Option(flag, help=help_text)], default
 
 
+Pair = tuple[float, float]
+# fmt: off
 CASE_OPTIONS = {
     "body": _option(str, "--body", "plate (chord-based units) or cylinder (diameter-based)", "plate"),
     "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
@@ -116,19 +113,12 @@ CASE_OPTIONS = {
     "preset": _option(str, "--mesh", "mesh preset: coarse, quick (plate), medium or fine", "medium"),
     "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
     "corner_radius": _option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
-    "domain": _option(
-        tuple[float, float, float] | None,
-        "--domain",
-        "upstream, downstream and lateral extents in body lengths",
-    ),
-    "sponge": _option(
-        str,
-        "--sponge",
-        "outlet sponge of the linear operators: preset (the mesh preset's, on its own domain), none, "
-        "SIGMA_MAX,ZONE (e.g. 0.2,0.25), or SIGMA_MAX,ZONE,FAR_SIGMA,FAR_RAMP with a far-field layer "
-        "outside the middle box and band (e.g. 0.2,0.25,0.2,10)",
-        "preset",
-    ),
+    "domain": _option(tuple[float, float, float] | None, "--domain",
+                      "upstream, downstream and lateral extents in body lengths"),
+    "sponge": _option(str, "--sponge", "outlet sponge of the linear operators: preset (the mesh preset's, "
+                      "on its own domain), none, SIGMA_MAX,ZONE (e.g. 0.2,0.25), or SIGMA_MAX,ZONE,FAR_SIGMA,"
+                      "FAR_RAMP with a far-field layer outside the middle box and band "
+                      "(e.g. 0.2,0.25,0.2,10)", "preset"),
 }
 OUTPUT_OPTIONS = {
     "out": _option(str, "--out", "directory for figures and data", "fsistab-out"),
@@ -142,19 +132,16 @@ SOLID_OPTIONS = {
     "zeta_theta": _option(float, "--zeta-theta", "pitch damping ratio", 0.05),
     "r_theta": _option(float, "--r-theta", "radius of gyration about G", 0.289),
 }
-MASS_OPTION = {
-    "mass_ratio": _option(
-        float | None, "--mass-ratio", "m (plate default 1000; cylinder, docs/model.md §10: 20)"
-    )
-}
-VELOCITY_OPTION = {
-    "reduced_velocity": _option(float | None, "--reduced-velocity", "U* (plate default 4.7; cylinder: 8)")
-}
+MASS_OPTION = {"mass_ratio": _option(float | None, "--mass-ratio",
+                                     "m (plate default 1000; cylinder, docs/model.md §10: 20)")}
+VELOCITY_OPTION = {"reduced_velocity": _option(float | None, "--reduced-velocity",
+                                               "U* (plate default 4.7; cylinder: 8)")}
 DOFS_OPTION = {"dofs": _option(str | None, "--dofs", "heave,pitch | heave | pitch | none")}
-VELOCITY_RANGE = _option(
-    tuple[float, float], "--reduced-velocity-range", "U* range of the (initial) sweep", (2.0, 10.0)
-)
+VELOCITY_RANGE = _option(Pair, "--reduced-velocity-range", "U* range of the (initial) sweep", (2.0, 10.0))
 POINTS = _option(int, "--points", "U* values of each sweep (log-spaced)", 24)
+# fmt: on
+FILES = (OUTPUT_OPTIONS, FIGURE_OPTIONS)  # the options of a command that writes figures
+SPRINGS = (SOLID_OPTIONS, DOFS_OPTION)
 
 
 def _sweep_options(wake_help: str) -> dict:
@@ -170,31 +157,16 @@ class Options(SimpleNamespace):
     """The raw values of a command's options, and the parameters they make."""
 
     def case(self, body: str | None = None, reynolds: float | None = None) -> params.Case:
-        return params.Case.create(
-            self.body if body is None else body,
-            self.reynolds if reynolds is None else reynolds,
-            self.alpha0,
-            self.preset,
-            self.aspect_ratio,
-            self.corner_radius,
-            self.domain,
-            self.sponge,
-        )
+        body, reynolds = self.body if body is None else body, self.reynolds if reynolds is None else reynolds
+        shape = (self.aspect_ratio, self.corner_radius, self.domain, self.sponge)
+        return params.Case.create(body, reynolds, self.alpha0, self.preset, *shape)
 
     def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:
         mass = getattr(self, "mass_ratio", None) if mass_ratio is None else mass_ratio
         velocity = getattr(self, "reduced_velocity", None) if reduced_velocity is None else reduced_velocity
-        text = getattr(self, "dofs", None)
-        return params.solid_for(
-            kind,
-            mass,
-            velocity,
-            self.freq_ratio,
-            self.zeta_h,
-            self.zeta_theta,
-            self.r_theta,
-            params.parse_dofs(text, kind) if dofs is None else dofs,
-        )
+        dofs = params.parse_dofs(getattr(self, "dofs", None), kind) if dofs is None else dofs
+        spring = (self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta)
+        return params.solid_for(kind, mass, velocity, *spring, dofs)
 
 
 def command(*groups: dict, name: str | None = None, **settings):
@@ -234,8 +206,7 @@ def command(*groups: dict, name: str | None = None, **settings):
 # --- what every command does around its workflow -----------------------------------------------------
 
 
-def _figure_format(fmt: str | None):
-    """The figures of a command with ``--format`` are written in that format (fsistab.plots)."""
+def _figure_format(fmt: str | None):  # the figures of a command with --format: in that format
     if fmt is None:
         return contextlib.nullcontext()
     from fsistab import plots
@@ -249,22 +220,15 @@ def _missing(path: Path) -> list[Path]:
     return [p for p in (path, *path.parents) if not p.exists()]
 
 
-def _directory(text: str | None, what: str) -> Path | None:
-    """The path given to ``what`` (``--out``, ``--cache``); an empty one is refused (it would be
-    the current folder)."""
-    if text is None:
-        return None
-    if not str(text).strip():
-        raise InputError(f"{what} must name a directory, got an empty path")
-    return Path(text)
-
-
 def _writable_dirs(out: str, cache: str | None) -> tuple[Path, Path]:
-    """Create and write-test ``--out`` and ``--cache``; on a refusal remove what was created."""
+    """Create and write-test ``--out`` and ``--cache`` (an empty path, the current folder, is
+    refused); on a refusal remove what was created."""
     from fsistab.store import default_cache_dir, ensure_writable_dir
 
-    out, cache = _directory(out, "--out"), _directory(cache, "--cache")
-    cache = default_cache_dir() if cache is None else cache
+    for text, what in ((out, "--out"), (cache, "--cache")):
+        if text is not None and not str(text).strip():
+            raise InputError(f"{what} must name a directory, got an empty path")
+    out, cache = Path(out), default_cache_dir() if cache is None else Path(cache)
     created: list[Path] = []
     try:
         for path, what in ((out, "--out"), (cache, "--cache")):
@@ -275,7 +239,7 @@ def _writable_dirs(out: str, cache: str | None) -> tuple[Path, Path]:
             with contextlib.suppress(OSError):
                 path.rmdir()
         raise
-    return Path(out), Path(cache)
+    return out, cache
 
 
 def _prepare(opts: Options, cases=()) -> tuple[Path, Path]:
@@ -283,7 +247,6 @@ def _prepare(opts: Options, cases=()) -> tuple[Path, Path]:
     from fsistab.mesh import spec_for
     from fsistab.resources import check_fits
 
-    _directory(opts.out, "--out"), _directory(opts.cache, "--cache")
     for case in cases:
         check_fits(spec_for(case))
     return _writable_dirs(opts.out, opts.cache)
@@ -331,7 +294,7 @@ def _threshold_sweep(opts, what: str, method: str = "transfer"):
 # --- commands -----------------------------------------------------------------------------------------
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
+@command(CASE_OPTIONS, *FILES)
 def mesh(opts):
     """Build (or reuse) a mesh; print its size and save a picture."""
     from fsistab import figures, reports, workflows
@@ -343,7 +306,7 @@ def mesh(opts):
     _finish("mesh", figures.mesh(result, out), opts.as_json, reports.mesh)
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
+@command(CASE_OPTIONS, *FILES)
 def steady(opts):
     """Steady flow around the fixed body: coefficients, recirculation length, Newton history."""
     from fsistab import figures, reports, workflows
@@ -355,27 +318,19 @@ def steady(opts):
     _finish("steady", figures.steady(result, case.tag, out), opts.as_json, reports.steady)
 
 
+# fmt: off
 SPECTRUM_OPTIONS = {
     "shift": _option(list[str] | None, "--shift", "complex shift, repeatable"),
     "n_eigenvalues": _option(int, "--n-eigenvalues", "eigenvalues per shift", 6),
     "vtk": (Annotated[bool, typer.Option("--vtk/--no-vtk", help="write the modes as VTK")], True),
-    "mode_figures": _option(
-        int, "--mode-figures", "pressure snapshots and h(t), -θ(t) of the N least stable modes", 2
-    ),
+    "mode_figures": _option(int, "--mode-figures",
+                            "pressure snapshots and h(t), -θ(t) of the N least stable modes", 2),
     "phase": _option(float, "--phase", "phase (rad) of the pressure snapshots", 0.0),
 }
+# fmt: on
 
 
-@command(
-    CASE_OPTIONS,
-    OUTPUT_OPTIONS,
-    FIGURE_OPTIONS,
-    MASS_OPTION,
-    VELOCITY_OPTION,
-    SOLID_OPTIONS,
-    DOFS_OPTION,
-    SPECTRUM_OPTIONS,
-)
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, VELOCITY_OPTION, *SPRINGS, SPECTRUM_OPTIONS)
 def spectrum(opts):
     """Eigenvalues of the coupled fluid–solid system nearest the given shifts (docs/model.md §7),
     and how many are unstable."""
@@ -396,7 +351,7 @@ def spectrum(opts):
 _SLOPES_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", "reynolds")}
 
 
-@command(_SLOPES_CASE, OUTPUT_OPTIONS, FIGURE_OPTIONS)
+@command(_SLOPES_CASE, *FILES)
 def slopes(
     opts,
     reynolds: Annotated[list[float], typer.Option("--Re", help="Reynolds numbers: --Re 10 100 1000")],
@@ -418,23 +373,17 @@ def slopes(
     _finish("slopes", figures.slopes(ds, out), opts.as_json, reports.slopes)
 
 
+# fmt: off
 CRITICAL_OPTIONS = {
-    **_sweep_options(
-        "shift near the wake mode: samples near its frequency (VIV is labelled without it); "
-        "with --method tracking, the wake mode is followed and labels VIV"
-    ),
-    "method": _option(
-        str,
-        "--method",
-        "transfer (G(iω) swept in frequency; --points unused) or tracking (eigenvalue branches)",
-        "transfer",
-    ),
+    **_sweep_options("shift near the wake mode: samples near its frequency (VIV is labelled without it); "
+                     "with --method tracking, the wake mode is followed and labels VIV"),
+    "method": _option(str, "--method", "transfer (G(iω) swept in frequency; --points unused) or tracking "
+                      "(eigenvalue branches)", "transfer"),
 }
+# fmt: on
 
 
-@command(
-    CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, MASS_OPTION, SOLID_OPTIONS, DOFS_OPTION, CRITICAL_OPTIONS
-)
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, CRITICAL_OPTIONS)
 def critical(opts):
     """Every instability threshold along U* at one mass ratio (docs/model.md §8): by default the
     exact transfer function swept in frequency, each crossing converged by Newton on det T(iω; U*),
@@ -449,64 +398,40 @@ def critical(opts):
     _finish("critical", figures.critical(ds), opts.as_json, reports.critical)
 
 
+# fmt: off
 MAP_OPTIONS = {
-    "mass_range": _option(tuple[float, float], "--mass-ratio-range", "m range", (1.0, 1e4)),
+    "mass_range": _option(Pair, "--mass-ratio-range", "m range", (1.0, 1e4)),
     "start_mass": _option(float, "--start-mass-ratio", "m of the initial sweep", 1000.0),
     "velocity_range": VELOCITY_RANGE,
-    "seed_masses": _option(
-        list[float] | None,
-        "--seed-mass-ratio",
-        "further sweeps (repeatable; default m/10 and m/100 of the start), U* range scaled by √m",
-    ),
-    "wake_frequency": _option(
-        float | None,
-        "--wake-frequency",
-        "guess of the fixed body's wake-mode ω (refined by Arnoldi): extra frequencies (transfer) or "
-        "the VIV sweep at the lowest m (continuation); VIV is labelled without it",
-    ),
+    "seed_masses": _option(list[float] | None, "--seed-mass-ratio", "further sweeps (repeatable; default "
+                           "m/10 and m/100 of the start), U* range scaled by √m"),
+    "wake_frequency": _option(float | None, "--wake-frequency", "guess of the fixed body's wake-mode ω "
+                              "(refined by Arnoldi): extra frequencies (transfer) or the VIV sweep at the "
+                              "lowest m (continuation); VIV is labelled without it"),
     "points": POINTS,
     "max_points": _option(int, "--max-points", "points per curve and direction", 60),
-    "method": _option(
-        str, "--method", "transfer (G(iω) sweep, default) or continuation (sweeps + arclength)", "transfer"
-    ),
-    "frequency_range": _option(
-        tuple[float, float] | None,
-        "--frequency-range",
-        "transfer: ω range sampled (default 0.01 to max(20, 1.5 ω_wake), extended down while a curve "
-        "leaves it)",
-    ),
-    "min_step": _option(
-        float | None,
-        "--min-step",
-        "transfer: smallest relative step of the exact refinement in ω (default 1e-3; reduced models: "
-        "1e-7); below it a certified rational fit of the samples refines on to 1e-7 where it can",
-    ),
-    "tolerance": _option(
-        float | None,
-        "--tolerance",
-        "transfer: largest error of the tangent predictions between two samples, in (log m, log U*) "
-        "(default 3e-3; exact samples only: 3e-2)",
-    ),
-    "max_frequencies": _option(
-        int | None,
-        "--max-frequencies",
-        "transfer: at most this many sampled ω (default 4000; exact: 400, not counting those from "
-        "rational fits)",
-    ),
-    "reduced_blocks": _option(
-        int | None,
-        "--reduced-blocks",
-        "transfer: Krylov blocks of the reduced fluid models (0: exact samples, one model at a sharp "
-        "resonance such as the wake mode and one at ω = 0; default 60 below 100 000 fluid unknowns, "
-        "0 from there)",
-    ),
-    "reduced_tolerance": _option(
-        float, "--reduced-tolerance", "transfer: certified error of the reduced models' G", 1e-7
-    ),
+    "method": _option(str, "--method", "transfer (G(iω) sweep, default) or continuation (sweeps + arclength)",
+                      "transfer"),
+    "frequency_range": _option(Pair | None, "--frequency-range", "transfer: ω range sampled (default 0.01 to "
+                               "max(20, 1.5 ω_wake), extended down while a curve leaves it)"),
+    "min_step": _option(float | None, "--min-step", "transfer: smallest relative step of the exact "
+                        "refinement in ω (default 1e-3; reduced models: 1e-7); below it a certified "
+                        "rational fit of the samples refines on to 1e-7 where it can"),
+    "tolerance": _option(float | None, "--tolerance", "transfer: largest error of the tangent predictions "
+                         "between two samples, in (log m, log U*) (default 3e-3; exact samples only: 3e-2)"),
+    "max_frequencies": _option(int | None, "--max-frequencies", "transfer: at most this many sampled ω "
+                               "(default 4000; exact: 400, not counting those from rational fits)"),
+    "reduced_blocks": _option(int | None, "--reduced-blocks", "transfer: Krylov blocks of the reduced fluid "
+                              "models (0: exact samples, one model at a sharp resonance such as the wake "
+                              "mode and one at ω = 0; default 60 below 100 000 fluid unknowns, 0 from "
+                              "there)"),
+    "reduced_tolerance": _option(float, "--reduced-tolerance", "transfer: certified error of the reduced "
+                                 "models' G", 1e-7),
 }
+# fmt: on
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, SOLID_OPTIONS, MAP_OPTIONS)
+@command(CASE_OPTIONS, *FILES, SOLID_OPTIONS, MAP_OPTIONS)
 def neutral(opts):
     """Stability map in the (m, U*) plane (docs/model.md §8): flutter and VIV neutral curves, the
     divergence curve, turning points and codimension-two crossings.
@@ -538,30 +463,20 @@ def neutral(opts):
 
     with _running() as progress:
         ds = workflows.stability_map(case, template, settings, cache, out, progress)
-    ds = figures.stability_map(ds, case.tag, out)
+    ds = figures.stability_map(ds, case, out)
     _finish("neutral", ds, opts.as_json, reports.stability_map, settings.mass_range, out)
 
 
 FLOW_NEUTRAL_OPTIONS = {
     "parameter": _option(str, "--parameter", "reynolds or alpha0", "alpha0"),
-    "parameter_range": _option(
-        tuple[float, float], "--range", "range of Re, or of alpha0 in degrees", (0.0, 5.0)
-    ),
+    "parameter_range": _option(Pair, "--range", "range of Re, or of alpha0 in degrees", (0.0, 5.0)),
     "velocity_range": VELOCITY_RANGE,
     "points": POINTS,
     "max_points": _option(int, "--max-points", "points per curve and direction", 40),
 }
 
 
-@command(
-    CASE_OPTIONS,
-    OUTPUT_OPTIONS,
-    FIGURE_OPTIONS,
-    MASS_OPTION,
-    SOLID_OPTIONS,
-    FLOW_NEUTRAL_OPTIONS,
-    name="flow-neutral",
-)
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, SOLID_OPTIONS, FLOW_NEUTRAL_OPTIONS, name="flow-neutral")
 def flow_neutral(opts):
     """Neutral curves in the (Re, U*) or (alpha0, U*) plane at one mass ratio, by pseudo-arclength
     continuation through turning points (docs/model.md §8), from the flutter thresholds of a sweep
@@ -578,38 +493,33 @@ def flow_neutral(opts):
 
     with _running() as progress:
         ds = workflows.flow_neutral_curves(case, solid, settings, cache, out, progress)
-    _finish("flow-neutral", figures.flow_neutral(ds, case.tag, out), opts.as_json, reports.flow_neutral, out)
+    _finish("flow-neutral", figures.flow_neutral(ds, case, out), opts.as_json, reports.flow_neutral, out)
 
 
+# fmt: off
 THEODORSEN_OPTIONS = {
     **SOLID_OPTIONS,
     "r_theta": _option(float, "--r-theta", "radius of gyration about the elastic axis", 0.289),
     "mass_ratio": _option(float, "--mass-ratio", "m = m_solid/(½ρc²)", 1000.0),
-    "mass_range": _option(
-        tuple[float, float] | None, "--mass-ratio-range", "draw the neutral curves U*(m) over this m range"
-    ),
+    "mass_range": _option(Pair | None, "--mass-ratio-range",
+                          "draw the neutral curves U*(m) over this m range"),
     "points": _option(int, "--points", "mass ratios of the neutral curves (log)", 40),
-    "velocity_range": _option(
-        tuple[float, float], "--reduced-velocity-range", "U* range searched", (0.01, 100.0)
-    ),
-    "slopes": _option(
-        str, "--slopes", "thin-airfoil | calibrated (viscous, at --Re) | given", "thin-airfoil"
-    ),
+    "velocity_range": _option(Pair, "--reduced-velocity-range", "U* range searched", (0.01, 100.0)),
+    "slopes": _option(str, "--slopes", "thin-airfoil | calibrated (viscous, at --Re) | given",
+                      "thin-airfoil"),
     "lift_slope_alpha": _option(float | None, "--lift-slope-alpha", "dC_L/dα per radian (--slopes given)"),
-    "moment_slope_alpha": _option(
-        float | None, "--moment-slope-alpha", "d(-C_M)/dα about mid-chord per radian (--slopes given)"
-    ),
-    "elastic_axis": _option(
-        float, "--elastic-axis", "a: mid-chord → elastic axis, chords, downstream +", 0.0
-    ),
-    "static_unbalance": _option(
-        float, "--static-unbalance", "x_θ: elastic axis → centre of mass, chords, aft +", 0.0
-    ),
+    "moment_slope_alpha": _option(float | None, "--moment-slope-alpha",
+                                  "d(-C_M)/dα about mid-chord per radian (--slopes given)"),
+    "elastic_axis": _option(float, "--elastic-axis",
+                            "a: mid-chord → elastic axis, chords, downstream +", 0.0),
+    "static_unbalance": _option(float, "--static-unbalance",
+                                "x_θ: elastic axis → centre of mass, chords, aft +", 0.0),
 }
+# fmt: on
 _THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k != "body"}
 
 
-@command(THEODORSEN_OPTIONS, _THEODORSEN_CASE, OUTPUT_OPTIONS, FIGURE_OPTIONS)
+@command(THEODORSEN_OPTIONS, _THEODORSEN_CASE, *FILES)
 def theodorsen(opts):
     """Analytic typical section with Theodorsen aerodynamics (docs/model.md §9): every flutter
     boundary (real roots of the 2×2 determinant) and the divergence along U* at one mass ratio, or
@@ -644,18 +554,25 @@ def theodorsen(opts):
         )
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS)
-def transfer(
-    opts,
-    k_range: Annotated[
-        tuple[float, float],
-        typer.Option("--reduced-frequency-range", help="k = ω L/(2U∞) range, log-spaced"),
-    ] = (0.01, 2.0),
-    points: Annotated[int, typer.Option("--points", help="number of reduced frequencies")] = 24,
-):
+# fmt: off
+TRANSFER_OPTIONS = {
+    "k_range": _option(Pair, "--reduced-frequency-range", "k = ω L/(2U∞) range, log-spaced", (0.01, 2.0)),
+    "points": _option(int, "--points", "number of reduced frequencies", 24),
+}
+ONSET_OPTIONS = {
+    "guess": (Annotated[float, typer.Option("--guess", help="first guess of the critical value (Re, or "
+                                            "alpha0 in degrees)")], ...),
+    "parameter": _option(str, "--parameter", "reynolds or alpha0", "reynolds"),
+    "shift": _option(str | None, "--shift", "guess of the leading eigenvalue, e.g. 0.75j (cylinder default)"),
+}
+# fmt: on
+
+
+@command(CASE_OPTIONS, *FILES, TRANSFER_OPTIONS)
+def transfer(opts):
     """Viscous Theodorsen function: the body's load transfer G(ik) against Theodorsen's model."""
     case = opts.case()
-    settings = params.TransferSettings(k_range, points)
+    settings = params.TransferSettings(opts.k_range, opts.points)
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports, workflows
 
@@ -664,18 +581,8 @@ def transfer(
     _finish("transfer", figures.transfer(ds, case.tag, case.preset, out), opts.as_json, reports.transfer)
 
 
-@command(CASE_OPTIONS, OUTPUT_OPTIONS)
-def onset(
-    opts,
-    guess: Annotated[
-        float, typer.Option("--guess", help="first guess of the critical value (Re, or alpha0 in degrees)")
-    ],
-    parameter: Annotated[str, typer.Option("--parameter", help="reynolds or alpha0")] = "reynolds",
-    shift: Annotated[
-        str | None,
-        typer.Option("--shift", help="guess of the leading eigenvalue, e.g. 0.75j (cylinder default)"),
-    ] = None,
-):
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, ONSET_OPTIONS)
+def onset(opts):
     """Critical Reynolds number (at --alpha0) or critical alpha0 (at --Re) of the FIXED body: the
     value where its leading global mode's growth rate vanishes, by the secant method on the growth
     rate, the steady state continued and the eigenvalue followed from iterate to iterate
@@ -683,9 +590,9 @@ def onset(
     unused), to --Re for the critical alpha0. Steady states are cached: a rerun reuses them."""
     from fsistab.onset import check_onset, fitted_case
 
-    case = opts.case()
-    value = None if shift is None else params.parse_complex("shift", shift)
-    guess, value = check_onset(case.kind, parameter, guess, value)
+    case, parameter = opts.case(), opts.parameter
+    value = None if opts.shift is None else params.parse_complex("shift", opts.shift)
+    guess, value = check_onset(case.kind, parameter, opts.guess, value)
     out, cache = _prepare(opts, [fitted_case(case, parameter, guess)])
     from fsistab import figures, reports, workflows
 
@@ -695,91 +602,28 @@ def onset(
 
 
 _STUDY_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("reynolds", "alpha0")}
-_STUDY_LISTS = {"--Re": "reynolds", "--alpha0": "alpha0", "--thresholds": "thresholds"}
+_EXTRA_ARGS = {"ignore_unknown_options": True, "allow_extra_args": True}  # the lists of study_lists
 
 
-def _study_lists(args: list[str]) -> dict[str, list[float]]:
-    """The space-separated values of ``--Re``, ``--alpha0`` and ``--thresholds`` (``--Re 100 500
-    --alpha0 -4 0 4``), which click's options (one value each) cannot take; anything else left
-    over is refused in one line."""
-    lists: dict[str, list[float]] = {}
-    current = None
-    for token in args:
-        name, _, inline = token.partition("=") if token.startswith("--") else (token, "", "")
-        if token.startswith("--"):
-            if name not in _STUDY_LISTS:
-                raise InputError(f"no such option: {name}")
-            current = _STUDY_LISTS[name]
-            if current in lists:
-                raise InputError(f"{name} given twice: give all its values after one {name}")
-            lists[current] = []
-            if not inline:
-                continue
-            token = inline
-        if current is None:
-            raise InputError(f"unexpected argument {token!r}: values go after --Re, --alpha0 or --thresholds")
-        try:
-            lists[current].append(float(token))
-        except ValueError:
-            option = next(k for k, v in _STUDY_LISTS.items() if v == current)
-            raise InputError(f"{token!r} is not a number (after {option})") from None
-    return lists
-
-
+# fmt: off
 STUDY_OPTIONS = {
     "slopes": _option(bool, "--slopes", "steady C_L, C_M, C_D, recirculation length, static slopes", False),
     "modes": _option(bool, "--modes", "the fixed body's least stable eigenvalues", False),
-    "shift": _option(
-        list[str] | None, "--shift", "eigenvalue guess of --modes, repeatable (cylinder default 0.75j)"
-    ),
+    "shift": _option(list[str] | None, "--shift",
+                     "eigenvalue guess of --modes, repeatable (cylinder default 0.75j)"),
     "n_modes": _option(int, "--n-modes", "eigenvalues kept per point", 4),
     "velocity_range": VELOCITY_RANGE,
     "points": POINTS,
-    "wake_shift": _option(
-        str | None,
-        "--wake-shift",
-        "shift near the wake mode: samples near its frequency, which the classification also tests "
-        "(rule 2); VIV is recognised without it",
-    ),
+    "wake_shift": _option(str | None, "--wake-shift", "shift near the wake mode: samples near its frequency, "
+                          "which the classification also tests (rule 2); VIV is recognised without it"),
     "with_map": _option(bool, "--map", "the whole (m, U*) map at each point (plate)", False),
     "workers": _option(int | None, "--workers", "run on a new dask LocalCluster of N worker processes"),
     "scheduler": _option(str | None, "--scheduler", "run on the dask scheduler at ADDRESS (tcp://host:8786)"),
 }
+# fmt: on
 
 
-def _study_settings(opts, lists: dict):
-    from fsistab.study import StudySettings
-
-    wake = None if opts.wake_shift is None else params.parse_complex("wake shift", opts.wake_shift)
-    return StudySettings(
-        reynolds=tuple(lists["reynolds"]),
-        alpha0=tuple(lists.get("alpha0", [0.0])),
-        slopes=opts.slopes,
-        modes=opts.modes,
-        shifts=tuple(params.parse_complex("shift", z) for z in opts.shift or ()),
-        n_modes=opts.n_modes,
-        thresholds=tuple(lists.get("thresholds", ())),
-        velocity_range=opts.velocity_range,
-        points=opts.points,
-        wake_shift=wake,
-        map=opts.with_map,
-        freq_ratio=opts.freq_ratio,
-        zeta_h=opts.zeta_h,
-        zeta_theta=opts.zeta_theta,
-        r_theta=opts.r_theta,
-        dofs=None if opts.dofs is None else params.parse_dofs(opts.dofs, opts.body),
-    )
-
-
-@command(
-    _STUDY_CASE,
-    OUTPUT_OPTIONS,
-    FIGURE_OPTIONS,
-    SOLID_OPTIONS,
-    DOFS_OPTION,
-    STUDY_OPTIONS,
-    context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
-)
+@command(_STUDY_CASE, *FILES, *SPRINGS, STUDY_OPTIONS, context_settings=_EXTRA_ARGS)
 def study(opts, ctx: typer.Context):
     """A parameter study over flow points: --Re R1 R2 ... and --alpha0 A1 A2 ... (degrees; default
     0), and at each point --slopes, --modes, --thresholds M1 M2 ... (every threshold along U* at
@@ -788,14 +632,14 @@ def study(opts, ctx: typer.Context):
     --workers N, or on a running dask scheduler with --scheduler ADDRESS. Finished points are saved
     in OUT/points as they come: a rerun computes only what is missing. Exit status 1 when a point
     failed (the others are kept)."""
-    from fsistab.study import check_execution, study_client
+    from fsistab.study import StudySettings, check_execution, study_client, study_lists
 
-    lists = _study_lists(list(ctx.args))
+    lists = study_lists(list(ctx.args))
     if "reynolds" not in lists:
         raise InputError("give the Reynolds numbers of the study: --Re R1 R2 ...")
     opts.alpha0 = 0.0
     opts.reynolds = lists["reynolds"][0] if lists["reynolds"] else 1.0
-    settings = _study_settings(opts, lists)
+    settings = StudySettings.from_options(lists, vars(opts))
     cases = [opts.case(reynolds=re) for re in settings.reynolds]  # one mesh per Re
     settings.check_body(cases[0].kind)
     check_execution(opts.workers, opts.scheduler)
@@ -815,9 +659,7 @@ SENSITIVITY_OPTIONS = _sweep_options(
 )
 
 
-@command(
-    CASE_OPTIONS, OUTPUT_OPTIONS, FIGURE_OPTIONS, MASS_OPTION, SOLID_OPTIONS, DOFS_OPTION, SENSITIVITY_OPTIONS
-)
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, SENSITIVITY_OPTIONS)
 def sensitivity(opts):
     """Every threshold along U* with its derivatives dU*_c/dp for p in Re, α0 (per degree), m, Ω,
     ζ_h, ζ_θ, r_θ (adjoint, implicit function theorem), and where a steady force or a small control
@@ -839,12 +681,10 @@ BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 def single_threaded_blas(environ: MutableMapping[str, str]) -> MutableMapping[str, str]:
     """``environ`` with BLAS set to one thread unless the user set any of :data:`BLAS_THREADS`
-    (then all are left as they are: OpenBLAS reads its own variable before ``OMP_NUM_THREADS``,
-    so setting one would override the user's choice). fsistab runs its own
-    threads (two sparse factorisations at once, :func:`fsistab.linalg.sample_threads`); OpenBLAS's
-    threads beside them made eight transfer samples on the default mesh 2.5 times slower (100 s
-    against 40 s wall, docs/performance.md). Must run before NumPy and NGSolve load, which the
-    commands import lazily."""
+    (then all are left as they are: OpenBLAS reads its own variable before ``OMP_NUM_THREADS``).
+    fsistab runs its own threads (two sparse factorisations at once,
+    :func:`fsistab.linalg.sample_threads`), which BLAS threads beside them would slow down
+    (docs/performance.md). Must run before NumPy and NGSolve load (the commands import lazily)."""
     if not any(variable in environ for variable in BLAS_THREADS):
         environ.update(dict.fromkeys(BLAS_THREADS, "1"))
     return environ

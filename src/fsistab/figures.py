@@ -84,19 +84,18 @@ def critical(ds: xr.Dataset) -> xr.Dataset:
     return ds.assign_attrs(figure=str(figure))
 
 
-def stability_map(ds: xr.Dataset, tag: str, out: Path) -> xr.Dataset:
+def stability_map(ds: xr.Dataset, case, out: Path) -> xr.Dataset:
     """The stability map in (m, U*) (``fsistab neutral``)."""
-    a = ds.attrs
-    title = f"plate, Re = {a['reynolds']:g}, alpha0 = {a['alpha0_deg']:g} deg"
-    return ds.assign_attrs(figure=str(plots.plot_map(ds, Path(out) / f"neutral_{tag}.png", title=title)))
+    title = f"plate, Re = {case.flow.reynolds:g}, alpha0 = {case.flow.alpha0_deg:g} deg"
+    path = Path(out) / f"neutral_{case.tag}.png"
+    return ds.assign_attrs(figure=str(plots.plot_map(ds, path, title=title)))
 
 
-def flow_neutral(ds: xr.Dataset, tag: str, out: Path) -> xr.Dataset:
+def flow_neutral(ds: xr.Dataset, case, out: Path) -> xr.Dataset:
     """The neutral curves in (Re, U*) or (α0, U*) (``fsistab flow-neutral``)."""
-    a = ds.attrs
-    mass, parameter = a["mass_ratio"], a["parameter"]
-    path = Path(out) / f"flow_neutral_{tag}_{parameter}_m{mass:g}.png"
-    title = f"plate, m = {mass:g}, from Re = {a['reynolds']:g}, alpha0 = {a['alpha0_deg']:g} deg"
+    mass, parameter, flow = ds.attrs["mass_ratio"], ds.attrs["parameter"], case.flow
+    path = Path(out) / f"flow_neutral_{case.tag}_{parameter}_m{mass:g}.png"
+    title = f"plate, m = {mass:g}, from Re = {flow.reynolds:g}, alpha0 = {flow.alpha0_deg:g} deg"
     return ds.assign_attrs(figure=str(plots.plot_flow_neutral_curves(ds, path, title=title)))
 
 

@@ -149,6 +149,37 @@ def _values(name: str, values, low: float, high: float, positive: bool) -> tuple
     return tuple(sorted(values))
 
 
+LIST_OPTIONS = {"--Re": "reynolds", "--alpha0": "alpha0", "--thresholds": "thresholds"}
+
+
+def study_lists(args: list[str]) -> dict[str, list[float]]:
+    """The space-separated values of ``--Re``, ``--alpha0`` and ``--thresholds`` on the command
+    line (``--Re 100 500 --alpha0 -4 0 4``), which click's options (one value each) cannot take;
+    anything else left over is refused in one line."""
+    lists: dict[str, list[float]] = {}
+    current = None
+    for token in args:
+        name, _, inline = token.partition("=") if token.startswith("--") else (token, "", "")
+        if token.startswith("--"):
+            if name not in LIST_OPTIONS:
+                raise InputError(f"no such option: {name}")
+            current = LIST_OPTIONS[name]
+            if current in lists:
+                raise InputError(f"{name} given twice: give all its values after one {name}")
+            lists[current] = []
+            if not inline:
+                continue
+            token = inline
+        if current is None:
+            raise InputError(f"unexpected argument {token!r}: values go after --Re, --alpha0 or --thresholds")
+        try:
+            lists[current].append(float(token))
+        except ValueError:
+            option = next(k for k, v in LIST_OPTIONS.items() if v == current)
+            raise InputError(f"{token!r} is not a number (after {option})") from None
+    return lists
+
+
 @dataclass(frozen=True)
 class StudySettings:
     """What a study computes: the grid ``reynolds`` × ``alpha0`` (degrees, nose-up +) and, at each
@@ -177,6 +208,26 @@ class StudySettings:
     zeta_theta: float = 0.05
     r_theta: float = 0.289
     dofs: tuple[str, ...] | None = None
+
+    @classmethod
+    def from_options(cls, lists: dict, options: dict) -> StudySettings:
+        """The settings of ``fsistab study``: the value lists of :func:`study_lists` and the raw
+        values of its other options (complex shifts and dofs as text)."""
+        from fsistab.params import parse_complex, parse_dofs
+
+        wake = options["wake_shift"]
+        keys = ("slopes", "modes", "n_modes", "velocity_range", "points")
+        keys += ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
+        return cls(
+            reynolds=tuple(lists["reynolds"]),
+            alpha0=tuple(lists.get("alpha0", [0.0])),
+            thresholds=tuple(lists.get("thresholds", ())),
+            shifts=tuple(parse_complex("shift", z) for z in options["shift"] or ()),
+            wake_shift=None if wake is None else parse_complex("wake shift", wake),
+            map=options["with_map"],
+            dofs=None if options["dofs"] is None else parse_dofs(options["dofs"], options["body"]),
+            **{key: options[key] for key in keys},
+        )
 
     def __post_init__(self):
         object.__setattr__(self, "reynolds", _values("--Re", self.reynolds, 0.0, MAX_REYNOLDS, True))
