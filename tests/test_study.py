@@ -274,6 +274,9 @@ def test_study_lists_of_the_command_line():
         (["--Re", "100", "--slopes", "--body", "cylinder", "--map"], "plate"),
         (["x", "--Re", "100", "--slopes"], "unexpected argument"),
         (["--Re", "100", "x", "--slopes"], "'x' is not a number (after --Re)"),
+        (["--Re", "100", "--slopes", "--scheduler", "garbage"], "missing port number"),
+        (["--Re", "100", "--slopes", "--scheduler", "udp://localhost:8786"], "unknown address scheme 'udp'"),
+        (["--Re", "100", "--slopes", "--scheduler", "tcp://localhost"], "--scheduler must be an address"),
     ],
 )
 def test_command_refuses_bad_input_before_any_work(tmp_path, args, message):

@@ -74,6 +74,7 @@ def _spectrum_payload(ds):
         "figure": ds.attrs["figure"],
         "vtk": ds.attrs["vtk"] or None,
         "mode_figures": json.loads(ds.attrs["mode_figures"]),
+        "unstable": int(ds.attrs["unstable"]),
     }
 
 
@@ -107,6 +108,8 @@ def _critical_payload(ds):
         "factorisations": int(ds.attrs["factorisations"]),
         "method": str(ds.attrs.get("method", "transfer")),
         "unresolved_intervals": int(ds.attrs.get("unresolved_intervals", 0)),
+        "netcdf": ds.attrs.get("netcdf"),
+        "figure": ds.attrs.get("figure"),
     }
 
 
