@@ -2,7 +2,7 @@
 
 Shows every neutral curve of the plate (flutter and VIV) over m in [1, 10⁴], the divergence curve
 U*_D = √(m r_θ²/(dC_M/dθ)), the unstable side of each curve, the regions with one, two or more
-unstable eigenvalues, turning points and codimension-two points (MODEL.md §8), computed by the
+unstable eigenvalues, turning points and codimension-two points (docs/model.md §8), computed by the
 transfer-function method (the fluid's load transfer G(iω) sampled along the imaginary axis, every
 neutral (m, U*) at each ω from a polynomial; docs/transfer.md). Prints the curves, the divergence
 law and the thresholds at m = 1000.
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> None:
 
     case = Case.create("plate", 2900.0, 0.0, args.mesh)
     settings = MapSettings(mass_range=(1.0, 1e4))
-    template = solid_for("plate", mass_ratio=settings.template_mass)  # Ω, ζ_h, ζ_θ, r_θ of MODEL.md §2
+    template = solid_for("plate", mass_ratio=settings.template_mass)  # Ω, ζ_h, ζ_θ, r_θ of docs/model.md §2
     ds = stability_map(case, template, settings, args.cache or default_cache_dir(), args.out, progress=print)
     figure = plot_map(
         ds, args.out / f"neutral_{case.tag}.png", title=f"plate, Re = 2900, α0 = 0°, {args.mesh} mesh"

@@ -1,6 +1,6 @@
 """Steady flow around the plate at Re = 2900, α0 = 0 (the base state of every other result).
 
-Shows the streamwise velocity of the steady Navier–Stokes solution (MODEL.md §6) around the plate
+Shows the streamwise velocity of the steady Navier–Stokes solution (docs/model.md §6) around the plate
 of chord/thickness 20, the recirculation behind the blunt trailing edge outlined, and prints the
 coefficients C_L, C_D, C_M and the recirculation length.
 

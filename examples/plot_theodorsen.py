@@ -1,7 +1,7 @@
 """Theodorsen's typical section against the viscous plate: flutter and divergence boundaries, and the error.
 
 Shows the neutral curves U*(m) of the analytic typical section with Theodorsen's aerodynamics
-(MODEL.md §9; exact C(k)), with the static slopes calibrated on the viscous plate at Re = 2900
+(docs/model.md §9; exact C(k)), with the static slopes calibrated on the viscous plate at Re = 2900
 (one steady state and one linear solve), beside the viscous map of ``plot_stability_map.py``
 (``fsistab neutral``), and the relative error of Theodorsen's lowest flutter boundary against the
 viscous one along m. Prints the thresholds at m = 1000 with thin-airfoil and with calibrated slopes.

@@ -361,7 +361,7 @@ def test_interruption_says_what_was_saved_and_how_to_resume(tmp_path, monkeypatc
 
 
 def test_theodorsen_tables(tmp_path):
-    """The typical section of MODEL.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
+    """The typical section of docs/model.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
     ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in the cache says so."""
     result = _run(["theodorsen", "--mass-ratio", "1000"], tmp_path)
     assert result.exit_code == 0, result.output

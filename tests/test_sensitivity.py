@@ -1,4 +1,4 @@
-"""Adjoint modes and sensitivities (fsistab.sensitivity; MODEL.md §5–§8, docs/reference/sensitivity.md).
+"""Adjoint modes and sensitivities (fsistab.sensitivity; docs/model.md §5–§8, docs/reference/sensitivity.md).
 
 Every derivative is checked against a central finite difference of the quantity itself (an
 eigenvalue recomputed by Arnoldi, a threshold re-converged by the neutral-point Newton), on
@@ -614,7 +614,7 @@ def test_cylinder_viv_threshold_derivatives_match_finite_differences(cylinder_50
     """The heave-only cylinder at Re 50 (coarse), m = 20 in its convention: the VIV restabilisation
     on the wake branch (U* = 7.17 in diameter units). Its dU*_c/dm and dU*_c/dζ_h against central
     differences of re-converged points; with ζ_h = 0 the neutral frequency solves Im T(iω) = 0
-    alone (MODEL.md §8, one dof), so dω_c/dm = 0 exactly."""
+    alone (docs/model.md §8, one dof), so dω_c/dm = 0 exactly."""
     from fsistab.critical import find_thresholds
     from fsistab.params import solid_for
 

@@ -491,7 +491,7 @@ def test_killed_worker_loses_no_finished_point(base_case, parallel, client, tmp_
 
 def test_thresholds_at_one_point(base_case, serial):
     """Heave flutter and divergence of the plate at Re 100, m = 1000: the divergence against
-    ``U*_D = √(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0, MODEL.md §8), the flutter point neutral."""
+    ``U*_D = √(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0, docs/model.md §8), the flutter point neutral."""
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
     from fsistab.mesh import spec_for

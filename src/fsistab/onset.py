@@ -1,8 +1,8 @@
 """Onset of a fixed body's wake instability: the flow parameter where its leading global mode
-becomes neutral (MODEL.md §6, §7).
+becomes neutral (docs/model.md §6, §7).
 
 With the body held fixed (no solid unknowns), the eigenvalues ``σ(p) = λ(p) + iω(p)`` of the
-fluid Jacobian about the steady state (``σ M q + J q = 0``, MODEL.md §7) depend on the flow
+fluid Jacobian about the steady state (``σ M q + J q = 0``, docs/model.md §7) depend on the flow
 parameter ``p``: the Reynolds number on the body length, or the steady angle of attack ``α0``
 (degrees, nose-up positive) at fixed Re. The onset is the root of the growth rate of the leading
 mode, ``λ(p) = Re σ(p) = 0`` (a Hopf bifurcation of the steady wake when ``ω ≠ 0``), found by the

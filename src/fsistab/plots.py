@@ -353,7 +353,7 @@ def _streamlines(ax, tri: mtri.Triangulation, velocity: np.ndarray, window) -> N
 def plot_streamwise_velocity(
     steady, path: Path, window=None, subdivisions: int = 4, streamlines: bool = False
 ) -> Path:
-    """Relative streamwise velocity ``(U - W⁰)·d`` near the body (MODEL.md §4, §6: body frame), on each
+    """Relative streamwise velocity ``(U - W⁰)·d`` near the body (docs/model.md §4, §6: body frame), on each
     triangle subdivided ``subdivisions`` times (:func:`sample_mesh`; P2 is exact at the nodes), a
     diverging colour map white at 0; the recirculation outlined by the zero line off the wall (the
     sub-triangles touching the wall are masked for that line: there the velocity vanishes by the
@@ -470,8 +470,9 @@ def _area_quantile(tri: mtri.Triangulation, values: np.ndarray, window, q: float
 
 
 def displaced_outline(outline: np.ndarray, heave: float, pitch: float) -> np.ndarray:
-    """The outline moved by the linearised rigid displacement of a mode, heave ``h`` along ``e_y`` and
-    pitch ``θ`` about G at the origin (MODEL.md §3, §4): ``X + h e_y + θ e_z∧X = (X − θ Y, Y + h + θ X)``."""
+    """The outline moved by the linearised rigid displacement of a mode, heave ``h`` along ``e_y``
+    and pitch ``θ`` about G at the origin (docs/model.md §3, §4):
+    ``X + h e_y + θ e_z∧X = (X − θ Y, Y + h + θ X)``."""
     outline = np.asarray(outline, dtype=float)
     x, y = outline[:, 0], outline[:, 1]
     return np.column_stack([x - pitch * y, y + heave + pitch * x])
@@ -740,7 +741,7 @@ def plot_stability_map(
     unresolved=(),
     unshaded=(),
 ) -> Path:
-    """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
+    """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (docs/model.md §8).
 
     ``curves``: list of ``(kind, mass_ratios, reduced_velocities)`` for the dynamic neutral curves
     (kind ``flutter`` or ``viv``, red and blue, numbered as in the tables when there are several), in
@@ -757,66 +758,11 @@ def plot_stability_map(
     region is left out of the shading over that range of m (a curve missing), listed under it. The
     legend is under the axes, where it hides nothing.
     """
-    from matplotlib.collections import PolyCollection
-    from matplotlib.patches import Patch
-
     fig, ax = plt.subplots(figsize=(7.0, 5.0))
-    m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
-    ok = np.isfinite(u_div)
-    all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
-    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
-    top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
-    shading = []
-    if unstable is not None:
-        m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
-        top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
-        filled = ax.contourf(
-            m_grid, u_grid, counts, levels=[0.5, 1.5, 2.5, np.inf], colors=_UNSTABLE_COLOURS, zorder=0
-        )
-        filled.set_rasterized(True)
-        names = ("1 unstable mode", "2 unstable modes", "≥ 3 unstable modes")
-        shading += [Patch(fc=c, ec="none", label=n) for c, n in zip(_UNSTABLE_COLOURS, names, strict=True)]
-    if ok.any():
-        ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
-        if unstable is None:
-            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.9", lw=0, zorder=0)
-            shading.append(Patch(fc="0.9", ec="none", label="static divergence"))
-    labelled = set()
-    for i, (kind, masses, velocities) in enumerate(curves):
-        masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
-        colour = _KIND_COLOURS.get(kind, "tab:purple")
-        label = kind if kind not in labelled else None
-        labelled.add(kind)
-        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label, zorder=3)
-        if len(curves) > 1 and len(masses):
-            middle = len(masses) // 2
-            ax.annotate(
-                str(i),
-                (masses[middle], velocities[middle]),
-                xytext=(3, 3),
-                textcoords="offset points",
-                color=colour,
-                fontweight="bold",
-                zorder=6,
-            )
-    banded = False
-    for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
-        quads = _side_bands(masses, velocities, side)
-        if quads:
-            colour = _KIND_COLOURS.get(kind, "tab:purple")
-            ax.add_collection(PolyCollection(quads, fc=colour, ec="none", alpha=0.3, zorder=2, gid="side"))
-            banded = True
-    if banded:
-        shading.append(Patch(fc=_KIND_COLOURS["flutter"], ec="none", alpha=0.3, label="unstable side"))
-    if len(reference):
-        m_r, u_r = np.asarray(reference, dtype=float).T
-        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation", zorder=4)
-    if len(turning_points):
-        m_t, u_t = np.asarray(turning_points, dtype=float).T
-        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point", zorder=5)
-    if len(crossings):
-        m_c, u_c = np.asarray(crossings, dtype=float).T
-        ax.plot(m_c, u_c, "*", color="tab:green", mec="k", mew=0.4, ms=11, label="codimension two", zorder=5)
+    m_div = np.asarray(divergence[0], dtype=float)
+    shading, bottom, top = _map_regions(ax, curves, divergence, unstable)
+    shading += _map_curves(ax, curves, sides)
+    _map_markers(ax, reference, turning_points, crossings)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(bottom, top)
@@ -846,6 +792,82 @@ def plot_stability_map(
         below = legend.get_window_extent().transformed(fig.transFigure.inverted())
         fig.text(below.x0, below.y0, note, va="top", ha="left", fontsize="small")
     return save_figure(fig, path)
+
+
+def _map_regions(ax, curves, divergence, unstable) -> tuple[list, float, float]:
+    """The unstable regions of a map: the exact count of unstable modes (``unstable``) or, without
+    it, grey above the divergence line; the line itself. Returns the legend patches and the U*
+    limits of the axes."""
+    from matplotlib.patches import Patch
+
+    m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
+    ok = np.isfinite(u_div)
+    all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
+    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
+    top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
+    shading = []
+    if unstable is not None:
+        m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
+        top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
+        filled = ax.contourf(
+            m_grid, u_grid, counts, levels=[0.5, 1.5, 2.5, np.inf], colors=_UNSTABLE_COLOURS, zorder=0
+        )
+        filled.set_rasterized(True)
+        names = ("1 unstable mode", "2 unstable modes", "≥ 3 unstable modes")
+        shading += [Patch(fc=c, ec="none", label=n) for c, n in zip(_UNSTABLE_COLOURS, names, strict=True)]
+    if ok.any():
+        ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
+        if unstable is None:
+            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.9", lw=0, zorder=0)
+            shading.append(Patch(fc="0.9", ec="none", label="static divergence"))
+    return shading, bottom, top
+
+
+def _map_curves(ax, curves, sides) -> list:
+    """The dynamic neutral curves (numbered when there are several) and the bands on their
+    unstable side; the legend patch of the bands, if any."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
+
+    labelled = set()
+    for i, (kind, masses, velocities) in enumerate(curves):
+        masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
+        colour = _KIND_COLOURS.get(kind, "tab:purple")
+        label = kind if kind not in labelled else None
+        labelled.add(kind)
+        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label, zorder=3)
+        if len(curves) > 1 and len(masses):
+            middle = len(masses) // 2
+            ax.annotate(
+                str(i),
+                (masses[middle], velocities[middle]),
+                xytext=(3, 3),
+                textcoords="offset points",
+                color=colour,
+                fontweight="bold",
+                zorder=6,
+            )
+    banded = False
+    for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
+        quads = _side_bands(masses, velocities, side)
+        if quads:
+            colour = _KIND_COLOURS.get(kind, "tab:purple")
+            ax.add_collection(PolyCollection(quads, fc=colour, ec="none", alpha=0.3, zorder=2, gid="side"))
+            banded = True
+    return [Patch(fc=_KIND_COLOURS["flutter"], ec="none", alpha=0.3, label="unstable side")] if banded else []
+
+
+def _map_markers(ax, reference, turning_points, crossings) -> None:
+    """Points of another method (○), turning points (▽) and codimension-two points (★)."""
+    if len(reference):
+        m_r, u_r = np.asarray(reference, dtype=float).T
+        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation", zorder=4)
+    if len(turning_points):
+        m_t, u_t = np.asarray(turning_points, dtype=float).T
+        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point", zorder=5)
+    if len(crossings):
+        m_c, u_c = np.asarray(crossings, dtype=float).T
+        ax.plot(m_c, u_c, "*", color="tab:green", mec="k", mew=0.4, ms=11, label="codimension two", zorder=5)
 
 
 @_styled
@@ -1003,7 +1025,7 @@ def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
 
 @_styled
 def plot_slopes(ds, path: Path, title: str = "") -> Path:
-    """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, MODEL.md §9) against Re,
+    """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, docs/model.md §9) against Re,
     with the thin-airfoil values 2π and π/2 as lines; ``ds`` as written by ``fsistab slopes``."""
     reynolds = ds.reynolds.values
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))

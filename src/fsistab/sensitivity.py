@@ -1,6 +1,6 @@
-"""Adjoint modes and the sensitivity of eigenvalues and thresholds to every parameter (MODEL.md §5–§8).
+"""Adjoint modes and the sensitivity of eigenvalues and thresholds to every parameter (docs/model.md §5–§8).
 
-**Adjoint mode.** For a simple eigenpair ``(σ, q)`` of ``σ M q + J q = 0`` (MODEL.md §7, (E)) the
+**Adjoint mode.** For a simple eigenpair ``(σ, q)`` of ``σ M q + J q = 0`` (docs/model.md §7, (E)) the
 adjoint mode ``q†`` solves ``(J + σM)ᴴ q† = 0``, normalised so that ``q†ᴴ M q = 1``. It is the
 left eigenvector of the discrete problem: its fluid part holds the coefficients of the adjoint
 velocity and pressure in the same finite-element basis (discretise-then-adjoint), so that
@@ -22,10 +22,10 @@ so an adjoint solve costs one back-substitution with the transposed UMFPACK fact
 
     dσ/dp = −q†ᴴ (∂J/∂p + σ ∂M/∂p) q / (q†ᴴ M q)                                      (S1)
 
-For the solid parameters ``p ∈ {m, U*, Ω, ζ_h, ζ_θ, r_θ}`` only the solid rows move (MODEL.md §3,
+For the solid parameters ``p ∈ {m, U*, Ω, ζ_h, ζ_θ, r_θ}`` only the solid rows move (docs/model.md §3,
 §7): their aerodynamic part scales with ``1/m`` (the pitch row with ``1/(m r_θ²)``), their in-vacuo
 part is ``(Ω/U*)² h + 2ζ_h(Ω/U*) ḣ`` and ``(1/U*)² θ + 2ζ_θ(1/U*) θ'``. ``Re`` and ``α0`` move the
-steady state too (MODEL.md §6): ``dJ/dp = ∂J/∂p + ∂J/∂q⁰ · dq⁰/dp`` with the steady tangent
+steady state too (docs/model.md §6): ``dJ/dp = ∂J/∂p + ∂J/∂q⁰ · dq⁰/dp`` with the steady tangent
 
     J_ff dq⁰_f/dp = −∂R_f/∂p                                                           (S2)
 
@@ -38,7 +38,7 @@ difference in ``1/Re`` is exact up to rounding; in ``α0`` (step 10⁻³ degree)
 matrices leave an ``O(t²)`` error (on the plate at α0 = 2°, dσ/dα0 moved by 1.5e-7 relative from
 a step of 10⁻² to 10⁻³ degree, so about 1.5e-9 remains).
 
-**Threshold derivative.** On a neutral point ``Re σ(U*_c; p) = 0`` (MODEL.md §8), by the implicit
+**Threshold derivative.** On a neutral point ``Re σ(U*_c; p) = 0`` (docs/model.md §8), by the implicit
 function theorem,
 
     dU*_c/dp = −Re(∂σ/∂p) / Re(∂σ/∂U*),     dω_c/dp = Im(∂σ/∂p) + Im(∂σ/∂U*) dU*_c/dp      (S3)
@@ -368,7 +368,7 @@ def energy_centroid(fluid: FluidOperators, fluid_vector: np.ndarray) -> tuple[fl
 def solid_parameter_derivative(
     system: CoupledSystem, sigma: complex, q: np.ndarray, parameter: str
 ) -> np.ndarray:
-    """``(∂J/∂p + σ ∂M/∂p) q`` for a solid parameter ``p`` (MODEL.md §3, §7): non-zero on the solid
+    """``(∂J/∂p + σ ∂M/∂p) q`` for a solid parameter ``p`` (docs/model.md §3, §7): non-zero on the solid
     rows only. The aerodynamic part ``a`` of the rows ``ḣ'``, ``θ''`` (all but the in-vacuo
     terms) is ``∝ 1/m`` and, for pitch, ``∝ 1/r_θ²``."""
     if parameter not in SOLID_PARAMETERS:
@@ -404,7 +404,7 @@ def solid_parameter_derivative(
 @dataclass(frozen=True)
 class FlowTangent:
     """The operators on both sides of a steady state along its tangent in one flow parameter
-    (MODEL.md §6, (S2)): ``minus``/``plus`` at ``(c ∓ step, q⁰ ∓ step dq⁰/dc)`` in the coordinate
+    (docs/model.md §6, (S2)): ``minus``/``plus`` at ``(c ∓ step, q⁰ ∓ step dq⁰/dc)`` in the coordinate
     ``c`` (``1/Re`` for ``reynolds``, ``α0`` in degrees for ``alpha0``), ``dc/dp`` = ``scale``."""
 
     parameter: str
@@ -517,7 +517,7 @@ def eigenvalue_derivatives(
 
 @dataclass(frozen=True)
 class ThresholdSensitivity:
-    """Derivatives of one neutral point ``(m, U*_c, ω_c)`` (MODEL.md §8) by (S3).
+    """Derivatives of one neutral point ``(m, U*_c, ω_c)`` (docs/model.md §8) by (S3).
 
     ``eigenvalue`` holds ``dσ/dp`` at the neutral point (``reduced_velocity`` included),
     ``velocity`` ``dU*_c/dp`` and ``frequency`` ``dω_c/dp`` for every other parameter (``alpha0``
@@ -747,7 +747,7 @@ def _mode_fields(system: CoupledSystem, mode: AdjointMode) -> dict[str, np.ndarr
 
 
 def _grid_velocity_perturbation(theta0: float, q_s: np.ndarray):
-    """``ŵ = ∂W/∂θ θ̂ + ∂W/∂ḣ ḣ̂ + θ̂'(-Y, X)`` as (real, imaginary) CoefficientFunctions (MODEL.md §4)."""
+    """``ŵ = ∂W/∂θ θ̂ + ∂W/∂ḣ ḣ̂ + θ̂'(-Y, X)`` as (real, imaginary) CoefficientFunctions (docs/model.md §4)."""
     from ngsolve import CF, x, y
 
     from fsistab.operators import grid_velocity_derivatives
@@ -840,7 +840,7 @@ def force_sensitivity(
     system: CoupledSystem, mode: AdjointMode, factor: FluidFactor | None = None
 ) -> np.ndarray:
     """The sensitivity of ``σ`` to a steady force ``δf`` added to the steady momentum equation
-    (MODEL.md §6, ``R_f(q⁰) = (δf, v)``), as the coefficients ``s`` of a field on the fluid
+    (docs/model.md §6, ``R_f(q⁰) = (δf, v)``), as the coefficients ``s`` of a field on the fluid
     unknowns: ``δσ = Σ_j s_j (δf, φ_j) = ∫ δf·S_f dx`` with ``S_f = Σ s_j φ_j``.
 
     From ``J_ff δq⁰ = (δf, φ)`` and (S1), ``δσ = -gᵀ J_ff⁻¹ F / (q†ᴴ M q)``, so
@@ -882,7 +882,7 @@ def gaussian_force(centre: tuple[float, float], radius: float, direction: tuple[
 def forced_steady(steady, force: np.ndarray, *, tol: float = 1e-12, maxit: int = 12):
     """The steady state with the force ``F`` (:func:`force_vector`) added, ``R_f(q⁰) = F``, by
     Newton from ``steady`` with :class:`fsistab.steady.SteadyProblem`'s residual and Jacobian
-    (MODEL.md §6; a copy of the state, ``steady`` untouched)."""
+    (docs/model.md §6; a copy of the state, ``steady`` untouched)."""
     from ngsolve import GridFunction
 
     from fsistab.steady import SteadyProblem
@@ -931,7 +931,7 @@ def sensitivity_maps(
 
     Control cylinder (Marquet, Sipp & Jacquin 2008; Hill 1992): a small cylinder fixed to the body
     at ``x₀`` exerts on the flow ``f = -k|U_r|U_r δ(x - x₀)``, ``k = C_d d/2``, ``U_r = U - W``
-    the velocity relative to the body (MODEL.md §4); its drag is carried by its own support (the
+    the velocity relative to the body (docs/model.md §4); its drag is carried by its own support (the
     body's loads do not include it). It moves the steady state, ``δσ_b = S_f(x₀)·f⁰``, and acts
     on the perturbation with ``f' = -k(|U_r| I + U_r U_rᵀ/|U_r|)(û - ŵ)``, which adds ``-f'`` to
     ``J`` at ``x₀``: ``δσ_p = -conj(û†(x₀))·k(|U_r| I + U_r U_rᵀ/|U_r|)(û - ŵ)(x₀)``
@@ -1058,6 +1058,38 @@ def maps_dataset(maps: Sequence[SensitivityMaps], mesh, attrs: dict | None = Non
     )
 
 
+def _drag_steady_state(steady, strength, grid_velocity, quadrature, tol: float, maxit: int):
+    """The steady state of ``R_f(q⁰) = (f(U⁰), φ)`` with the drag ``f = -strength |U_r| U_r`` of
+    :func:`control_cylinder_operators` (``U_r`` the velocity relative to the grid), by Newton
+    with the flow's Jacobian alone, from ``steady``."""
+    from ngsolve import GridFunction, LinearForm, sqrt
+
+    from fsistab.steady import SteadyProblem
+
+    space = steady.space
+    problem = SteadyProblem.on(steady.mesh, space)
+    state = GridFunction(space)
+    state.vec.data = steady.state.vec
+    problem.set_flow(steady.flow)
+    problem.impose_wall(state, steady.flow)
+    _, (v, _) = space.TnT()
+    residual, values = state.vec.CreateVector(), state.vec.FV().NumPy()
+    solve = problem.newton_solver(state)
+    for _ in range(maxit):
+        relative = state.components[0] - grid_velocity
+        force = LinearForm(space)
+        force += -strength * sqrt(_dot(relative, relative)) * _dot(relative, v) * quadrature
+        force.Assemble()
+        problem.form.Apply(state.vec, residual)
+        r = (residual.FV().NumPy() - force.vec.FV().NumPy())[problem.free]
+        if np.linalg.norm(r) < tol:
+            return state
+        values[problem.free] -= solve(r)
+    raise ConvergenceError(
+        f"the steady state with the control cylinder did not converge ({np.linalg.norm(r):.1e})"
+    )
+
+
 def control_cylinder_operators(
     steady,
     centre: tuple[float, float],
@@ -1075,14 +1107,14 @@ def control_cylinder_operators(
     ``k = C_d d/2``), then ``J_ff`` and ``J_fs`` with ``+k w (|U_r| I + U_r U_rᵀ/|U_r|)`` acting on
     ``û - ŵ`` (the wall values of ``û`` included); the loads are those of the flow alone. A
     negative ``drag`` (a thrust) gives the other side of a central difference."""
-    from ngsolve import CF, BilinearForm, GridFunction, LinearForm, dx, exp, sqrt, x, y
+    from ngsolve import CF, BilinearForm, LinearForm, dx, exp, sqrt, x, y
 
     from fsistab.operators import (
         grid_velocity_derivatives,
         wall_coefficients_jacobian,
         wall_lifting_matrix,
     )
-    from fsistab.steady import SteadyProblem, wall_velocity
+    from fsistab.steady import wall_velocity
 
     if not radius > 0:
         raise InputError(f"the Gaussian's radius must be positive, got {radius}")
@@ -1090,29 +1122,9 @@ def control_cylinder_operators(
     weight = exp(-((x - centre[0]) ** 2 + (y - centre[1]) ** 2) / radius**2) / (math.pi * radius**2)
     space = steady.space
     quadrature = dx(bonus_intorder=FORCE_QUADRATURE_BONUS)
-    problem = SteadyProblem.on(steady.mesh, space)
-    state = GridFunction(space)
-    state.vec.data = steady.state.vec
-    problem.set_flow(steady.flow)
-    problem.impose_wall(state, steady.flow)
     grid_velocity = CF(wall_velocity(steady.flow.theta0))
     (u, _), (v, _) = space.TnT()
-    residual, values = state.vec.CreateVector(), state.vec.FV().NumPy()
-    solve = problem.newton_solver(state)
-    for _ in range(maxit):
-        relative = state.components[0] - grid_velocity
-        force = LinearForm(space)
-        force += -k * weight * sqrt(_dot(relative, relative)) * _dot(relative, v) * quadrature
-        force.Assemble()
-        problem.form.Apply(state.vec, residual)
-        r = (residual.FV().NumPy() - force.vec.FV().NumPy())[problem.free]
-        if np.linalg.norm(r) < tol:
-            break
-        values[problem.free] -= solve(r)
-    else:
-        raise ConvergenceError(
-            f"the steady state with the control cylinder did not converge ({np.linalg.norm(r):.1e})"
-        )
+    state = _drag_steady_state(steady, k * weight, grid_velocity, quadrature, tol, maxit)
     forced = replace(steady, state=state, from_cache=False)
     fluid = fluid_operators(forced)
     relative = forced.velocity - grid_velocity

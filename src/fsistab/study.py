@@ -3,11 +3,11 @@
 A study is a grid of flow points ``(Re, α0)`` (:class:`StudySettings`); at each point
 :func:`run_point` computes what is asked among
 
-* ``slopes``: the steady coefficients ``C_L``, ``C_M``, ``C_D`` (MODEL.md §5 conventions), the
-  recirculation length and the static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (MODEL.md §9);
+* ``slopes``: the steady coefficients ``C_L``, ``C_M``, ``C_D`` (docs/model.md §5 conventions), the
+  recirculation length and the static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (docs/model.md §9);
 * ``modes``: the fixed body's least stable eigenvalues ``σ = λ + iω`` near given shifts
-  (MODEL.md §7), growth rate and frequency;
-* ``thresholds``: at each given mass ratio every threshold along U* (MODEL.md §8, the branch
+  (docs/model.md §7), growth rate and frequency;
+* ``thresholds``: at each given mass ratio every threshold along U* (docs/model.md §8, the branch
   frequency sweep of the exact transfer function of :func:`fsistab.critical.find_thresholds`), each
   **classified** (below);
 * ``map``: the whole ``(m, U*)`` map of :func:`fsistab.workflows.stability_map` (plate only).
@@ -21,7 +21,7 @@ energies near the body (as :func:`fsistab.eigen.label_mode`, units ``ρL²U∞²
 
 the fluid share ``e_f = E_f/(E_h + E_θ + E_f)`` and the heave share of the solid energy
 ``s_h = E_h/(E_h + E_θ)``; the in-vacuo frequencies ``ω_h = Ω/U*`` and ``ω_θ = 1/U*`` (generic
-units, MODEL.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, MODEL.md §10) and the wake
+units, docs/model.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, docs/model.md §10) and the wake
 frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, when given). In order:
 
 1. ``divergence``: a static threshold, ``ω_c = 0`` (:func:`fsistab.critical.divergence_point`);
@@ -288,7 +288,7 @@ class StudySettings:
         return (0.75j,) if kind == "cylinder" else ()
 
     def solid(self, kind: str, mass_ratio: float, reduced_velocity: float) -> Solid:
-        """The solid at ``(m, U*)`` in the body's conventions (MODEL.md §2, §10), as generic
+        """The solid at ``(m, U*)`` in the body's conventions (docs/model.md §2, §10), as generic
         :class:`~fsistab.params.Solid`."""
         return solid_for(
             kind,
@@ -406,7 +406,7 @@ def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
     body, given = data.attrs["body"], json.loads(data.attrs["settings"])
     dofs = tuple(given["dofs"]) if given["dofs"] else None
     names = ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
-    # Ω in the generic form of the solid as run_point built it (1 for the cylinder, MODEL.md §10)
+    # Ω in the generic form of the solid as run_point built it (1 for the cylinder, docs/model.md §10)
     freq_ratio = solid_for(body, None, None, *(given[n] for n in names), dofs).freq_ratio
     scale = body_velocity_scale(body)
     wake = (
@@ -1008,7 +1008,7 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             "settings": json.dumps(settings.point_identity(), sort_keys=True),
             "classes": json.dumps(CLASSES),
             "conventions": (
-                "alpha0 in degrees, nose-up +; U* and m in the body's conventions (MODEL.md §2, §10); "
+                "alpha0 in degrees, nose-up +; U* and m in the body's conventions (docs/model.md §2, §10); "
                 "frequencies and growth rates in U/L; coefficients F/(0.5 rho U^2 L s), C_M about G"
             ),
         },

@@ -8,8 +8,8 @@ with their units and conventions in attributes; the figures of the results are d
 :mod:`fsistab.plots` from that Dataset, and :func:`payload` turns it into the JSON object the
 command prints (keys documented in docs/cli.md). Nothing here prints.
 
-Lengths, times and coefficients follow the body's conventions (MODEL.md §1, §10): chord-based for
-the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), MODEL.md §10).
+Lengths, times and coefficients follow the body's conventions (docs/model.md §1, §10): chord-based for
+the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), docs/model.md §10).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def _mesh_spec(case: Case):
 
 
 def _fluid(case: Case, cache_dir: Path, say: Callable[[str], None]):
-    """Steady state (cached) and its linear operators (MODEL.md §6, §7)."""
+    """Steady state (cached) and its linear operators (docs/model.md §6, §7)."""
     from fsistab.operators import fluid_operators
     from fsistab.steady import solve_steady
 
@@ -71,7 +71,7 @@ def _steady_progress(say: Callable[[str], None]):
 
 
 def _divergence_velocity(moment_slope, r_theta, mass_ratio):
-    """``U*_D = √(m r_θ²/(dC_M/dθ))`` (MODEL.md §8), inf where there is no divergence."""
+    """``U*_D = √(m r_θ²/(dC_M/dθ))`` (docs/model.md §8), inf where there is no divergence."""
     from fsistab.neutral_point import divergence_velocity
 
     return divergence_velocity(moment_slope, r_theta, mass_ratio)
@@ -118,7 +118,7 @@ class SteadyResult(NamedTuple):
 
 
 def steady_flow(case: Case, cache_dir: Path, progress: Progress = None) -> SteadyResult:
-    """Steady flow around the fixed body (MODEL.md §6): coefficients (MODEL.md §5 conventions),
+    """Steady flow around the fixed body (docs/model.md §6): coefficients (docs/model.md §5 conventions),
     recirculation length, Newton history and continuation path, and the steady state to be drawn."""
     from fsistab.forces import aerodynamic_coefficients, recirculation_length
     from fsistab.steady import solve_steady
@@ -175,7 +175,7 @@ def spectrum(
     out: Path,
     progress: Progress = None,
 ) -> SpectrumResult:
-    """Eigenvalues of the coupled system nearest the shifts (MODEL.md §7), saved as
+    """Eigenvalues of the coupled system nearest the shifts (docs/model.md §7), saved as
     ``spectrum_{tag}.nc`` in ``out``; the number of unstable eigenvalues in attribute
     ``unstable``."""
     from fsistab.coupled import CoupledSystem
@@ -201,7 +201,7 @@ def spectrum(
 def static_slopes_study(
     cases: list[Case], cache_dir: Path, out: Path, progress: Progress = None
 ) -> xr.Dataset:
-    """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, MODEL.md §9)
+    """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, docs/model.md §9)
     of the plate at each case's Re (same α0 and preset), saved as ``slopes_plate_a{α0}_{preset}.nc``."""
     from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
     from fsistab.store import write_dataset
@@ -237,7 +237,7 @@ def static_slopes_study(
 
 def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings):
     """``(scale, velocities, solid, counter)`` of a search for every threshold along U*: the sweep
-    in the generic U* (the body's divided by ``scale``, MODEL.md §10), the solid at its first
+    in the generic U* (the body's divided by ``scale``, docs/model.md §10), the solid at its first
     value and a factorisation counter."""
     from fsistab.linalg import FactorCounter
 
@@ -254,10 +254,10 @@ def critical_points(
     out: Path | None = None,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """Every threshold along U* at one mass ratio (MODEL.md §8) over the sweep's range: the exact
+    """Every threshold along U* at one mass ratio (docs/model.md §8) over the sweep's range: the exact
     transfer function swept in frequency, each crossing converged by Newton on ``det T``,
     divergence from ``G(0)`` (:func:`fsistab.critical.find_thresholds`). U* in the body's
-    convention (×2π for the cylinder, MODEL.md §10); ``frequency_ratio`` is ``ω_c/ω_n`` (over the
+    convention (×2π for the cylinder, docs/model.md §10); ``frequency_ratio`` is ``ω_c/ω_n`` (over the
     solid's natural frequency: ω_θ of the plate, ω_h of the cylinder). What the
     search did in attributes: ``frequencies_sampled`` (transfer) or ``branches_tracked`` over
     ``points`` values of U* (tracking). Saved as ``critical_{tag}_m{m}_{preset}.nc`` in ``out``
@@ -301,7 +301,7 @@ def critical_points(
             "branches_tracked": len(details.get("branches", ())),
             "unresolved_intervals": len(details.get("unresolved", ())),
             "factorisations": counter.count,
-            "conventions": "U* and m in the body's conventions (MODEL.md §2, §10); frequency in U/L",
+            "conventions": "U* and m in the body's conventions (docs/model.md §2, §10); frequency in U/L",
         },
     )
     if out is None:
@@ -381,7 +381,7 @@ def stability_map(
     out: Path,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """The stability map of the plate in ``(m, U*)`` (MODEL.md §8): flutter and VIV neutral curves,
+    """The stability map of the plate in ``(m, U*)`` (docs/model.md §8): flutter and VIV neutral curves,
     the divergence curve ``U*_D = √(m r_θ²/(dC_M/dθ))``, turning points and codimension-two
     crossings, by the transfer function (default) or by continuation (settings.method).
 
@@ -502,7 +502,7 @@ def flow_neutral_curves(
     out: Path,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """Neutral curves in ``(Re, U*)`` or ``(α0, U*)`` at one mass ratio (MODEL.md §8): the flutter
+    """Neutral curves in ``(Re, U*)`` or ``(α0, U*)`` at one mass ratio (docs/model.md §8): the flutter
     thresholds of a sweep in U* at the case's flow, each continued both ways by pseudo-arclength.
     Each half is saved as ``flow_neutral_{tag}_{parameter}_m{m}_curve{k}_{down|up}.nc`` and reused
     by a rerun with the same parameters. Returns the halves stacked along ``point`` (index
@@ -570,7 +570,7 @@ def flow_neutral_curves(
 
 
 def typical_section(solid: Solid, settings: TheodorsenSettings):
-    """The typical section of MODEL.md §9 (thin-airfoil slopes until :func:`section_slopes`): the
+    """The typical section of docs/model.md §9 (thin-airfoil slopes until :func:`section_slopes`): the
     settings' m, elastic axis and static unbalance with ``solid``'s other parameters. Cheap: it
     validates the section before any work."""
     from fsistab.theodorsen import TypicalSection
@@ -588,7 +588,7 @@ def section_slopes(
     section, settings: TheodorsenSettings, case: Case, cache_dir: Path, progress: Progress = None
 ):
     """``section`` with the settings' slopes: thin airfoil, given, or the viscous static slopes at
-    the case's Re (``calibrated``, MODEL.md §9: cached steady state, one linear solve)."""
+    the case's Re (``calibrated``, docs/model.md §9: cached steady state, one linear solve)."""
     from fsistab.theodorsen import AirfoilSlopes
 
     if settings.slopes == "thin-airfoil":
@@ -617,7 +617,7 @@ def _slope_attrs(section) -> dict:
 
 
 def theodorsen_points(section, settings: TheodorsenSettings) -> xr.Dataset:
-    """Every flutter boundary and the divergence of the typical section at its m (MODEL.md §9)."""
+    """Every flutter boundary and the divergence of the typical section at its m (docs/model.md §9)."""
     from fsistab.theodorsen import critical_points as section_points
 
     found = section_points(section, settings.velocity_range)
@@ -679,7 +679,7 @@ def theodorsen_comparison(
     out: Path,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """Neutral curves ``U*(m)`` of the typical section over the settings' mass range (MODEL.md §9)
+    """Neutral curves ``U*(m)`` of the typical section over the settings' mass range (docs/model.md §9)
     with their frequency ratio ``ω_F/ω_θ = ω_F U*_F``, and the viscous map of ``fsistab neutral``
     for the plate at the case's Re and α0 if the cache holds one (:func:`viscous_map_curves`)
     with the relative error of the lowest flutter boundary against it. Saved as
@@ -725,7 +725,7 @@ def theodorsen_comparison(
 def transfer_function(
     case: Case, settings: TransferSettings, cache_dir: Path, out: Path, progress: Progress = None
 ) -> xr.Dataset:
-    """The viscous Theodorsen function ``G(ik)`` beside Theodorsen's model (MODEL.md §9), at
+    """The viscous Theodorsen function ``G(ik)`` beside Theodorsen's model (docs/model.md §9), at
     ``k = ω L/(2U∞)`` log-spaced (coordinate ``reduced_frequency``); samples kept in the cache as
     they come (a rerun resumes); saved as ``transfer_{tag}_{preset}.nc``."""
     from fsistab.store import write_dataset
@@ -847,7 +847,7 @@ def _sensitivity_maps(fluid, solid, sweep: SweepSettings, thresholds, results, f
 
 def _body_derivatives(ds: xr.Dataset, case: Case, scale: float) -> xr.Dataset:
     """The derivatives in the body's conventions: U* = scale U*_g, and the cylinder's
-    m = 2 m_g / π (MODEL.md §10)."""
+    m = 2 m_g / π (docs/model.md §10)."""
     per_mass = xr.where(ds.parameter == "mass_ratio", math.pi / 2 if case.kind == "cylinder" else 1.0, 1.0)
     ds["reduced_velocity"] = ds.reduced_velocity * scale
     ds["d_reduced_velocity"] = ds.d_reduced_velocity * scale * per_mass
@@ -860,11 +860,11 @@ def sensitivity(
     case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, out: Path, progress: Progress = None
 ) -> SensitivityResult:
     """Every threshold along U* at one mass ratio (as :func:`critical_points`) with its derivatives
-    with respect to every parameter (adjoint, implicit function theorem; MODEL.md §8,
+    with respect to every parameter (adjoint, implicit function theorem; docs/model.md §8,
     docs/reference/sensitivity.md), and the spatial sensitivity maps of each threshold and, with
     ``sweep.wake_shift``, of the fixed body's wake mode near ``Im(wake_shift)``: a steady force, a
     control cylinder, the structural sensitivity. U* and its derivatives in the body's convention
-    (MODEL.md §10). Writes ``sensitivity_{stem}.nc`` (thresholds) and ``sensitivity_{stem}_maps.nc``
+    (docs/model.md §10). Writes ``sensitivity_{stem}.nc`` (thresholds) and ``sensitivity_{stem}_maps.nc``
     (maps at the mesh vertices); their paths in attributes ``netcdf`` and ``maps`` ("" without
     any map), the file stem in ``stem``."""
     from fsistab import sensitivity as adjoint
