@@ -554,3 +554,16 @@ def test_figures_of_a_study(serial, tmp_path):
         coords={"reynolds": [100.0, 500.0], "alpha0": [0.0]},
     )
     assert plots.plot_study_maps(synthetic, tmp_path / "m.png").stat().st_size > 0
+
+
+def test_leading_modes_pick_the_least_stable_of_each_point():
+    """Per point the mode of largest growth rate (NaN modes padded at the end are skipped); a
+    point without any mode (failed) gives NaN."""
+    from fsistab.study import leading_modes
+
+    nan = np.nan
+    rates = np.array([[[-0.1, 0.02, nan], [nan, nan, nan]], [[-0.3, -0.2, -0.25], [0.1, nan, 0.3]]])
+    frequencies = np.array([[[1.0, 2.0, nan], [nan, nan, nan]], [[3.0, 4.0, 5.0], [6.0, nan, 7.0]]])
+    lead_rate, lead_frequency = leading_modes(rates, frequencies)
+    np.testing.assert_array_equal(lead_rate, [[0.02, nan], [-0.2, 0.3]])
+    np.testing.assert_array_equal(lead_frequency, [[2.0, nan], [4.0, 7.0]])
