@@ -1339,6 +1339,8 @@ def plot_thresholds(ds, path: Path, title: str = "") -> Path:
         ax.text(0.5, 0.5, "no threshold in this range", transform=ax.transAxes, ha="center", va="center")
     ax.set_xscale("log")
     ax.set_xlim(lo / 1.1, hi * 1.1)
+    for axis_ticks in (ax.xaxis.set_major_formatter, ax.xaxis.set_minor_formatter):
+        axis_ticks(matplotlib.ticker.FormatStrFormatter("%g"))  # a short range: plain U* under each tick
     ax.set_xlabel("reduced velocity U*")
     ax.set_ylabel("ω_c/ω_n (ω_θ: plate, ω_h: cylinder)")
     ax.grid(alpha=0.3, which="both")
