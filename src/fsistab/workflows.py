@@ -1,15 +1,17 @@
 """Workflows: one function per command-line command, the whole computation behind it.
 
-Each takes validated parameter objects (:mod:`fsistab.params`), a cache directory, an output
-directory where it writes its data (NetCDF, written atomically by :mod:`fsistab.store`; figures
-that need the fields themselves, such as meshes and modes, are drawn here too) and a ``progress``
-callback taking one message string. Each returns an :class:`xarray.Dataset` holding the results
-with their units and conventions in attributes; the figures of the results are drawn by
-:mod:`fsistab.plots` from that Dataset, and :func:`payload` turns it into the JSON object the
-command prints (keys documented in docs/cli.md). Nothing here prints.
+Each takes validated parameter objects (:mod:`fsistab.params`), a cache directory, the output
+directory where it writes its data (NetCDF, written atomically by :mod:`fsistab.store`) and a
+``progress`` callback taking one message string. Each returns an :class:`xarray.Dataset` holding
+the results with their units and conventions in attributes, or, where the figures need the fields
+themselves (the mesh, the steady state, the modes, the sensitivity maps), a small result holding
+that Dataset and those fields. Nothing here draws, prints or makes JSON: the outputs layer does,
+from what is returned (:mod:`fsistab.figures`, :mod:`fsistab.payloads`, :mod:`fsistab.reports`).
+No workflow reads a file of ``out`` as its input: a result one workflow needs from another is
+passed, or read from the cache (:func:`stored_map_path`).
 
-Lengths, times and coefficients follow the body's conventions (docs/model.md §1, §10): chord-based for
-the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), docs/model.md §10).
+Lengths, times and coefficients follow the body's conventions (docs/model.md §1, §10): chord-based
+for the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), docs/model.md §10).
 """
 
 from __future__ import annotations
@@ -75,10 +77,6 @@ def _divergence_velocity(moment_slope, r_theta, mass_ratio):
     from fsistab.neutral_point import divergence_velocity
 
     return divergence_velocity(moment_slope, r_theta, mass_ratio)
-
-
-def _finite_or_none(values) -> list:
-    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, dtype=float).ravel()]
 
 
 # --- mesh and steady flow --------------------------------------------------------------------------
