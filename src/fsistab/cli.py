@@ -537,11 +537,7 @@ def theodorsen(opts):
     section = workflows.typical_section(solid, settings)
     out, cache = _prepare(opts, [case] if settings.slopes == "calibrated" else [])
     with _running() as progress:
-        section = workflows.section_slopes(section, settings, case, cache, progress)
-        if settings.mass_range is None:
-            ds = workflows.theodorsen_points(section, settings)
-        else:
-            ds = workflows.theodorsen_comparison(section, settings, case, cache, out, progress)
+        ds = workflows.theodorsen(section, settings, case, cache, out, progress)
     if settings.mass_range is None:
         _finish("theodorsen-points", ds, opts.as_json, reports.theodorsen_points)
     else:

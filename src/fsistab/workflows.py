@@ -717,6 +717,23 @@ def theodorsen_comparison(
     return ds.assign_attrs(netcdf=str(path))
 
 
+def theodorsen(
+    section,
+    settings: TheodorsenSettings,
+    case: Case,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """``fsistab theodorsen``: the typical section (:func:`typical_section`) with the settings'
+    slopes (:func:`section_slopes`), then its thresholds at one m (:func:`theodorsen_points`) or,
+    with a mass range, its neutral curves against the viscous map (:func:`theodorsen_comparison`)."""
+    section = section_slopes(section, settings, case, cache_dir, progress)
+    if settings.mass_range is None:
+        return theodorsen_points(section, settings)
+    return theodorsen_comparison(section, settings, case, cache_dir, out, progress)
+
+
 # --- viscous Theodorsen function -------------------------------------------------------------------
 
 
