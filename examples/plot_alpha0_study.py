@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> None:
 def critical_mode_figures(ds, settings, base, cache: Path, stem: Path) -> list[Path]:
     """At each α0, the first dynamic onset at m = 1000 (flutter or VIV, the lowest U*): its critical
     mode ``σ = iω_c`` from one factorisation of ``K_ff(iω_c)`` (the null vector of the
-    characteristic matrix, MODEL.md §7), its pressure at phase 0 with the body's displacement."""
+    characteristic matrix, docs/model.md §7), its pressure at phase 0 with the body's displacement."""
     from dataclasses import replace
 
     import numpy as np

@@ -1,8 +1,8 @@
 """Eigenvalue branches of the plate against U* (Re = 2900, m = 1000); its flutter, divergence, VIV modes.
 
 Shows the growth rate and frequency of the heave, pitch and wake branches of the coupled system
-(MODEL.md §7) followed along a sweep of U* in [2, 10] (``fsistab.critical.find_thresholds``: branch
-tracking, each sign change refined by Newton on the augmented system of MODEL.md §8, divergence
+(docs/model.md §7) followed along a sweep of U* in [2, 10] (``fsistab.critical.find_thresholds``: branch
+tracking, each sign change refined by Newton on the augmented system of docs/model.md §8, divergence
 from the static system), with the in-vacuo frequencies Ω/U* and 1/U* dashed and the thresholds
 marked; then the same along U* in [0.06, 0.09], where the heave frequency Ω/U* meets the wake
 mode's (VIV); then the pressure of the critical mode at the flutter onset, the divergence and the

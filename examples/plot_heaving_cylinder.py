@@ -1,6 +1,6 @@
 """Heaving spring-mounted cylinder at Re = 60, m = 20: the fluid and solid eigenvalue branches against U*.
 
-Shows the growth rate and frequency of the two branches of the heaving cylinder (MODEL.md §10:
+Shows the growth rate and frequency of the two branches of the heaving cylinder (docs/model.md §10:
 heave only, ``m = 4m̃/(πρD²s)``, ``U* = 2πU∞/(Dω_n)``) followed along U* in [3, 12]
 (``fsistab.critical.find_thresholds``: the solid branch from the in-vacuo frequency, the fluid
 branch from the wake mode near 0.75i), with the potential-flow estimate (2π/U*)√(m/(m+1)) of the
@@ -24,7 +24,7 @@ import argparse
 import math
 from pathlib import Path
 
-MASS_RATIO = 20.0  # MODEL.md §10 convention
+MASS_RATIO = 20.0  # docs/model.md §10 convention
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> None:
     case = Case.create("cylinder", 60.0, 0.0, args.mesh)
     steady = solve_steady(spec_for(case), case.flow, cache_dir=args.cache or default_cache_dir())
     fluid = fluid_operators(steady)
-    velocities = np.geomspace(3.0, 12.0, args.points)  # MODEL.md §10 convention
+    velocities = np.geomspace(3.0, 12.0, args.points)  # docs/model.md §10 convention
     scale = body_velocity_scale("cylinder")  # the generic U* of fsistab.params.Solid is U*/2π
     solid = Solid.cylinder(MASS_RATIO, velocities[0])
     counter = FactorCounter()

@@ -1,7 +1,7 @@
 """Reynolds-number study of the plate at α0 = 0: steady coefficients, static slopes, classified thresholds.
 
 Shows, against Re, the steady drag and recirculation length with the static slopes dC_L/dα and
-d(-C_M)/dα (MODEL.md §9), and every threshold along U* in [2, 10] at m = 1000 (``--thresholds``
+d(-C_M)/dα (docs/model.md §9), and every threshold along U* in [2, 10] at m = 1000 (``--thresholds``
 and ``--reduced-velocity-range`` for others), classified
 (coupled-mode, pitch or heave single-mode flutter, divergence, VIV; docs/how-to/studies.md), and
 with ``--map`` the (m, U*) maps of every Re overlaid. Each Re is one point of

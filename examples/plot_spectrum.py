@@ -1,6 +1,6 @@
 """Spectrum of the spring-mounted plate at Re = 2900, m = 1000, U* = 4.7, and its three modes.
 
-Shows the eigenvalues σ = λ + iω of the coupled fluid–solid system (MODEL.md §7) nearest the
+Shows the eigenvalues σ = λ + iω of the coupled fluid–solid system (docs/model.md §7) nearest the
 flutter, anti-flutter and wake frequencies (whole spectrum and a close-up near the neutral axis,
 coloured by the mode's label), then a pressure snapshot of each of the three modes of the
 reference (the least stable solid-rich modes near ω = 0.17 and the least stable wake mode) with

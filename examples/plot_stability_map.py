@@ -2,7 +2,7 @@
 
 Shows every neutral curve of the plate (flutter and VIV) over m in [1, 10⁴], the divergence curve
 U*_D = √(m r_θ²/(dC_M/dθ)), the unstable side of each curve, the regions with one, two or more
-unstable eigenvalues, turning points and codimension-two points (MODEL.md §8), computed by the
+unstable eigenvalues, turning points and codimension-two points (docs/model.md §8), computed by the
 transfer-function method (the fluid's load transfer G(iω) sampled along the imaginary axis, every
 neutral (m, U*) at each ω from a polynomial; docs/transfer.md). Prints the curves, the divergence
 law and the thresholds at m = 1000.
@@ -14,7 +14,7 @@ Command-line equivalent::
 Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000 flutter sets
 in at U*_F ≈ 4.5 and divergence at U*_D ≈ 7.4. The map's files (``neutral_plate_Re2900_a0_map.nc``
 and the samples and reduced models) stay in ``--out``: a rerun resumes from them, and
-``plot_theodorsen.py`` with the same ``--out`` compares with this map.
+``plot_theodorsen.py`` with the same ``--cache`` compares with this map.
 
 Usage: python examples/plot_stability_map.py [--mesh coarse] [--out DIR] [--cache DIR]
 """
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> None:
 
     case = Case.create("plate", 2900.0, 0.0, args.mesh)
     settings = MapSettings(mass_range=(1.0, 1e4))
-    template = solid_for("plate", mass_ratio=settings.template_mass)  # Ω, ζ_h, ζ_θ, r_θ of MODEL.md §2
+    template = solid_for("plate", mass_ratio=settings.template_mass)  # Ω, ζ_h, ζ_θ, r_θ of docs/model.md §2
     ds = stability_map(case, template, settings, args.cache or default_cache_dir(), args.out, progress=print)
     figure = plot_map(
         ds, args.out / f"neutral_{case.tag}.png", title=f"plate, Re = 2900, α0 = 0°, {args.mesh} mesh"

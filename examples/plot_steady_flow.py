@@ -1,6 +1,6 @@
 """Steady flow around the plate at Re = 2900, α0 = 0 (the base state of every other result).
 
-Shows the streamwise velocity of the steady Navier–Stokes solution (MODEL.md §6) around the plate
+Shows the streamwise velocity of the steady Navier–Stokes solution (docs/model.md §6) around the plate
 of chord/thickness 20, the recirculation behind the blunt trailing edge outlined, and prints the
 coefficients C_L, C_D, C_M and the recirculation length.
 
@@ -34,12 +34,14 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def run(args: argparse.Namespace) -> None:
+    from fsistab import figures
     from fsistab.params import Case
     from fsistab.store import default_cache_dir
     from fsistab.workflows import steady_flow
 
     case = Case.create("plate", args.reynolds, 0.0, args.mesh)
-    ds = steady_flow(case, args.cache or default_cache_dir(), args.out, progress=print)
+    result = steady_flow(case, args.cache or default_cache_dir(), progress=print)
+    ds = figures.steady(result, case.tag, args.out)
     a = ds.attrs
     print(
         f"C_L = {a['lift_coefficient']:.3g}, C_D = {a['drag_coefficient']:.5f}, "

@@ -1,7 +1,7 @@
 """Theodorsen's typical section against the viscous plate: flutter and divergence boundaries, and the error.
 
 Shows the neutral curves U*(m) of the analytic typical section with Theodorsen's aerodynamics
-(MODEL.md §9; exact C(k)), with the static slopes calibrated on the viscous plate at Re = 2900
+(docs/model.md §9; exact C(k)), with the static slopes calibrated on the viscous plate at Re = 2900
 (one steady state and one linear solve), beside the viscous map of ``plot_stability_map.py``
 (``fsistab neutral``), and the relative error of Theodorsen's lowest flutter boundary against the
 viscous one along m. Prints the thresholds at m = 1000 with thin-airfoil and with calibrated slopes.
@@ -14,7 +14,7 @@ Command-line equivalent::
     fsistab theodorsen --mass-ratio-range 1 1e4 --slopes calibrated --Re 2900 --mesh coarse --out DIR
 
 Mesh: ``--mesh`` preset (default coarse), for the calibrated slopes and the viscous map (computed
-here if ``--out`` does not hold it yet). Reference (REFERENCE.md §E,
+here if the cache does not hold it yet). Reference (REFERENCE.md §E,
 §D): the viscous plate at m = 1000 has U*_F ≈ 4.5 and U*_D ≈ 7.4; thin-airfoil slopes are
 dC_L/dα = 2π and d(-C_M)/dα = π/2 about mid-chord.
 
@@ -60,12 +60,12 @@ def run(args: argparse.Namespace) -> None:
         for kind, u, w in zip(ds.kind.values, ds.reduced_velocity.values, ds.frequency.values, strict=True):
             print(f"    {kind:10s} U* = {u:.4f}, ω = {w:.4f}, ω/ω_θ = {w * u:.4f}")
 
-    if not (args.out / f"neutral_{case.tag}_map.nc").is_file():
-        print("the viscous map (fsistab neutral): computing it in --out")
+    if not workflows.stored_map_path(cache, case.tag).is_file():
+        print("the viscous map (fsistab neutral): computing it (kept in --out and in the cache)")
         workflows.stability_map(case, solid, MapSettings(), cache, args.out, progress=print)
     settings = TheodorsenSettings(mass_range=(1.0, 1e4), slopes="calibrated")
     section = workflows.section_slopes(workflows.typical_section(solid, settings), settings, case, cache)
-    ds = workflows.theodorsen_comparison(section, settings, case, args.out)
+    ds = workflows.theodorsen_comparison(section, settings, case, cache, args.out)
     print(ds.attrs["viscous_comparison"])
     if "comparison_relative_error" in ds:
         masses, errors = ds.comparison_mass_ratio.values, 100 * ds.comparison_relative_error.values

@@ -1,5 +1,6 @@
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,6 +130,15 @@ def test_critical_json_matches_the_static_formula(tmp_path, plate_2900, plate_co
     slope = static_slopes(plate_operators).moment
     divergence = payload["critical_points"][1]["reduced_velocity"]
     assert divergence == pytest.approx(math.sqrt(1000 * 0.289**2 / slope), rel=1e-9)
+    # --out holds the thresholds (NetCDF, the JSON's values) and their figure
+    from fsistab.store import read_dataset
+
+    saved = read_dataset(Path(payload["netcdf"]))
+    assert Path(payload["netcdf"]).parent == tmp_path / "out"
+    assert saved.reduced_velocity.values.tolist() == [
+        p["reduced_velocity"] for p in payload["critical_points"]
+    ]
+    assert Path(payload["figure"]).stat().st_size > 10_000
 
 
 def test_critical_kind_does_not_depend_on_the_wake_shift(
@@ -231,12 +241,13 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     again = json.loads(runner.invoke(app, args).stdout)
     assert again["factorisations"] == 0
     assert again["curves"] == payload["curves"]
-    # `fsistab theodorsen` finds the map the default method wrote and compares its lowest flutter
-    # boundary with Theodorsen's: the viscous values are the map's own points
+    # `fsistab theodorsen` finds the map the default method stored in the cache (its own --out
+    # elsewhere) and compares its lowest flutter boundary with Theodorsen's: the viscous values are
+    # the map's own points
     theodorsen = runner.invoke(
         app,
         ["theodorsen", "--mass-ratio-range", "500", "2000", "--points", "3", "--Re", "2900", "--json"]
-        + ["--out", str(tmp_path / "out")],
+        + ["--out", str(tmp_path / "theodorsen"), "--cache", str(cache)],
     )
     assert theodorsen.exit_code == 0, theodorsen.output
     comparison = json.loads(theodorsen.stdout)["comparison"]
@@ -336,22 +347,22 @@ def test_interruption_says_what_was_saved_and_how_to_resume(tmp_path, monkeypatc
     """SIGINT during a workflow: exit 130, one line naming the files written so far and the rerun."""
     from fsistab import store, workflows
 
-    def interrupted(case, cache, out, progress):
+    def interrupted(case, cache, progress):
         progress("meshing")
-        store.atomic_write_bytes(out / "partial.nc", b"data")
+        store.atomic_write_bytes(cache / "partial.nc", b"data")
         raise KeyboardInterrupt
 
     monkeypatch.setattr(workflows, "mesh_summary", interrupted)
     result = _run(["mesh", "--mesh", "coarse", "--json"], tmp_path)
     assert result.exit_code == 130 and result.stdout == ""
     last = result.stderr.splitlines()[-1]
-    assert last.startswith("interrupted after") and str(tmp_path / "out" / "partial.nc") in last
+    assert last.startswith("interrupted after") and str(tmp_path / "cache" / "partial.nc") in last
     assert "rerun the same command to resume" in last
 
 
 def test_theodorsen_tables(tmp_path):
-    """The typical section of MODEL.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
-    ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in --out says so."""
+    """The typical section of docs/model.md §2 with thin-airfoil slopes at m = 1000: U*_F = 4.61 with
+    ω_F/ω_θ = 0.83, U*_D = 7.29 (docs/cli.md); the map without a viscous map in the cache says so."""
     result = _run(["theodorsen", "--mass-ratio", "1000"], tmp_path)
     assert result.exit_code == 0, result.output
     flutter = next(line for line in result.stdout.splitlines() if "flutter" in line)
@@ -360,7 +371,7 @@ def test_theodorsen_tables(tmp_path):
     result = _run(["theodorsen", "--mass-ratio-range", "1", "100", "--points", "3"], tmp_path)
     assert result.exit_code == 0, result.output
     assert "Theodorsen neutral curves" in result.stdout
-    assert "no neutral_plate_Re2900_a0_map.nc" in " ".join(result.stdout.split())
+    assert "no stability map of plate_Re2900_a0 in the cache" in " ".join(result.stdout.split())
 
 
 def test_neutral_table_from_a_map(tmp_path, monkeypatch):
@@ -391,6 +402,7 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
 
     def fake_map(case, template, settings, cache, out, progress):
         ds = workflows._map_details(neutral_map_dataset(result, attrs), result, None, MapSettings())
+        ds = ds.assign_attrs(divergence_coefficient=workflows.divergence_coefficient(ds))
         return ds.assign_attrs(factorisations_this_run=0, reduced_models=0, data=str(out / "map.nc"))
 
     monkeypatch.setattr(workflows, "stability_map", fake_map)
@@ -402,3 +414,96 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
     assert "U*_D = 0.2312 √m" in text
     assert "codimension-two point: flutter 0 × divergence at m = 1500, U* = 5" in text
     assert "no VIV sweep" in text and (tmp_path / "out" / "neutral_plate_Re2900_a0.png").is_file()
+
+
+def _critical_dataset(out, method, kinds=()):
+    import xarray as xr
+
+    n = len(kinds)
+    return xr.Dataset(
+        {
+            "kind": ("threshold", np.array([k for k, _ in kinds], dtype=str)),
+            "boundary": ("threshold", np.array([b for _, b in kinds], dtype=str)),
+            "reduced_velocity": ("threshold", np.linspace(4.0, 7.0, n)),
+            "frequency": ("threshold", np.linspace(0.2, 0.0, n)),
+            "frequency_ratio": ("threshold", np.linspace(0.8, 0.0, n)),
+        },
+        attrs={
+            "body": "plate", "reynolds": 2900.0, "mass_ratio": 1000.0, "velocity_range": [2.0, 10.0],
+            "points": 24, "method": method, "frequencies_sampled": 37, "branches_tracked": 3,
+            "unresolved_intervals": 0, "factorisations": 5, "netcdf": str(out / "critical.nc"),
+        },
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "method, kinds, said, unsaid",
+    [
+        ("transfer", [("flutter", "onset")], "G(iω) sampled at 37 frequencies (no sweep in U*)", "tracked"),
+        ("transfer", [], "no threshold for U* in [2, 10]", "tracked"),
+        (
+            "tracking",
+            [("divergence", "onset")],
+            "3 eigenvalue branches tracked over 24 values of U*",
+            "G(iω)",
+        ),
+    ],
+)
+def test_critical_says_what_the_search_did(tmp_path, monkeypatch, method, kinds, said, unsaid):
+    """The transfer method sweeps no U* (its --points are unused): the summary names the
+    frequencies sampled, the tracking method its branches and U* values; a search that finds
+    nothing says so; the figure is written in --out beside the data, also without a threshold."""
+    from fsistab import workflows
+
+    def fake(case, solid, sweep, cache, out, progress):
+        return _critical_dataset(out, method, kinds)
+
+    monkeypatch.setattr(workflows, "critical_points", fake)
+    args = ["critical", "--mesh", "coarse", "--method", method]
+    args += ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")]
+    run = runner.invoke(app, args, env={"COLUMNS": "200"})
+    assert run.exit_code == 0, run.output
+    text = " ".join(run.stdout.split())
+    assert said in text and unsaid not in text
+    assert (tmp_path / "out" / "critical.png").stat().st_size > 5_000
+
+
+def test_spectrum_verdict_counts_the_unstable_eigenvalues():
+    import xarray as xr
+
+    from fsistab.reports import unstable_verdict
+
+    def spectrum(growth):
+        n = len(growth)
+        return xr.Dataset(
+            {
+                "growth_rate": ("mode", np.array(growth, dtype=float)),
+                "frequency": ("mode", np.linspace(0.7, 0.8, n)),
+                "label": ("mode", np.array(["fluid"] * n, dtype=str)),
+            }
+        )
+
+    assert unstable_verdict(spectrum([-0.01, -0.2])) == "no unstable eigenvalue among the 2 eigenvalues found"
+    one = unstable_verdict(spectrum([0.0125, -0.2]))
+    assert one == "1 unstable eigenvalue among the 2 eigenvalues found: λ = +0.012500, ω = 0.700000 (fluid)"
+    two = unstable_verdict(spectrum([0.01, 0.02, -0.3]))
+    assert two.startswith("2 unstable eigenvalues among the 3 eigenvalues found: λ = +0.010000")
+    assert unstable_verdict(spectrum([])) == "no unstable eigenvalue among the 0 eigenvalues found"
+
+
+@pytest.mark.parametrize("option", ["--out", "--cache"])
+def test_an_empty_directory_path_is_refused(tmp_path, monkeypatch, option):
+    """An empty --out or --cache would be the current folder: one error line, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    other = "--cache" if option == "--out" else "--out"
+    result = runner.invoke(app, ["mesh", "--mesh", "coarse", option, "", other, str(tmp_path / "d")])
+    assert result.exit_code == 2 and result.stdout == ""
+    assert result.stderr.strip() == f"error: {option} must name a directory, got an empty path"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_version():
+    from fsistab import __version__
+
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.stdout == f"fsistab {__version__}\n"

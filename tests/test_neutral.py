@@ -424,7 +424,7 @@ def test_map_outputs_carry_kinds_sides_crossings_and_unresolved_intervals():
     """The NetCDF dataset and the JSON of a map: per point the unstable side, per curve the kind
     and frequency following, per crossing both kinds and frequencies, per unresolved interval its
     range and reason, and their count; a map with none says so."""
-    from fsistab import workflows
+    from fsistab import payloads, workflows
     from fsistab.neutral_map import NeutralMap, map_crossings, neutral_map_dataset
     from fsistab.params import MapSettings
 
@@ -442,7 +442,7 @@ def test_map_outputs_carry_kinds_sides_crossings_and_unresolved_intervals():
         ds = neutral_map_dataset(result, attrs)
         ds = workflows._map_details(ds, result, None, MapSettings())
         ds = ds.assign_attrs(factorisations_this_run=3, reduced_models=0, data="m.nc", figure="m.png")
-        return ds, workflows.payload("neutral", ds)
+        return ds, payloads.payload("neutral", ds)
 
     ds, payload = outputs(((10.5, 10.6, "budget"), (11.0, 11.001, "fold")))
     assert ds.curve_kind.values.tolist() == ["flutter", "viv"]

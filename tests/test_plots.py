@@ -316,10 +316,10 @@ def test_theodorsen_figure_draws_curves_viscous_map_and_errors(tmp_path, figures
     from fsistab.params import Case, TheodorsenSettings, solid_for
     from fsistab.store import write_dataset
 
-    write_dataset(_map_dataset(), tmp_path / "neutral_plate_Re2900_a0_map.nc")
+    write_dataset(_map_dataset(), workflows.stored_map_path(tmp_path, "plate_Re2900_a0"))
     settings = TheodorsenSettings(mass_range=(500, 2000), points=3)
     section = workflows.typical_section(solid_for("plate"), settings)
-    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path)
+    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path, tmp_path)
     assert _is_png(plots.plot_theodorsen_comparison(ds, tmp_path / "theodorsen.png"))
     curves, errors = figures[-1].axes
     m = ds.mass_ratio.values

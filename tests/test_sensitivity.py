@@ -1,4 +1,4 @@
-"""Adjoint modes and sensitivities (fsistab.sensitivity; MODEL.md §5–§8, docs/reference/sensitivity.md).
+"""Adjoint modes and sensitivities (fsistab.sensitivity; docs/model.md §5–§8, docs/reference/sensitivity.md).
 
 Every derivative is checked against a central finite difference of the quantity itself (an
 eigenvalue recomputed by Arnoldi, a threshold re-converged by the neutral-point Newton), on
@@ -25,6 +25,7 @@ from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
+from fsistab.plots import plot_sensitivity_maps
 from fsistab.sensitivity import (
     CONTROL_DIAMETER,
     PARAMETERS,
@@ -42,15 +43,14 @@ from fsistab.sensitivity import (
     gaussian_force,
     maps_at,
     maps_dataset,
-    plot_sensitivity_maps,
     sensitivity_maps,
     structural_sensitivity,
     threshold_derivatives,
     threshold_sensitivities,
     threshold_sensitivity,
-    write_maps_vtk,
 )
 from fsistab.steady import SteadyProblem, solve_steady
+from fsistab.vtk import write_maps_vtk
 
 pytestmark = pytest.mark.skipif(not umfpack.available(), reason="NGSolve's wheel exports no UMFPACK")
 
@@ -615,7 +615,7 @@ def test_cylinder_viv_threshold_derivatives_match_finite_differences(cylinder_50
     """The heave-only cylinder at Re 50 (coarse), m = 20 in its convention: the VIV restabilisation
     on the wake branch (U* = 7.17 in diameter units). Its dU*_c/dm and dU*_c/dζ_h against central
     differences of re-converged points; with ζ_h = 0 the neutral frequency solves Im T(iω) = 0
-    alone (MODEL.md §8, one dof), so dω_c/dm = 0 exactly."""
+    alone (docs/model.md §8, one dof), so dω_c/dm = 0 exactly."""
     from fsistab.critical import find_thresholds
     from fsistab.params import solid_for
 

@@ -425,7 +425,7 @@ def cylinder_fluid(cylinder_coarse_40):
 def test_modes_vtk_is_written_atomically_under_its_full_name(cylinder_coarse_40, cylinder_fluid, tmp_path):
     """VTKOutput appends ".vtu" itself: the file is written under a temporary name and renamed; a
     name with a dot (α0 = 2.5) keeps it."""
-    from fsistab.plots import write_modes_vtk
+    from fsistab.vtk import write_modes_vtk
 
     mode = np.exp(1j * np.arange(len(cylinder_fluid.free_dofs)) / 7.0)
     with store.recording() as written:

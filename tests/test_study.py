@@ -24,7 +24,7 @@ from damage import damage
 from typer.testing import CliRunner
 
 from fsistab import study
-from fsistab.cli import _study_lists, app
+from fsistab.cli import app
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.params import Case, MapSettings, Solid
 from fsistab.study import (
@@ -35,6 +35,7 @@ from fsistab.study import (
     mode_energies,
     point_path,
     run_study,
+    study_lists,
 )
 
 runner = CliRunner()
@@ -245,7 +246,7 @@ def test_body_dependent_checks():
 
 def test_study_lists_of_the_command_line():
     args = ["--Re", "100", "500", "--alpha0", "-4", "0", "4", "--thresholds=1000", "20"]
-    assert _study_lists(args) == {
+    assert study_lists(args) == {
         "reynolds": [100.0, 500.0],
         "alpha0": [-4.0, 0.0, 4.0],
         "thresholds": [1000.0, 20.0],
@@ -257,7 +258,7 @@ def test_study_lists_of_the_command_line():
         (["7"], "unexpected argument"),
     ):
         with pytest.raises(InputError, match=message):
-            _study_lists(bad)
+            study_lists(bad)
 
 
 @pytest.mark.parametrize(
@@ -273,6 +274,9 @@ def test_study_lists_of_the_command_line():
         (["--Re", "100", "--slopes", "--body", "cylinder", "--map"], "plate"),
         (["x", "--Re", "100", "--slopes"], "unexpected argument"),
         (["--Re", "100", "x", "--slopes"], "'x' is not a number (after --Re)"),
+        (["--Re", "100", "--slopes", "--scheduler", "garbage"], "missing port number"),
+        (["--Re", "100", "--slopes", "--scheduler", "udp://localhost:8786"], "unknown address scheme 'udp'"),
+        (["--Re", "100", "--slopes", "--scheduler", "tcp://localhost"], "--scheduler must be an address"),
     ],
 )
 def test_command_refuses_bad_input_before_any_work(tmp_path, args, message):
@@ -487,7 +491,7 @@ def test_killed_worker_loses_no_finished_point(base_case, parallel, client, tmp_
 
 def test_thresholds_at_one_point(base_case, serial):
     """Heave flutter and divergence of the plate at Re 100, m = 1000: the divergence against
-    ``U*_D = √(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0, MODEL.md §8), the flutter point neutral."""
+    ``U*_D = √(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0, docs/model.md §8), the flutter point neutral."""
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near
     from fsistab.mesh import spec_for
@@ -550,3 +554,16 @@ def test_figures_of_a_study(serial, tmp_path):
         coords={"reynolds": [100.0, 500.0], "alpha0": [0.0]},
     )
     assert plots.plot_study_maps(synthetic, tmp_path / "m.png").stat().st_size > 0
+
+
+def test_leading_modes_pick_the_least_stable_of_each_point():
+    """Per point the mode of largest growth rate (NaN modes padded at the end are skipped); a
+    point without any mode (failed) gives NaN."""
+    from fsistab.study import leading_modes
+
+    nan = np.nan
+    rates = np.array([[[-0.1, 0.02, nan], [nan, nan, nan]], [[-0.3, -0.2, -0.25], [0.1, nan, 0.3]]])
+    frequencies = np.array([[[1.0, 2.0, nan], [nan, nan, nan]], [[3.0, 4.0, 5.0], [6.0, nan, 7.0]]])
+    lead_rate, lead_frequency = leading_modes(rates, frequencies)
+    np.testing.assert_array_equal(lead_rate, [[0.02, nan], [-0.2, 0.3]])
+    np.testing.assert_array_equal(lead_frequency, [[2.0, nan], [4.0, 7.0]])

@@ -466,7 +466,7 @@ def test_a_family_whose_crossings_do_not_add_up_is_left_unshaded_and_reported(tm
     dataset, the JSON and the figure's note."""
     from dataclasses import replace as replaced
 
-    from fsistab import workflows
+    from fsistab import payloads, workflows
     from fsistab.neutral_map import neutral_map_dataset, unshaded_families
     from fsistab.params import MapSettings
     from fsistab.transfer_map import TransferCurve, as_neutral_map
@@ -482,7 +482,7 @@ def test_a_family_whose_crossings_do_not_add_up_is_left_unshaded_and_reported(tm
         return ds.assign_attrs(factorisations_this_run=0, reduced_models=0, data="m.nc", figure="m.png")
 
     complete = dataset(whole)
-    assert unshaded_families(complete) == [] and workflows.payload("neutral", complete)["unshaded"] == []
+    assert unshaded_families(complete) == [] and payloads.payload("neutral", complete)["unshaded"] == []
     assert len(whole.curves) == 2 and all(r.crossing_rate > 0 for c in whole.curves for r in c.roots)
     kept = [replaced(r, crossing_rate=-r.crossing_rate) for r in whole.curves[1].roots]
     broken = dataset(replaced(whole, curves=(whole.curves[0], TransferCurve("flutter", tuple(kept)))))
@@ -490,7 +490,7 @@ def test_a_family_whose_crossings_do_not_add_up_is_left_unshaded_and_reported(tm
     [(kind, low, high)] = unshaded_families(broken)
     assert kind == "flutter" and min(masses) * 0.9 <= low < high <= max(masses) * 1.1
     assert (broken.unstable_count.values >= 0).all()
-    assert workflows.payload("neutral", broken)["unshaded"] == [
+    assert payloads.payload("neutral", broken)["unshaded"] == [
         {"kind": "flutter", "mass_ratio_range": [low, high]}
     ]
     from fsistab.plots import plot_map
@@ -506,7 +506,7 @@ def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
     the resonance's sample, :func:`unresolved_resonance`, the map has no curve): every curve is
     VIV (frequency locked near the wake mode's while U* varies) in the map, the NetCDF dataset and
     the JSON; every unresolved interval has a reason, serialised."""
-    from fsistab import workflows
+    from fsistab import payloads, workflows
     from fsistab.neutral_map import neutral_map_dataset
     from fsistab.params import MapSettings
     from fsistab.reduced_model import ReducedModels
@@ -532,7 +532,7 @@ def test_a_map_around_the_wake_frequency_is_viv_without_a_hint(fluid, tmp_path):
     ds = ds.assign_attrs(factorisations_this_run=counter.count, reduced_models=0, data="m.nc", figure="m.png")
     assert set(ds.curve_kind.values) == {"viv"}
     assert ds.unresolved_reason.values.tolist() == [u.reason for u in tmap.unresolved]
-    payload = workflows.payload("neutral", ds)
+    payload = payloads.payload("neutral", ds)
     assert {c["kind"] for c in payload["curves"]} == {"viv"} and payload["wake_frequency"] is None
     assert payload["unresolved_count"] == len(tmap.unresolved)
     assert [u["reason"] for u in payload["unresolved"]] == [u.reason for u in tmap.unresolved]

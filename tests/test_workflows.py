@@ -1,5 +1,5 @@
 """Workflows (fsistab.workflows) on small hand-made inputs: the Theodorsen comparison finds the map
-dataset that ``fsistab neutral`` writes with either method, the JSON payloads carry the map's
+dataset that ``fsistab neutral`` stores in the cache with either method, the JSON payloads carry the map's
 values, and the flow-plane half-curves are stacked and read back unchanged. The workflows on real
 steady states run in tests/test_cli.py."""
 
@@ -21,6 +21,7 @@ from fsistab.neutral_map import (
     neutral_map_dataset,
 )
 from fsistab.params import Case, FlowNeutralSettings, MapSettings, TheodorsenSettings, solid_for
+from fsistab.payloads import payload as make_payload
 from fsistab.store import write_dataset
 from fsistab.theodorsen import viscous_curves
 
@@ -71,10 +72,10 @@ def _map_dataset(r_theta=0.289, method="transfer"):
 
 @pytest.mark.parametrize("method", ["transfer", "continuation"])
 def test_theodorsen_comparison_reads_the_map_of_either_method(tmp_path, method):
-    write_dataset(_map_dataset(method=method), tmp_path / "neutral_plate_Re2900_a0_map.nc")
+    write_dataset(_map_dataset(method=method), workflows.stored_map_path(tmp_path, "plate_Re2900_a0"))
     settings = TheodorsenSettings(mass_range=(500, 2000), points=3)
     section = workflows.typical_section(solid_for("plate"), settings)
-    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path)
+    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path, tmp_path)
     # the lower envelope of the flutter curves only (the VIV curve is lower but not flutter)
     np.testing.assert_array_equal(ds.comparison_mass_ratio.values, [m for m, _ in FLUTTER])
     np.testing.assert_array_equal(ds.comparison_viscous.values, [u for _, u in FLUTTER])
@@ -86,26 +87,26 @@ def test_theodorsen_comparison_reads_the_map_of_either_method(tmp_path, method):
     viscous = viscous_curves(ds)
     assert len(viscous["flutter"]) == 2
     np.testing.assert_allclose(viscous["divergence"][1], 0.289 * np.sqrt(np.geomspace(500, 2000, 5) / 1.562))
-    payload = workflows.payload("theodorsen-map", ds.assign_attrs(figure="f.png"))
+    payload = make_payload("theodorsen-map", ds.assign_attrs(figure="f.png"))
     assert [c["viscous"] for c in payload["comparison"]] == [u for _, u in FLUTTER]
     assert (tmp_path / "theodorsen_plate_Re2900_a0_thin-airfoil.nc").is_file()
 
 
 def test_theodorsen_comparison_refuses_a_map_of_other_solid_parameters(tmp_path):
-    write_dataset(_map_dataset(r_theta=0.3), tmp_path / "neutral_plate_Re2900_a0_map.nc")
+    write_dataset(_map_dataset(r_theta=0.3), workflows.stored_map_path(tmp_path, "plate_Re2900_a0"))
     settings = TheodorsenSettings(mass_range=(500, 2000), points=2)
     section = workflows.typical_section(solid_for("plate"), settings)
-    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path)
+    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path, tmp_path)
     assert "other solid parameters" in ds.attrs["viscous_comparison"]
     assert "comparison_mass_ratio" not in ds and viscous_curves(ds) is None
     # no map for another Re
-    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 1000), tmp_path)
-    assert ds.attrs["viscous_comparison"].startswith("no neutral_plate_Re1000_a0_map.nc")
+    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 1000), tmp_path, tmp_path)
+    assert ds.attrs["viscous_comparison"].startswith("no stability map of plate_Re1000_a0 in the cache")
 
 
 def test_neutral_payload_carries_the_map(tmp_path):
     ds = _map_dataset()
-    payload = workflows.payload("neutral", ds)
+    payload = make_payload("neutral", ds)
     first, upper, viv = payload["curves"]
     assert [first["kind"], upper["kind"], viv["kind"]] == ["flutter", "flutter", "viv"]
     assert list(zip(first["mass_ratio"], first["reduced_velocity"], strict=True)) == FLUTTER
@@ -156,7 +157,7 @@ def test_flow_curves_stack_the_halves_and_read_back():
     np.testing.assert_array_equal(up[3], [4.4, 4.6, 4.5])
     np.testing.assert_array_equal(up[5], [1.8])
     assert down[5].size == 0
-    payload = workflows.payload("flow-neutral", ds.assign_attrs(figure="f.png"))
+    payload = make_payload("flow-neutral", ds.assign_attrs(figure="f.png"))
     assert [c["direction"] for c in payload["curves"]] == ["decreasing", "increasing"]
     assert payload["curves"][1]["alpha0"] == [0.0, 1.0, 2.0]
     assert payload["curves"][1]["turning_points"] == [{"alpha0": 1.8, "reduced_velocity": 4.6}]

@@ -97,6 +97,8 @@ class Plate:
         "h up, theta counter-clockwise, alpha = -theta (docs/model.md §1-§4)"
     )
     velocity_scale: ClassVar[float] = 1.0  # the body's U* over the generic one (docs/model.md §2)
+    mass_scale: ClassVar[float] = 1.0  # the generic m over the body's own (docs/model.md §2)
+    axisymmetric: ClassVar[bool] = False  # α0 changes the flow around it
     allowed_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
     default_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
     default_mass_ratio: ClassVar[float] = 1000.0  # docs/model.md §2
@@ -267,6 +269,8 @@ class Cylinder:
         "diameter-based: length D, time D/U, coefficients F/(0.5 rho U^2 D s) (docs/model.md §10)"
     )
     velocity_scale: ClassVar[float] = 2 * math.pi  # U* = U∞/(f_n D) against the generic U∞/(ω D)
+    mass_scale: ClassVar[float] = math.pi / 2  # m_g = π m / 2 (docs/model.md §10)
+    axisymmetric: ClassVar[bool] = True  # α0 only turns the free stream: no eigenvalue depends on it
     allowed_dofs: ClassVar[tuple[str, ...]] = ("heave",)
     default_dofs: ClassVar[tuple[str, ...]] = ("heave",)
     default_mass_ratio: ClassVar[float] = 20.0  # docs/model.md §10

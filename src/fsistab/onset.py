@@ -1,8 +1,8 @@
 """Onset of a fixed body's wake instability: the flow parameter where its leading global mode
-becomes neutral (MODEL.md §6, §7).
+becomes neutral (docs/model.md §6, §7).
 
 With the body held fixed (no solid unknowns), the eigenvalues ``σ(p) = λ(p) + iω(p)`` of the
-fluid Jacobian about the steady state (``σ M q + J q = 0``, MODEL.md §7) depend on the flow
+fluid Jacobian about the steady state (``σ M q + J q = 0``, docs/model.md §7) depend on the flow
 parameter ``p``: the Reynolds number on the body length, or the steady angle of attack ``α0``
 (degrees, nose-up positive) at fixed Re. The onset is the root of the growth rate of the leading
 mode, ``λ(p) = Re σ(p) = 0`` (a Hopf bifurcation of the steady wake when ``ω ≠ 0``), found by the
@@ -40,6 +40,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from fsistab.bodies import body_type
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.params import MAX_REYNOLDS, Flow
 
@@ -121,9 +122,6 @@ def check_parameter(parameter: str) -> str:
     return parameter
 
 
-DEFAULT_SHIFT = {"cylinder": 0.75j}  # the cylinder's wake mode near its onset (REFERENCE.md §A)
-
-
 def check_onset(kind: str, parameter: str, guess: float, shift: complex | None) -> tuple[float, complex]:
     """The validated ``(guess, shift)`` of an onset search for body ``kind``, before any work.
 
@@ -140,18 +138,19 @@ def check_onset(kind: str, parameter: str, guess: float, shift: complex | None) 
     except (TypeError, ValueError):
         raise InputError(f"--guess must be a number, got {guess!r}") from None
     _check_guess(parameter, guess)
-    if parameter == "alpha0" and kind == "cylinder":
+    body = body_type(kind)
+    if parameter == "alpha0" and body.axisymmetric:
         raise InputError(
             "the cylinder is round: alpha0 only turns the flow, no eigenvalue depends on it; "
             "use --parameter reynolds"
         )
     if shift is None:
-        if kind not in DEFAULT_SHIFT:
+        if not body.wake_shifts:
             raise InputError(
                 f"give --shift for the {kind}: a guess of the leading mode's eigenvalue, e.g. 0+11j for "
                 "the plate's wake at Re 2900 (fsistab spectrum finds it)"
             )
-        shift = DEFAULT_SHIFT[kind]
+        shift = body.wake_shifts[0]
     shift = complex(shift)
     if not (math.isfinite(shift.real) and math.isfinite(shift.imag)):
         raise InputError(f"the shift must be finite, got {shift}")

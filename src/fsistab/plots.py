@@ -24,6 +24,8 @@ import matplotlib.ticker  # noqa: E402
 import matplotlib.tri as mtri  # noqa: E402
 import numpy as np  # noqa: E402
 
+from fsistab.bodies import body_type  # noqa: E402
+
 # --- style and output format -------------------------------------------------------------------------
 
 _SAVE_STYLE = MappingProxyType(
@@ -325,7 +327,7 @@ def plot_mesh(mesh, path: Path, title: str = "") -> Path:
 
 
 def _field_window(kind: str):
-    return ((-1.0, 3.0), (-0.8, 0.8)) if kind == "plate" else ((-2.0, 6.0), (-2.0, 2.0))
+    return body_type(kind).flow_window
 
 
 def _zero_centred_levels(values: np.ndarray, low: float, high: float, count: int = 40) -> np.ndarray:
@@ -353,7 +355,7 @@ def _streamlines(ax, tri: mtri.Triangulation, velocity: np.ndarray, window) -> N
 def plot_streamwise_velocity(
     steady, path: Path, window=None, subdivisions: int = 4, streamlines: bool = False
 ) -> Path:
-    """Relative streamwise velocity ``(U - W⁰)·d`` near the body (MODEL.md §4, §6: body frame), on each
+    """Relative streamwise velocity ``(U - W⁰)·d`` near the body (docs/model.md §4, §6: body frame), on each
     triangle subdivided ``subdivisions`` times (:func:`sample_mesh`; P2 is exact at the nodes), a
     diverging colour map white at 0; the recirculation outlined by the zero line off the wall (the
     sub-triangles touching the wall are masked for that line: there the velocity vanishes by the
@@ -427,38 +429,11 @@ def plot_spectrum(ds, path: Path, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
-def write_modes_vtk(steady, fluid_index, modes: dict[str, np.ndarray], path: Path) -> Path:
-    """Real and imaginary parts of the velocity and pressure of each mode, as one VTK file.
-
-    ``modes`` maps a name to a fluid vector (the fluid unknowns, indexed by ``fluid_index``). The
-    file is ``path`` with ``.vtu`` appended (unless it ends so), written atomically
-    (:func:`fsistab.store.atomic_path`).
-    """
-    from ngsolve import GridFunction, VTKOutput
-
-    from fsistab.store import atomic_path
-
-    coefs, names = [], []
-    for name, vector in modes.items():
-        for part, values in (("re", vector.real), ("im", vector.imag)):
-            field = GridFunction(steady.space)
-            field.vec.FV().NumPy()[fluid_index] = values
-            coefs += [field.components[0], field.components[1]]
-            names += [f"{name}_velocity_{part}", f"{name}_pressure_{part}"]
-    path = Path(path)  # a name with dots (alpha0 = 2.5) keeps them: ".vtu" is appended
-    target = path if path.suffix == ".vtu" else path.with_name(path.name + ".vtu")
-    with atomic_path(target, ".vtu") as tmp:
-        # VTKOutput appends ".vtu" to the name it is given: give it the temporary without it
-        stem = str(tmp.with_suffix(""))
-        VTKOutput(steady.mesh, coefs=coefs, names=names, filename=stem, subdivision=1).Do()
-    return target
-
-
 # --- modes -----------------------------------------------------------------------------------------
 
 
 def _mode_window(kind: str):
-    return ((-1.0, 2.0), (-0.75, 0.75)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
+    return body_type(kind).mode_window
 
 
 def mode_pressure(
@@ -497,17 +472,22 @@ def _area_quantile(tri: mtri.Triangulation, values: np.ndarray, window, q: float
 
 
 def displaced_outline(outline: np.ndarray, heave: float, pitch: float) -> np.ndarray:
-    """The outline moved by the linearised rigid displacement of a mode, heave ``h`` along ``e_y`` and
-    pitch ``θ`` about G at the origin (MODEL.md §3, §4): ``X + h e_y + θ e_z∧X = (X − θ Y, Y + h + θ X)``."""
+    """The outline moved by the linearised rigid displacement of a mode, heave ``h`` along ``e_y``
+    and pitch ``θ`` about G at the origin (docs/model.md §3, §4):
+    ``X + h e_y + θ e_z∧X = (X − θ Y, Y + h + θ X)``."""
     outline = np.asarray(outline, dtype=float)
     x, y = outline[:, 0], outline[:, 1]
     return np.column_stack([x - pitch * y, y + heave + pitch * x])
 
 
+def _pitches(kind: str) -> bool:
+    return "pitch" in body_type(kind).allowed_dofs
+
+
 def mode_display_scale(kind: str, solid: np.ndarray) -> float:
     """The factor drawing a mode's body displacement with its largest amplitude a quarter of the
     body length: ``|ĥ|``, and for the plate the edges' ``|θ̂|/2`` (0 when the body does not move)."""
-    amplitude = max(abs(solid[0]), 0.5 * abs(solid[1]) if kind == "plate" and len(solid) > 1 else 0.0)
+    amplitude = max(abs(solid[0]), 0.5 * abs(solid[1]) if _pitches(kind) and len(solid) > 1 else 0.0)
     return 0.25 / amplitude if amplitude > 0 else 0.0
 
 
@@ -548,14 +528,14 @@ def plot_mode_snapshot(
     h, theta = (h_hat * rotation).real, (theta_hat * rotation).real
     scale = mode_display_scale(kind, pair.solid) if n_solid else 0.0
     if scale > 0:
-        pitch = theta if kind == "plate" else 0.0
+        pitch = theta if _pitches(kind) else 0.0
         for k, polygon in enumerate(sampled.outline):
             moved = displaced_outline(polygon, scale * h, scale * pitch)
             label = f"displaced body (×{scale:.3g})" if k == 0 else None
             ax.fill(moved[:, 0], moved[:, 1], fc="none", ec="tab:orange", lw=1.6, zorder=6, label=label)
         arrow = {"angles": "xy", "scale_units": "xy", "scale": 1.0, "width": 0.004, "zorder": 7}
         ax.quiver([0.0], [0.0], [0.0], [scale * h], color="tab:red", label=f"heave h (×{scale:.3g})", **arrow)
-        if kind == "plate":
+        if _pitches(kind):
             ax.quiver(
                 [-0.5, 0.5],
                 [0.0, 0.0],
@@ -767,7 +747,7 @@ def plot_stability_map(
     unresolved=(),
     unshaded=(),
 ) -> Path:
-    """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (MODEL.md §8).
+    """Neutral curves in log–log ``(m, U*)`` axes with a second axis ``ω_θ = 1/U*`` (docs/model.md §8).
 
     ``curves``: list of ``(kind, mass_ratios, reduced_velocities)`` for the dynamic neutral curves
     (kind ``flutter`` or ``viv``, red and blue, numbered as in the tables when there are several), in
@@ -784,66 +764,11 @@ def plot_stability_map(
     region is left out of the shading over that range of m (a curve missing), listed under it. The
     legend is under the axes, where it hides nothing.
     """
-    from matplotlib.collections import PolyCollection
-    from matplotlib.patches import Patch
-
     fig, ax = plt.subplots(figsize=(7.0, 5.0))
-    m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
-    ok = np.isfinite(u_div)
-    all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
-    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
-    top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
-    shading = []
-    if unstable is not None:
-        m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
-        top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
-        filled = ax.contourf(
-            m_grid, u_grid, counts, levels=[0.5, 1.5, 2.5, np.inf], colors=_UNSTABLE_COLOURS, zorder=0
-        )
-        filled.set_rasterized(True)
-        names = ("1 unstable mode", "2 unstable modes", "≥ 3 unstable modes")
-        shading += [Patch(fc=c, ec="none", label=n) for c, n in zip(_UNSTABLE_COLOURS, names, strict=True)]
-    if ok.any():
-        ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
-        if unstable is None:
-            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.9", lw=0, zorder=0)
-            shading.append(Patch(fc="0.9", ec="none", label="static divergence"))
-    labelled = set()
-    for i, (kind, masses, velocities) in enumerate(curves):
-        masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
-        colour = _KIND_COLOURS.get(kind, "tab:purple")
-        label = kind if kind not in labelled else None
-        labelled.add(kind)
-        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label, zorder=3)
-        if len(curves) > 1 and len(masses):
-            middle = len(masses) // 2
-            ax.annotate(
-                str(i),
-                (masses[middle], velocities[middle]),
-                xytext=(3, 3),
-                textcoords="offset points",
-                color=colour,
-                fontweight="bold",
-                zorder=6,
-            )
-    banded = False
-    for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
-        quads = _side_bands(masses, velocities, side)
-        if quads:
-            colour = _KIND_COLOURS.get(kind, "tab:purple")
-            ax.add_collection(PolyCollection(quads, fc=colour, ec="none", alpha=0.3, zorder=2, gid="side"))
-            banded = True
-    if banded:
-        shading.append(Patch(fc=_KIND_COLOURS["flutter"], ec="none", alpha=0.3, label="unstable side"))
-    if len(reference):
-        m_r, u_r = np.asarray(reference, dtype=float).T
-        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation", zorder=4)
-    if len(turning_points):
-        m_t, u_t = np.asarray(turning_points, dtype=float).T
-        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point", zorder=5)
-    if len(crossings):
-        m_c, u_c = np.asarray(crossings, dtype=float).T
-        ax.plot(m_c, u_c, "*", color="tab:green", mec="k", mew=0.4, ms=11, label="codimension two", zorder=5)
+    m_div = np.asarray(divergence[0], dtype=float)
+    shading, bottom, top = _map_regions(ax, curves, divergence, unstable)
+    shading += _map_curves(ax, curves, sides)
+    _map_markers(ax, reference, turning_points, crossings)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(bottom, top)
@@ -873,6 +798,82 @@ def plot_stability_map(
         below = legend.get_window_extent().transformed(fig.transFigure.inverted())
         fig.text(below.x0, below.y0, note, va="top", ha="left", fontsize="small")
     return save_figure(fig, path)
+
+
+def _map_regions(ax, curves, divergence, unstable) -> tuple[list, float, float]:
+    """The unstable regions of a map: the exact count of unstable modes (``unstable``) or, without
+    it, grey above the divergence line; the line itself. Returns the legend patches and the U*
+    limits of the axes."""
+    from matplotlib.patches import Patch
+
+    m_div, u_div = (np.asarray(a, dtype=float) for a in divergence)
+    ok = np.isfinite(u_div)
+    all_u = np.concatenate([np.asarray(v, dtype=float) for _, _, v in curves] + [u_div[ok], [1.0]])
+    all_u = all_u[np.isfinite(all_u) & (all_u > 0)]
+    top, bottom = all_u.max() * 1.5, all_u.min() / 1.5
+    shading = []
+    if unstable is not None:
+        m_grid, u_grid, counts = (np.asarray(a, dtype=float) for a in unstable)
+        top, bottom = max(top, u_grid.max()), min(bottom, u_grid.min())
+        filled = ax.contourf(
+            m_grid, u_grid, counts, levels=[0.5, 1.5, 2.5, np.inf], colors=_UNSTABLE_COLOURS, zorder=0
+        )
+        filled.set_rasterized(True)
+        names = ("1 unstable mode", "2 unstable modes", "≥ 3 unstable modes")
+        shading += [Patch(fc=c, ec="none", label=n) for c, n in zip(_UNSTABLE_COLOURS, names, strict=True)]
+    if ok.any():
+        ax.plot(m_div[ok], u_div[ok], color="k", lw=1.5, label="divergence")
+        if unstable is None:
+            ax.fill_between(m_div[ok], u_div[ok], top * 10, color="0.9", lw=0, zorder=0)
+            shading.append(Patch(fc="0.9", ec="none", label="static divergence"))
+    return shading, bottom, top
+
+
+def _map_curves(ax, curves, sides) -> list:
+    """The dynamic neutral curves (numbered when there are several) and the bands on their
+    unstable side; the legend patch of the bands, if any."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
+
+    labelled = set()
+    for i, (kind, masses, velocities) in enumerate(curves):
+        masses, velocities = np.asarray(masses, dtype=float), np.asarray(velocities, dtype=float)
+        colour = _KIND_COLOURS.get(kind, "tab:purple")
+        label = kind if kind not in labelled else None
+        labelled.add(kind)
+        ax.plot(masses, velocities, "-", color=colour, lw=1.8, label=label, zorder=3)
+        if len(curves) > 1 and len(masses):
+            middle = len(masses) // 2
+            ax.annotate(
+                str(i),
+                (masses[middle], velocities[middle]),
+                xytext=(3, 3),
+                textcoords="offset points",
+                color=colour,
+                fontweight="bold",
+                zorder=6,
+            )
+    banded = False
+    for (kind, masses, velocities), side in zip(curves, sides or [None] * len(curves), strict=True):
+        quads = _side_bands(masses, velocities, side)
+        if quads:
+            colour = _KIND_COLOURS.get(kind, "tab:purple")
+            ax.add_collection(PolyCollection(quads, fc=colour, ec="none", alpha=0.3, zorder=2, gid="side"))
+            banded = True
+    return [Patch(fc=_KIND_COLOURS["flutter"], ec="none", alpha=0.3, label="unstable side")] if banded else []
+
+
+def _map_markers(ax, reference, turning_points, crossings) -> None:
+    """Points of another method (○), turning points (▽) and codimension-two points (★)."""
+    if len(reference):
+        m_r, u_r = np.asarray(reference, dtype=float).T
+        ax.plot(m_r, u_r, "o", color="k", ms=3.5, mfc="none", mew=0.7, label="continuation", zorder=4)
+    if len(turning_points):
+        m_t, u_t = np.asarray(turning_points, dtype=float).T
+        ax.plot(m_t, u_t, "v", color="k", ms=6, mfc="none", label="turning point", zorder=5)
+    if len(crossings):
+        m_c, u_c = np.asarray(crossings, dtype=float).T
+        ax.plot(m_c, u_c, "*", color="tab:green", mec="k", mew=0.4, ms=11, label="codimension two", zorder=5)
 
 
 @_styled
@@ -1030,7 +1031,7 @@ def plot_viscous_theodorsen(ds, path: Path, title: str = "") -> Path:
 
 @_styled
 def plot_slopes(ds, path: Path, title: str = "") -> Path:
-    """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, MODEL.md §9) against Re,
+    """Static slopes ``dC_L/dα`` and ``d(-C_M)/dα`` (per radian, α = -θ, docs/model.md §9) against Re,
     with the thin-airfoil values 2π and π/2 as lines; ``ds`` as written by ``fsistab slopes``."""
     reynolds = ds.reynolds.values
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -1244,4 +1245,111 @@ def plot_study_maps(ds, path: Path, title: str = "") -> Path:
     ax.grid(alpha=0.3, which="both")
     ax.legend(title="flutter/VIV —, divergence --", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.set_title(title)
+    return save_figure(fig, path)
+
+
+# --- adjoint sensitivity maps (fsistab.sensitivity) --------------------------------------------------
+
+
+def map_window(kind: str):
+    """The region drawn around the body (body lengths): near the plate, the cylinder's near wake."""
+    return body_type(kind).sensitivity_window
+
+
+def _map_panel(fig, ax, sampled, values, window, label, symmetric=True) -> None:
+    from matplotlib.ticker import MaxNLocator
+
+    tri = sampled.triangulation
+    xy = np.column_stack([tri.x, tri.y])
+    inside = (
+        (xy[:, 0] >= window[0][0])
+        & (xy[:, 0] <= window[0][1])
+        & (xy[:, 1] >= window[1][0])
+        & (xy[:, 1] <= window[1][1])
+    )
+    finite = np.abs(values[inside & np.isfinite(values)])
+    vmax = float(np.quantile(finite, 0.995)) if finite.size else 1.0
+    vmax = vmax if vmax > 0 else 1.0
+    if symmetric:
+        levels, cmap, shown = np.linspace(-vmax, vmax, 41), "RdBu_r", np.clip(values, -vmax, vmax)
+    else:
+        levels, cmap, shown = np.linspace(0, vmax, 41), "viridis", np.clip(values, 0, vmax)
+    cs = ax.tricontourf(tri, shown, levels=levels, cmap=cmap, extend="both" if symmetric else "max")
+    cs.set_rasterized(True)
+    bar = fig.colorbar(cs, ax=ax, label=label, shrink=0.85, format="%.2g")
+    ticks = MaxNLocator(7, symmetric=symmetric).tick_values(-vmax if symmetric else 0.0, vmax)
+    bar.set_ticks(ticks[(ticks >= (-vmax if symmetric else 0.0)) & (ticks <= vmax)])
+    ax.set_xlim(*window[0])
+    ax.set_ylim(*window[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("X")
+    ax.set_ylabel("Y")
+
+
+def plot_sensitivity_maps(maps, steady, path: Path, scale: float = 1.0) -> Path:
+    """One row per target: where a control cylinder moves the threshold (``δU*_c``, body
+    conventions: ``scale`` = :func:`fsistab.params.body_velocity_scale`) or the fixed body's
+    growth rate (``Re δσ``), and the structural sensitivity ``‖û†‖‖û‖``. Drawn on the sampled
+    mesh (:func:`sample_mesh`), the body over it."""
+    from fsistab.errors import InputError
+
+    if not maps:
+        raise InputError("no sensitivity map to draw")
+    kind = steady.mesh_spec.body.kind
+    window = map_window(kind)
+    sampled = sample_mesh(steady.mesh, 3, window)
+    with figure_style():
+        fig, axes = plt.subplots(len(maps), 2, figsize=(11.0, 2.9 * len(maps) + 0.4), squeeze=False)
+        for row, m in zip(axes, maps, strict=True):
+            control = sampled.values(m.control[0])
+            if m.slope is not None:
+                values = -control / m.slope.real * scale
+                label = f"δU*_c, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
+            else:
+                values, label = control, f"Re δσ, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
+            _map_panel(fig, row[0], sampled, values, window, label)
+            _map_panel(fig, row[1], sampled, sampled.values(m.structural), window, "‖û†‖ ‖û‖", False)
+            name = f"{m.kind}, σ = {m.value.real:+.4f}{m.value.imag:+.4f}i"
+            row[0].set_title(f"{name}: control cylinder at (X, Y)")
+            row[1].set_title(f"{m.kind}: structural sensitivity")
+            for ax in row:
+                draw_body(ax, sampled.outline)
+        fig.suptitle(
+            f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: adjoint sensitivities"
+        )
+        fig.tight_layout()
+        return save_figure(fig, path)
+
+
+# --- thresholds along U* (fsistab critical) -----------------------------------------------------------
+
+_THRESHOLD_COLOURS = {"flutter": "tab:red", "viv": "tab:blue", "divergence": "tab:green"}
+
+
+@_styled
+def plot_thresholds(ds, path: Path, title: str = "") -> Path:
+    """The thresholds of :func:`fsistab.workflows.critical_points` over the U* range searched:
+    ``ω_c/ω_n`` (the solid's natural frequency: ω_θ of the plate, ω_h of the cylinder) at each
+    ``U*_c``, coloured by kind, filled where the body loses stability (onset)
+    and open where it regains it (restabilisation); the range searched shaded."""
+    lo, hi = (float(v) for v in ds.attrs["velocity_range"])
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.axvspan(lo, hi, color="0.93", zorder=0, label="U* range searched")
+    for kind, colour in _THRESHOLD_COLOURS.items():
+        for boundary, fill in (("onset", colour), ("restabilisation", "white")):
+            sel = (ds.kind.values == kind) & (ds.boundary.values == boundary)
+            if sel.any():
+                u, ratio = ds.reduced_velocity.values[sel], ds.frequency_ratio.values[sel]
+                ax.plot(u, ratio, "o", mfc=fill, mec=colour, ms=8, ls="none", label=f"{kind} {boundary}")
+    if not ds.sizes.get("threshold", 0):
+        ax.text(0.5, 0.5, "no threshold in this range", transform=ax.transAxes, ha="center", va="center")
+    ax.set_xscale("log")
+    ax.set_xlim(lo / 1.1, hi * 1.1)
+    for axis_ticks in (ax.xaxis.set_major_formatter, ax.xaxis.set_minor_formatter):
+        axis_ticks(matplotlib.ticker.FormatStrFormatter("%g"))  # a short range: plain U* under each tick
+    ax.set_xlabel("reduced velocity U*")
+    ax.set_ylabel("ω_c/ω_n (ω_θ: plate, ω_h: cylinder)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize="small")
+    ax.set_title(title or "thresholds along U*")
     return save_figure(fig, path)

@@ -1,6 +1,6 @@
-"""Adjoint modes and the sensitivity of eigenvalues and thresholds to every parameter (MODEL.md §5–§8).
+"""Adjoint modes and the sensitivity of eigenvalues and thresholds to every parameter (docs/model.md §5–§8).
 
-**Adjoint mode.** For a simple eigenpair ``(σ, q)`` of ``σ M q + J q = 0`` (MODEL.md §7, (E)) the
+**Adjoint mode.** For a simple eigenpair ``(σ, q)`` of ``σ M q + J q = 0`` (docs/model.md §7, (E)) the
 adjoint mode ``q†`` solves ``(J + σM)ᴴ q† = 0``, normalised so that ``q†ᴴ M q = 1``. It is the
 left eigenvector of the discrete problem: its fluid part holds the coefficients of the adjoint
 velocity and pressure in the same finite-element basis (discretise-then-adjoint), so that
@@ -22,10 +22,10 @@ so an adjoint solve costs one back-substitution with the transposed UMFPACK fact
 
     dσ/dp = −q†ᴴ (∂J/∂p + σ ∂M/∂p) q / (q†ᴴ M q)                                      (S1)
 
-For the solid parameters ``p ∈ {m, U*, Ω, ζ_h, ζ_θ, r_θ}`` only the solid rows move (MODEL.md §3,
+For the solid parameters ``p ∈ {m, U*, Ω, ζ_h, ζ_θ, r_θ}`` only the solid rows move (docs/model.md §3,
 §7): their aerodynamic part scales with ``1/m`` (the pitch row with ``1/(m r_θ²)``), their in-vacuo
 part is ``(Ω/U*)² h + 2ζ_h(Ω/U*) ḣ`` and ``(1/U*)² θ + 2ζ_θ(1/U*) θ'``. ``Re`` and ``α0`` move the
-steady state too (MODEL.md §6): ``dJ/dp = ∂J/∂p + ∂J/∂q⁰ · dq⁰/dp`` with the steady tangent
+steady state too (docs/model.md §6): ``dJ/dp = ∂J/∂p + ∂J/∂q⁰ · dq⁰/dp`` with the steady tangent
 
     J_ff dq⁰_f/dp = −∂R_f/∂p                                                           (S2)
 
@@ -38,7 +38,7 @@ difference in ``1/Re`` is exact up to rounding; in ``α0`` (step 10⁻³ degree)
 matrices leave an ``O(t²)`` error (on the plate at α0 = 2°, dσ/dα0 moved by 1.5e-7 relative from
 a step of 10⁻² to 10⁻³ degree, so about 1.5e-9 remains).
 
-**Threshold derivative.** On a neutral point ``Re σ(U*_c; p) = 0`` (MODEL.md §8), by the implicit
+**Threshold derivative.** On a neutral point ``Re σ(U*_c; p) = 0`` (docs/model.md §8), by the implicit
 function theorem,
 
     dU*_c/dp = −Re(∂σ/∂p) / Re(∂σ/∂U*),     dω_c/dp = Im(∂σ/∂p) + Im(∂σ/∂U*) dU*_c/dp      (S3)
@@ -368,7 +368,7 @@ def energy_centroid(fluid: FluidOperators, fluid_vector: np.ndarray) -> tuple[fl
 def solid_parameter_derivative(
     system: CoupledSystem, sigma: complex, q: np.ndarray, parameter: str
 ) -> np.ndarray:
-    """``(∂J/∂p + σ ∂M/∂p) q`` for a solid parameter ``p`` (MODEL.md §3, §7): non-zero on the solid
+    """``(∂J/∂p + σ ∂M/∂p) q`` for a solid parameter ``p`` (docs/model.md §3, §7): non-zero on the solid
     rows only. The aerodynamic part ``a`` of the rows ``ḣ'``, ``θ''`` (all but the in-vacuo
     terms) is ``∝ 1/m`` and, for pitch, ``∝ 1/r_θ²``."""
     if parameter not in SOLID_PARAMETERS:
@@ -404,7 +404,7 @@ def solid_parameter_derivative(
 @dataclass(frozen=True)
 class FlowTangent:
     """The operators on both sides of a steady state along its tangent in one flow parameter
-    (MODEL.md §6, (S2)): ``minus``/``plus`` at ``(c ∓ step, q⁰ ∓ step dq⁰/dc)`` in the coordinate
+    (docs/model.md §6, (S2)): ``minus``/``plus`` at ``(c ∓ step, q⁰ ∓ step dq⁰/dc)`` in the coordinate
     ``c`` (``1/Re`` for ``reynolds``, ``α0`` in degrees for ``alpha0``), ``dc/dp`` = ``scale``."""
 
     parameter: str
@@ -517,7 +517,7 @@ def eigenvalue_derivatives(
 
 @dataclass(frozen=True)
 class ThresholdSensitivity:
-    """Derivatives of one neutral point ``(m, U*_c, ω_c)`` (MODEL.md §8) by (S3).
+    """Derivatives of one neutral point ``(m, U*_c, ω_c)`` (docs/model.md §8) by (S3).
 
     ``eigenvalue`` holds ``dσ/dp`` at the neutral point (``reduced_velocity`` included),
     ``velocity`` ``dU*_c/dp`` and ``frequency`` ``dω_c/dp`` for every other parameter (``alpha0``
@@ -747,7 +747,7 @@ def _mode_fields(system: CoupledSystem, mode: AdjointMode) -> dict[str, np.ndarr
 
 
 def _grid_velocity_perturbation(theta0: float, q_s: np.ndarray):
-    """``ŵ = ∂W/∂θ θ̂ + ∂W/∂ḣ ḣ̂ + θ̂'(-Y, X)`` as (real, imaginary) CoefficientFunctions (MODEL.md §4)."""
+    """``ŵ = ∂W/∂θ θ̂ + ∂W/∂ḣ ḣ̂ + θ̂'(-Y, X)`` as (real, imaginary) CoefficientFunctions (docs/model.md §4)."""
     from ngsolve import CF, x, y
 
     from fsistab.operators import grid_velocity_derivatives
@@ -764,52 +764,36 @@ def _grid_velocity_perturbation(theta0: float, q_s: np.ndarray):
 def base_flow_gradient(system: CoupledSystem, mode: AdjointMode) -> np.ndarray:
     """``g_k = ∂(q†ᴴ J q)/∂q⁰_k`` on the fluid unknowns (the steady velocity and pressure dofs).
 
-    ``J`` depends on the steady state through the convective terms of ``J_ff`` and ``J_fs``
-    (``((∇u)δ + (∇δ)u, v)``, linear in ``δ = ∂U⁰``), the shape terms of ``J_fs``
-    (``-((∇δ)ŵ, v) + θ̂'(e_z∧δ, v)``) and, on the solid rows, the loads ``-ℓᵀ`` of those terms
-    and the steady force ``F⁰ = -ℓᵀ R(q⁰)`` rotated with the body (``∂C_L/∂θ``; its derivative
-    is ``-ℓᵀ J_all δ``). With an outlet sponge, its target ``θ̂ u_θ`` depends on the steady state
-    too: ``-θ̂ σ ((∇δ)(-Y, X) - e_z∧δ, v)`` (:func:`fsistab.operators.rotation_target`). Four real
-    assemblies of one linear form (the real and imaginary parts of ``u`` and ``v``) and one for the
-    steady force."""
-    from ngsolve import CF, Grad, LinearForm, dx, x, y
+    ``J`` depends on the steady state through every term's linearisation
+    (:func:`fsistab.operators.base_flow_variation`: the convective terms of ``J_ff`` and ``J_fs``,
+    ``((∇u)δ + (∇δ)u − (∇δ)ŵ, v)``, the rotation ``θ̂'(e_z∧δ, v)`` and the sponge's target
+    ``-θ̂ σ u_θ(δ)``) and, on the solid rows, the loads ``-ℓᵀ`` of those terms and the steady force
+    ``F⁰ = -ℓᵀ R(q⁰)`` rotated with the body (``∂C_L/∂θ``; its derivative is ``-ℓᵀ J_all δ``).
+    Four real assemblies of one linear form (the real and imaginary parts of ``u`` and ``v``) and
+    one for the steady force (docs/model.md §7)."""
+    from ngsolve import CF, LinearForm, dx
 
-    from fsistab.operators import sponge_coefficient, wall_lifting_matrix
+    from fsistab.operators import base_flow_variation, steady_fields, wall_lifting_matrix
     from fsistab.steady import momentum_linearisation, wall_velocity
 
     fluid = system.fluid
     steady = fluid.steady
     space = steady.space
     fields = _mode_fields(system, mode)
-    w_parts = _grid_velocity_perturbation(fluid.theta0, fields["q_s"])
-    t_parts = (fields["q_s"][3].real, fields["q_s"][3].imag)
-    pitch_parts = (fields["q_s"][1].real, fields["q_s"][1].imag)
-    sigma = sponge_coefficient(steady)
+    terms_at = steady_fields(steady)
     (phi, _) = space.TestFunction()
 
-    def assemble(u_values, w, t, pitch, v_values) -> np.ndarray:
+    def assemble(u_values, q_solid, v_values) -> np.ndarray:
         u = _real_field(space, u_values).components[0]
         v = _real_field(space, v_values).components[0]
-        integrand = (
-            _dot(Grad(u) * phi, v)
-            + _dot(Grad(phi) * u, v)
-            - _dot(Grad(phi) * w, v)
-            + t * _dot(CF((-phi[1], phi[0])), v)
-        )
-        if sigma is not None and pitch != 0:  # the sponge's target, -θ̂ σ u_θ(δ)
-            integrand = integrand - pitch * sigma * _dot(Grad(phi) * CF((-y, x)) - CF((-phi[1], phi[0])), v)
         form = LinearForm(space)
-        # compiled: with the sponge's term 3.9 s instead of 22 s for the four assemblies on the
-        # default mesh, the gradient identical to the bit (as fluid_operators' forms)
-        form += integrand.Compile() * dx
+        # compiled, as fluid_operators' forms: several times faster with the sponge's term
+        form += base_flow_variation(terms_at, phi, u, v, q_solid).Compile() * dx
         form.Assemble()
         return form.vec.FV().NumPy().copy()
 
-    u, v = fields["u"], fields["v"]
-    parts = [
-        (u.real, w_parts[0], t_parts[0], pitch_parts[0]),
-        (u.imag, w_parts[1], t_parts[1], pitch_parts[1]),
-    ]
+    u, v, q_s = fields["u"], fields["v"], fields["q_s"]
+    parts = [(u.real, q_s.real), (u.imag, q_s.imag)]
     g = assemble(*parts[0], v.real) - assemble(*parts[1], v.imag)
     g = g + 1j * (assemble(*parts[0], v.imag) + assemble(*parts[1], v.real))
     weight = fields["a_s"][2] * fields["q_s"][1] * 2 / system.solid.mass_ratio if system.n_solid else 0.0
@@ -840,7 +824,7 @@ def force_sensitivity(
     system: CoupledSystem, mode: AdjointMode, factor: FluidFactor | None = None
 ) -> np.ndarray:
     """The sensitivity of ``σ`` to a steady force ``δf`` added to the steady momentum equation
-    (MODEL.md §6, ``R_f(q⁰) = (δf, v)``), as the coefficients ``s`` of a field on the fluid
+    (docs/model.md §6, ``R_f(q⁰) = (δf, v)``), as the coefficients ``s`` of a field on the fluid
     unknowns: ``δσ = Σ_j s_j (δf, φ_j) = ∫ δf·S_f dx`` with ``S_f = Σ s_j φ_j``.
 
     From ``J_ff δq⁰ = (δf, φ)`` and (S1), ``δσ = -gᵀ J_ff⁻¹ F / (q†ᴴ M q)``, so
@@ -882,7 +866,7 @@ def gaussian_force(centre: tuple[float, float], radius: float, direction: tuple[
 def forced_steady(steady, force: np.ndarray, *, tol: float = 1e-12, maxit: int = 12):
     """The steady state with the force ``F`` (:func:`force_vector`) added, ``R_f(q⁰) = F``, by
     Newton from ``steady`` with :class:`fsistab.steady.SteadyProblem`'s residual and Jacobian
-    (MODEL.md §6; a copy of the state, ``steady`` untouched)."""
+    (docs/model.md §6; a copy of the state, ``steady`` untouched)."""
     from ngsolve import GridFunction
 
     from fsistab.steady import SteadyProblem
@@ -931,7 +915,7 @@ def sensitivity_maps(
 
     Control cylinder (Marquet, Sipp & Jacquin 2008; Hill 1992): a small cylinder fixed to the body
     at ``x₀`` exerts on the flow ``f = -k|U_r|U_r δ(x - x₀)``, ``k = C_d d/2``, ``U_r = U - W``
-    the velocity relative to the body (MODEL.md §4); its drag is carried by its own support (the
+    the velocity relative to the body (docs/model.md §4); its drag is carried by its own support (the
     body's loads do not include it). It moves the steady state, ``δσ_b = S_f(x₀)·f⁰``, and acts
     on the perturbation with ``f' = -k(|U_r| I + U_r U_rᵀ/|U_r|)(û - ŵ)``, which adds ``-f'`` to
     ``J`` at ``x₀``: ``δσ_p = -conj(û†(x₀))·k(|U_r| I + U_r U_rᵀ/|U_r|)(û - ŵ)(x₀)``
@@ -1009,12 +993,13 @@ def maps_at(maps: SensitivityMaps, mesh, points: np.ndarray, scale: float = 1.0)
 
 def wall_distance(mesh, points: np.ndarray) -> np.ndarray:
     """Distance from each of ``points`` to the nearest vertex of the wall (body lengths)."""
+    from ngsolve import BND
     from scipy.spatial import cKDTree
 
-    from fsistab.plots import _wall_edges
+    from fsistab.bodies import WALL
 
     coords = np.asarray(mesh.ngmesh.Coordinates())[:, :2]
-    wall = coords[np.unique(_wall_edges(mesh))]
+    wall = coords[np.unique([v.nr for e in mesh.Elements(BND) if e.mat == WALL for v in e.vertices])]
     return cKDTree(wall).query(np.asarray(points, dtype=float))[0]
 
 
@@ -1057,98 +1042,36 @@ def maps_dataset(maps: Sequence[SensitivityMaps], mesh, attrs: dict | None = Non
     )
 
 
-def write_maps_vtk(maps: Sequence[SensitivityMaps], mesh, path):
-    """The maps as one VTK file (``path`` + ``.vtu``) for ParaView, written atomically."""
-    from pathlib import Path
+def _drag_steady_state(steady, strength, grid_velocity, quadrature, tol: float, maxit: int):
+    """The steady state of ``R_f(q⁰) = (f(U⁰), φ)`` with the drag ``f = -strength |U_r| U_r`` of
+    :func:`control_cylinder_operators` (``U_r`` the velocity relative to the grid), by Newton
+    with the flow's Jacobian alone, from ``steady``."""
+    from ngsolve import GridFunction, LinearForm, sqrt
 
-    from ngsolve import VTKOutput
+    from fsistab.steady import SteadyProblem
 
-    from fsistab.store import atomic_path
-
-    coefs, names = [], []
-    for m in maps:
-        for part, index in (("re", 0), ("im", 1)):
-            coefs += [m.force[index], m.control[index]]
-            names += [f"{m.kind}_force_{part}", f"{m.kind}_control_{part}"]
-        coefs.append(m.structural)
-        names.append(f"{m.kind}_structural")
-    path = Path(path)
-    target = path if path.suffix == ".vtu" else path.with_name(path.name + ".vtu")
-    with atomic_path(target, ".vtu") as tmp:
-        VTKOutput(mesh, coefs=coefs, names=names, filename=str(tmp.with_suffix("")), subdivision=1).Do()
-    return target
-
-
-def map_window(kind: str):
-    """The region drawn around the body (body lengths): near the plate, the cylinder's near wake."""
-    return ((-1.0, 2.5), (-0.8, 0.8)) if kind == "plate" else ((-2.0, 8.0), (-2.5, 2.5))
-
-
-def _map_panel(fig, ax, sampled, values, window, label, symmetric=True) -> None:
-    from matplotlib.ticker import MaxNLocator
-
-    tri = sampled.triangulation
-    xy = np.column_stack([tri.x, tri.y])
-    inside = (
-        (xy[:, 0] >= window[0][0])
-        & (xy[:, 0] <= window[0][1])
-        & (xy[:, 1] >= window[1][0])
-        & (xy[:, 1] <= window[1][1])
+    space = steady.space
+    problem = SteadyProblem.on(steady.mesh, space)
+    state = GridFunction(space)
+    state.vec.data = steady.state.vec
+    problem.set_flow(steady.flow)
+    problem.impose_wall(state, steady.flow)
+    _, (v, _) = space.TnT()
+    residual, values = state.vec.CreateVector(), state.vec.FV().NumPy()
+    solve = problem.newton_solver(state)
+    for _ in range(maxit):
+        relative = state.components[0] - grid_velocity
+        force = LinearForm(space)
+        force += -strength * sqrt(_dot(relative, relative)) * _dot(relative, v) * quadrature
+        force.Assemble()
+        problem.form.Apply(state.vec, residual)
+        r = (residual.FV().NumPy() - force.vec.FV().NumPy())[problem.free]
+        if np.linalg.norm(r) < tol:
+            return state
+        values[problem.free] -= solve(r)
+    raise ConvergenceError(
+        f"the steady state with the control cylinder did not converge ({np.linalg.norm(r):.1e})"
     )
-    finite = np.abs(values[inside & np.isfinite(values)])
-    vmax = float(np.quantile(finite, 0.995)) if finite.size else 1.0
-    vmax = vmax if vmax > 0 else 1.0
-    if symmetric:
-        levels, cmap, shown = np.linspace(-vmax, vmax, 41), "RdBu_r", np.clip(values, -vmax, vmax)
-    else:
-        levels, cmap, shown = np.linspace(0, vmax, 41), "viridis", np.clip(values, 0, vmax)
-    cs = ax.tricontourf(tri, shown, levels=levels, cmap=cmap, extend="both" if symmetric else "max")
-    cs.set_rasterized(True)
-    bar = fig.colorbar(cs, ax=ax, label=label, shrink=0.85, format="%.2g")
-    ticks = MaxNLocator(7, symmetric=symmetric).tick_values(-vmax if symmetric else 0.0, vmax)
-    bar.set_ticks(ticks[(ticks >= (-vmax if symmetric else 0.0)) & (ticks <= vmax)])
-    ax.set_xlim(*window[0])
-    ax.set_ylim(*window[1])
-    ax.set_aspect("equal")
-    ax.set_xlabel("X")
-    ax.set_ylabel("Y")
-
-
-def plot_sensitivity_maps(maps: Sequence[SensitivityMaps], steady, path, scale: float = 1.0):
-    """One row per target: where a control cylinder moves the threshold (``δU*_c``, body
-    conventions: ``scale`` = :func:`fsistab.params.body_velocity_scale`) or the fixed body's
-    growth rate (``Re δσ``), and the structural sensitivity ``‖û†‖‖û‖``. Drawn on the sampled
-    mesh (:func:`fsistab.plots.sample_mesh`), the body over it."""
-    import matplotlib.pyplot as plt
-
-    from fsistab import plots
-
-    if not maps:
-        raise InputError("no sensitivity map to draw")
-    kind = steady.mesh_spec.body.kind
-    window = map_window(kind)
-    sampled = plots.sample_mesh(steady.mesh, 3, window)
-    with plots.figure_style():
-        fig, axes = plt.subplots(len(maps), 2, figsize=(11.0, 2.9 * len(maps) + 0.4), squeeze=False)
-        for row, m in zip(axes, maps, strict=True):
-            control = sampled.values(m.control[0])
-            if m.slope is not None:
-                values = -control / m.slope.real * scale
-                label = f"δU*_c, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
-            else:
-                values, label = control, f"Re δσ, cylinder d = {m.diameter:g}, C_d = {m.drag:g}"
-            _map_panel(fig, row[0], sampled, values, window, label)
-            _map_panel(fig, row[1], sampled, sampled.values(m.structural), window, "‖û†‖ ‖û‖", False)
-            name = f"{m.kind}, σ = {m.value.real:+.4f}{m.value.imag:+.4f}i"
-            row[0].set_title(f"{name}: control cylinder at (X, Y)")
-            row[1].set_title(f"{m.kind}: structural sensitivity")
-            for ax in row:
-                plots.draw_body(ax, sampled.outline)
-        fig.suptitle(
-            f"{kind}, Re = {steady.flow.reynolds:g}, α0 = {steady.flow.alpha0_deg:g}°: adjoint sensitivities"
-        )
-        fig.tight_layout()
-        return plots.save_figure(fig, path)
 
 
 def control_cylinder_operators(
@@ -1168,14 +1091,14 @@ def control_cylinder_operators(
     ``k = C_d d/2``), then ``J_ff`` and ``J_fs`` with ``+k w (|U_r| I + U_r U_rᵀ/|U_r|)`` acting on
     ``û - ŵ`` (the wall values of ``û`` included); the loads are those of the flow alone. A
     negative ``drag`` (a thrust) gives the other side of a central difference."""
-    from ngsolve import CF, BilinearForm, GridFunction, LinearForm, dx, exp, sqrt, x, y
+    from ngsolve import CF, BilinearForm, LinearForm, dx, exp, sqrt, x, y
 
     from fsistab.operators import (
         grid_velocity_derivatives,
         wall_coefficients_jacobian,
         wall_lifting_matrix,
     )
-    from fsistab.steady import SteadyProblem, wall_velocity
+    from fsistab.steady import wall_velocity
 
     if not radius > 0:
         raise InputError(f"the Gaussian's radius must be positive, got {radius}")
@@ -1183,29 +1106,9 @@ def control_cylinder_operators(
     weight = exp(-((x - centre[0]) ** 2 + (y - centre[1]) ** 2) / radius**2) / (math.pi * radius**2)
     space = steady.space
     quadrature = dx(bonus_intorder=FORCE_QUADRATURE_BONUS)
-    problem = SteadyProblem.on(steady.mesh, space)
-    state = GridFunction(space)
-    state.vec.data = steady.state.vec
-    problem.set_flow(steady.flow)
-    problem.impose_wall(state, steady.flow)
     grid_velocity = CF(wall_velocity(steady.flow.theta0))
     (u, _), (v, _) = space.TnT()
-    residual, values = state.vec.CreateVector(), state.vec.FV().NumPy()
-    solve = problem.newton_solver(state)
-    for _ in range(maxit):
-        relative = state.components[0] - grid_velocity
-        force = LinearForm(space)
-        force += -k * weight * sqrt(_dot(relative, relative)) * _dot(relative, v) * quadrature
-        force.Assemble()
-        problem.form.Apply(state.vec, residual)
-        r = (residual.FV().NumPy() - force.vec.FV().NumPy())[problem.free]
-        if np.linalg.norm(r) < tol:
-            break
-        values[problem.free] -= solve(r)
-    else:
-        raise ConvergenceError(
-            f"the steady state with the control cylinder did not converge ({np.linalg.norm(r):.1e})"
-        )
+    state = _drag_steady_state(steady, k * weight, grid_velocity, quadrature, tol, maxit)
     forced = replace(steady, state=state, from_cache=False)
     fluid = fluid_operators(forced)
     relative = forced.velocity - grid_velocity

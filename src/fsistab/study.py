@@ -3,11 +3,11 @@
 A study is a grid of flow points ``(Re, α0)`` (:class:`StudySettings`); at each point
 :func:`run_point` computes what is asked among
 
-* ``slopes``: the steady coefficients ``C_L``, ``C_M``, ``C_D`` (MODEL.md §5 conventions), the
-  recirculation length and the static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (MODEL.md §9);
+* ``slopes``: the steady coefficients ``C_L``, ``C_M``, ``C_D`` (docs/model.md §5 conventions), the
+  recirculation length and the static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (docs/model.md §9);
 * ``modes``: the fixed body's least stable eigenvalues ``σ = λ + iω`` near given shifts
-  (MODEL.md §7), growth rate and frequency;
-* ``thresholds``: at each given mass ratio every threshold along U* (MODEL.md §8, the branch
+  (docs/model.md §7), growth rate and frequency;
+* ``thresholds``: at each given mass ratio every threshold along U* (docs/model.md §8, the branch
   frequency sweep of the exact transfer function of :func:`fsistab.critical.find_thresholds`), each
   **classified** (below);
 * ``map``: the whole ``(m, U*)`` map of :func:`fsistab.workflows.stability_map` (plate only).
@@ -21,7 +21,7 @@ energies near the body (as :func:`fsistab.eigen.label_mode`, units ``ρL²U∞²
 
 the fluid share ``e_f = E_f/(E_h + E_θ + E_f)`` and the heave share of the solid energy
 ``s_h = E_h/(E_h + E_θ)``; the in-vacuo frequencies ``ω_h = Ω/U*`` and ``ω_θ = 1/U*`` (generic
-units, MODEL.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, MODEL.md §10) and the wake
+units, docs/model.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, docs/model.md §10) and the wake
 frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, when given). In order:
 
 1. ``divergence``: a static threshold, ``ω_c = 0`` (:func:`fsistab.critical.divergence_point`);
@@ -99,6 +99,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from fsistab.bodies import body_type
 from fsistab.errors import CacheError, FsistabError, InputError
 from fsistab.neutral_point import STATIC_FREQUENCY
 from fsistab.params import (
@@ -149,6 +150,37 @@ def _values(name: str, values, low: float, high: float, positive: bool) -> tuple
     return tuple(sorted(values))
 
 
+LIST_OPTIONS = {"--Re": "reynolds", "--alpha0": "alpha0", "--thresholds": "thresholds"}
+
+
+def study_lists(args: list[str]) -> dict[str, list[float]]:
+    """The space-separated values of ``--Re``, ``--alpha0`` and ``--thresholds`` on the command
+    line (``--Re 100 500 --alpha0 -4 0 4``), which click's options (one value each) cannot take;
+    anything else left over is refused in one line."""
+    lists: dict[str, list[float]] = {}
+    current = None
+    for token in args:
+        name, _, inline = token.partition("=") if token.startswith("--") else (token, "", "")
+        if token.startswith("--"):
+            if name not in LIST_OPTIONS:
+                raise InputError(f"no such option: {name}")
+            current = LIST_OPTIONS[name]
+            if current in lists:
+                raise InputError(f"{name} given twice: give all its values after one {name}")
+            lists[current] = []
+            if not inline:
+                continue
+            token = inline
+        if current is None:
+            raise InputError(f"unexpected argument {token!r}: values go after --Re, --alpha0 or --thresholds")
+        try:
+            lists[current].append(float(token))
+        except ValueError:
+            option = next(k for k, v in LIST_OPTIONS.items() if v == current)
+            raise InputError(f"{token!r} is not a number (after {option})") from None
+    return lists
+
+
 @dataclass(frozen=True)
 class StudySettings:
     """What a study computes: the grid ``reynolds`` × ``alpha0`` (degrees, nose-up +) and, at each
@@ -177,6 +209,26 @@ class StudySettings:
     zeta_theta: float = 0.05
     r_theta: float = 0.289
     dofs: tuple[str, ...] | None = None
+
+    @classmethod
+    def from_options(cls, lists: dict, options: dict) -> StudySettings:
+        """The settings of ``fsistab study``: the value lists of :func:`study_lists` and the raw
+        values of its other options (complex shifts and dofs as text)."""
+        from fsistab.params import parse_complex, parse_dofs
+
+        wake = options["wake_shift"]
+        keys = ("slopes", "modes", "n_modes", "velocity_range", "points")
+        keys += ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
+        return cls(
+            reynolds=tuple(lists["reynolds"]),
+            alpha0=tuple(lists.get("alpha0", [0.0])),
+            thresholds=tuple(lists.get("thresholds", ())),
+            shifts=tuple(parse_complex("shift", z) for z in options["shift"] or ()),
+            wake_shift=None if wake is None else parse_complex("wake shift", wake),
+            map=options["with_map"],
+            dofs=None if options["dofs"] is None else parse_dofs(options["dofs"], options["body"]),
+            **{key: options[key] for key in keys},
+        )
 
     def __post_init__(self):
         object.__setattr__(self, "reynolds", _values("--Re", self.reynolds, 0.0, MAX_REYNOLDS, True))
@@ -231,13 +283,14 @@ class StudySettings:
                 raise InputError("thresholds need at least one solid degree of freedom (--dofs)")
 
     def mode_shifts(self, kind: str) -> tuple[complex, ...]:
-        """The shifts of the modes: the given ones, else the cylinder's wake mode ``0.75i``."""
+        """The shifts of the modes: the given ones, else the body's wake-mode shifts (the
+        cylinder's ``0.75i``; none for the plate, whose wake frequency varies with Re and α0)."""
         if self.shifts:
             return self.shifts
-        return (0.75j,) if kind == "cylinder" else ()
+        return body_type(kind).wake_shifts
 
     def solid(self, kind: str, mass_ratio: float, reduced_velocity: float) -> Solid:
-        """The solid at ``(m, U*)`` in the body's conventions (MODEL.md §2, §10), as generic
+        """The solid at ``(m, U*)`` in the body's conventions (docs/model.md §2, §10), as generic
         :class:`~fsistab.params.Solid`."""
         return solid_for(
             kind,
@@ -355,7 +408,7 @@ def classify_thresholds(data: xr.Dataset) -> xr.DataArray:
     body, given = data.attrs["body"], json.loads(data.attrs["settings"])
     dofs = tuple(given["dofs"]) if given["dofs"] else None
     names = ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
-    # Ω in the generic form of the solid as run_point built it (1 for the cylinder, MODEL.md §10)
+    # Ω in the generic form of the solid as run_point built it (1 for the cylinder, docs/model.md §10)
     freq_ratio = solid_for(body, None, None, *(given[n] for n in names), dofs).freq_ratio
     scale = body_velocity_scale(body)
     wake = (
@@ -870,25 +923,9 @@ def _workers(client) -> int:
         return 0
 
 
-def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dataset:
-    """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
-    to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
-    ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
-    and where its steady state started (``steady_start``); the thresholds classified anew
-    (:func:`classify_thresholds`)."""
-    reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
-    shape = (len(reynolds), len(alpha0))
-    results = {
-        (reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)): o.result
-        for f, o in outcomes.items()
-        if o.result is not None
-    }
-    status = np.full(shape, "failed", dtype=object)
-    error = np.full(shape, "", dtype=object)
-    for f, o in outcomes.items():
-        i, j = reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)
-        status[i, j] = "done" if o.result is not None else "failed"
-        error[i, j] = o.error
+def _padded_variables(results: dict, shape: tuple[int, int]) -> tuple[dict, dict[str, int]]:
+    """Every variable of the points' datasets on ``(reynolds, alpha0, ...)``, padded to the
+    largest size of each inner dimension (NaN, ``""``, -1), and those sizes."""
     sizes: dict[str, int] = {}
     names: dict[str, tuple] = {}
     for ds in results.values():
@@ -918,8 +955,46 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             ("reynolds", "alpha0"),
             table.astype(str) if isinstance(fill, str) else table,
         )
+    return data, sizes
+
+
+def leading_modes(growth_rates: np.ndarray, frequencies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (the last axis: its modes), the growth rate and frequency of the least stable
+    mode (the first, NaN, at a point without any)."""
+    rates = np.asarray(growth_rates, dtype=float)
+    finite = np.isfinite(rates).any(axis=-1)
+    lead = np.where(finite, np.nanargmax(np.where(np.isfinite(rates), rates, -np.inf), axis=-1), 0)
+    pick = lead[..., None]
+    return np.take_along_axis(rates, pick, -1)[..., 0], np.take_along_axis(frequencies, pick, -1)[..., 0]
+
+
+def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dataset:
+    """One Dataset of every point's variables on dimensions ``(reynolds, alpha0, ...)``, padded
+    to the largest size of each inner dimension (NaN, ``""``, -1); ``status`` ``done`` /
+    ``failed`` and ``error`` per point, and per point the cost (``factorisations``, ``seconds``)
+    and where its steady state started (``steady_start``); with modes, the least stable one
+    (``leading_growth_rate``, ``leading_frequency``); the thresholds classified anew
+    (:func:`classify_thresholds`)."""
+    reynolds, alpha0 = np.array(settings.reynolds), np.array(settings.alpha0)
+    shape = (len(reynolds), len(alpha0))
+    results = {
+        (reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)): o.result
+        for f, o in outcomes.items()
+        if o.result is not None
+    }
+    status = np.full(shape, "failed", dtype=object)
+    error = np.full(shape, "", dtype=object)
+    for f, o in outcomes.items():
+        i, j = reynolds.tolist().index(f.reynolds), alpha0.tolist().index(f.alpha0_deg)
+        status[i, j] = "done" if o.result is not None else "failed"
+        error[i, j] = o.error
+    data, sizes = _padded_variables(results, shape)
     data["status"] = (("reynolds", "alpha0"), status.astype(str))
     data["error"] = (("reynolds", "alpha0"), error.astype(str))
+    if "mode_growth_rate" in data:
+        rates, frequencies = leading_modes(data["mode_growth_rate"][1], data["mode_frequency"][1])
+        data["leading_growth_rate"] = (("reynolds", "alpha0"), rates)
+        data["leading_frequency"] = (("reynolds", "alpha0"), frequencies)
     coords = {"reynolds": reynolds, "alpha0": alpha0}
     if settings.thresholds:
         coords["mass_ratio"] = np.array(settings.thresholds)
@@ -935,7 +1010,7 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             "settings": json.dumps(settings.point_identity(), sort_keys=True),
             "classes": json.dumps(CLASSES),
             "conventions": (
-                "alpha0 in degrees, nose-up +; U* and m in the body's conventions (MODEL.md §2, §10); "
+                "alpha0 in degrees, nose-up +; U* and m in the body's conventions (docs/model.md §2, §10); "
                 "frequencies and growth rates in U/L; coefficients F/(0.5 rho U^2 L s), C_M about G"
             ),
         },
@@ -965,7 +1040,7 @@ def study_client(workers: int | None = None, scheduler: str | None = None):
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"cannot connect to the dask scheduler at {scheduler}: {exc}") from None
         with client:
             yield client
@@ -990,3 +1065,25 @@ def check_execution(workers: int | None, scheduler: str | None) -> None:
         raise InputError(f"--workers must be an integer in [1, 256], got {workers!r}")
     if scheduler is not None and (not scheduler.strip() or any(c.isspace() for c in scheduler.strip())):
         raise InputError(f"--scheduler must be an address such as tcp://host:8786, got {scheduler!r}")
+    if scheduler is not None:
+        _check_scheduler_address(scheduler.strip())
+
+
+def _check_scheduler_address(scheduler: str) -> None:
+    """An address that dask.distributed can connect to: a known scheme (tcp, tls, ws, wss, ucx,
+    inproc) and, but for inproc, a host and a port. Without dask.distributed nothing is checked
+    (:func:`study_client` says that it is missing)."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.comm.registry import get_backend
+    except ImportError:
+        return
+    try:
+        scheme, location = parse_address(scheduler, strict=False)
+        get_backend(scheme)
+        if scheme != "inproc":
+            parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(
+            f"--scheduler must be an address such as tcp://host:8786, got {scheduler!r} ({exc})"
+        ) from None

@@ -1,24 +1,29 @@
 """Workflows: one function per command-line command, the whole computation behind it.
 
-Each takes validated parameter objects (:mod:`fsistab.params`), a cache directory, an output
-directory where it writes its data (NetCDF, written atomically by :mod:`fsistab.store`; figures
-that need the fields themselves, such as meshes and modes, are drawn here too) and a ``progress``
-callback taking one message string. Each returns an :class:`xarray.Dataset` holding the results
-with their units and conventions in attributes; the figures of the results are drawn by
-:mod:`fsistab.plots` from that Dataset, and :func:`payload` turns it into the JSON object the
-command prints (keys documented in docs/cli.md). Nothing here prints.
+Each takes validated parameter objects (:mod:`fsistab.params`), a cache directory, the output
+directory where it writes its data (NetCDF, written atomically by :mod:`fsistab.store`) and a
+``progress`` callback taking one message string. Each returns an :class:`xarray.Dataset` holding
+the results with their units and conventions in attributes, or, where the figures need the fields
+themselves (the mesh, the steady state, the modes, the sensitivity maps), a small result holding
+that Dataset and those fields. Nothing here draws, prints or makes JSON: the outputs layer does,
+from what is returned (:mod:`fsistab.figures`, :mod:`fsistab.payloads`, :mod:`fsistab.reports`).
+No workflow reads a file of ``out`` as its input: a result one workflow needs from another is
+passed, or read from the cache (:func:`stored_map_path`).
 
-Lengths, times and coefficients follow the body's conventions (MODEL.md §1, §10): chord-based for
-the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), MODEL.md §10).
+Lengths, times and coefficients follow the body's conventions (docs/model.md §1, §10): chord-based
+for the plate, diameter-based for the cylinder (where U* = 2πU∞/(Dω_n), docs/model.md §10).
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import json
 import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -34,12 +39,26 @@ from fsistab.params import (
     TransferSettings,
     body_velocity_scale,
 )
+from fsistab.progress import running
 
 Progress = Callable[[str], None] | None
 
 
-def _say(progress: Progress) -> Callable[[str], None]:
-    return progress if progress is not None else (lambda message: None)
+def _workflow(function):
+    """Run a workflow inside :func:`fsistab.progress.running`, as the command line does: BLAS on one
+    thread unless the user chose, and its progress to the caller's callback or, called from Python
+    without one, to the logger ``fsistab`` (:func:`fsistab.show_progress`)."""
+    signature = inspect.signature(function)
+
+    @functools.wraps(function)
+    def run(*args, **kwargs):
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        with running(bound.arguments["progress"]) as say:
+            bound.arguments["progress"] = say
+            return function(*bound.args, **bound.kwargs)
+
+    return run
 
 
 def _mesh_spec(case: Case):
@@ -49,7 +68,7 @@ def _mesh_spec(case: Case):
 
 
 def _fluid(case: Case, cache_dir: Path, say: Callable[[str], None]):
-    """Steady state (cached) and its linear operators (MODEL.md §6, §7)."""
+    """Steady state (cached) and its linear operators (docs/model.md §6, §7)."""
     from fsistab.operators import fluid_operators
     from fsistab.steady import solve_steady
 
@@ -70,57 +89,62 @@ def _steady_progress(say: Callable[[str], None]):
 
 
 def _divergence_velocity(moment_slope, r_theta, mass_ratio):
-    """``U*_D = √(m r_θ²/(dC_M/dθ))`` (MODEL.md §8), inf where there is no divergence."""
+    """``U*_D = √(m r_θ²/(dC_M/dθ))`` (docs/model.md §8), inf where there is no divergence."""
     from fsistab.neutral_point import divergence_velocity
 
     return divergence_velocity(moment_slope, r_theta, mass_ratio)
 
 
-def _finite_or_none(values) -> list:
-    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, dtype=float).ravel()]
-
-
 # --- mesh and steady flow --------------------------------------------------------------------------
 
 
-def mesh_summary(case: Case, cache_dir: Path, out: Path, progress: Progress = None) -> xr.Dataset:
-    """Build (or read from the cache) the case's mesh; its size in attributes, its picture in ``out``."""
-    from fsistab.mesh import build_mesh, mesh_statistics
-    from fsistab.plots import plot_mesh
+class MeshResult(NamedTuple):
+    """The mesh's size (attributes of ``dataset``) and the mesh itself, to be drawn."""
 
-    say = _say(progress)
+    dataset: xr.Dataset
+    mesh: object
+
+
+@_workflow
+def mesh_summary(case: Case, cache_dir: Path, progress: Progress = None) -> MeshResult:
+    """Build (or read from the cache) the case's mesh; its size in the dataset's attributes."""
+    from fsistab.mesh import build_mesh, mesh_statistics
+
+    say = progress
     spec = _mesh_spec(case)
     say(f"mesh: {case.kind}, preset {case.preset}")
     mesh = build_mesh(spec, cache_dir)
     stats = mesh_statistics(mesh)
-    name = f"mesh_{case.kind}_{case.preset}_Re{case.flow.reynolds:g}.png"
-    figure = plot_mesh(mesh, Path(out) / name, title=f"{case.kind}, {case.preset}")
-    return xr.Dataset(
-        attrs={
-            **stats,
-            "body": case.kind,
-            "reynolds": case.flow.reynolds,
-            "preset": case.preset,
-            "mesh_key": spec.key(),
-            "figure": str(figure),
-        }
-    )
+    attrs = {
+        **stats,
+        "body": case.kind,
+        "reynolds": case.flow.reynolds,
+        "preset": case.preset,
+        "mesh_key": spec.key(),
+    }
+    return MeshResult(xr.Dataset(attrs=attrs), mesh)
 
 
-def steady_flow(case: Case, cache_dir: Path, out: Path, progress: Progress = None) -> xr.Dataset:
-    """Steady flow around the fixed body (MODEL.md §6): coefficients (MODEL.md §5 conventions),
-    recirculation length, Newton history and continuation path; the velocity figure in ``out``."""
+class SteadyResult(NamedTuple):
+    """The steady flow's numbers (``dataset``) and the steady state itself, to be drawn."""
+
+    dataset: xr.Dataset
+    steady: object
+
+
+@_workflow
+def steady_flow(case: Case, cache_dir: Path, progress: Progress = None) -> SteadyResult:
+    """Steady flow around the fixed body (docs/model.md §6): coefficients (docs/model.md §5 conventions),
+    recirculation length, Newton history and continuation path, and the steady state to be drawn."""
     from fsistab.forces import aerodynamic_coefficients, recirculation_length
-    from fsistab.plots import plot_streamwise_velocity
     from fsistab.steady import solve_steady
 
-    say = _say(progress)
+    say = progress
     say("steady Navier–Stokes (Newton, continuation in Re)")
     result = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=_steady_progress(say))
     coefficients = aerodynamic_coefficients(result)
-    figure = plot_streamwise_velocity(result, Path(out) / f"steady_{case.tag}.png")
     path = np.array(result.path, dtype=float).reshape(-1, 3)
-    return xr.Dataset(
+    ds = xr.Dataset(
         {
             "newton_residual": ("iteration", np.array(result.history, dtype=float)),
             "path_reynolds": ("step", path[:, 0]),
@@ -140,15 +164,26 @@ def steady_flow(case: Case, cache_dir: Path, out: Path, progress: Progress = Non
             "factorisations": result.factorisations,
             "from_cache": int(result.from_cache),
             "seconds": result.seconds,
-            "figure": str(figure),
             "conventions": "coefficients F/(0.5 rho U^2 L s); C_M about G, counter-clockwise +",
         },
     )
+    return SteadyResult(ds, result)
 
 
 # --- eigenvalues -----------------------------------------------------------------------------------
 
 
+class SpectrumResult(NamedTuple):
+    """The eigenvalues (``dataset``) and what their figures are drawn from: the steady state, the
+    coupled system and its eigenpairs, least stable first."""
+
+    dataset: xr.Dataset
+    steady: object
+    system: object
+    pairs: list
+
+
+@_workflow
 def spectrum(
     case: Case,
     solid: Solid,
@@ -156,54 +191,40 @@ def spectrum(
     cache_dir: Path,
     out: Path,
     progress: Progress = None,
-) -> xr.Dataset:
-    """Eigenvalues of the coupled system nearest the shifts (MODEL.md §7), saved as
-    ``spectrum_{tag}.nc``; pressure snapshots and motions of the least stable modes and (option)
-    the modes as VTK in ``out``, their paths in attributes."""
+) -> SpectrumResult:
+    """Eigenvalues of the coupled system nearest the shifts (docs/model.md §7), saved as
+    ``spectrum_{tag}.nc`` in ``out``; the number of unstable eigenvalues in attribute
+    ``unstable``."""
     from fsistab.coupled import CoupledSystem
     from fsistab.eigen import eigenpairs_near, spectrum_dataset
-    from fsistab.plots import plot_mode_snapshot, plot_solid_motion, write_modes_vtk
     from fsistab.store import write_dataset
 
-    say = _say(progress)
-    out = Path(out)
+    say = progress
     steady, fluid = _fluid(case, cache_dir, say)
     system = CoupledSystem(fluid, solid)
     say(f"shift-invert Arnoldi near {len(settings.shifts)} shift(s), {system.size} unknowns")
     pairs = eigenpairs_near(system, list(settings.shifts), settings.n_eigenvalues)
     shifts = json.dumps([[z.real, z.imag] for z in settings.shifts])
     ds = spectrum_dataset(pairs, system, {"shifts": shifts})
-    data_path = write_dataset(ds, out / f"spectrum_{case.tag}.nc")
-    mode_paths = []
-    for i, pair in enumerate(pairs[: settings.mode_figures]):
-        say(f"figures of mode {i}")
-        snapshot = out / f"mode{i}_{case.tag}.png"
-        index = system.fluid.free_dofs
-        mode_paths.append(str(plot_mode_snapshot(steady, index, pair, system, snapshot, settings.phase)))
-        if system.n_solid:
-            mode_paths.append(str(plot_solid_motion(pair, out / f"mode{i}_motion_{case.tag}.png").path))
-    vtk_path = None
-    if settings.vtk:
-        say("modes as VTK")
-        modes = {f"mode{i}": p.vector[system.n_solid :] for i, p in enumerate(pairs[:6])}
-        vtk_path = write_modes_vtk(steady, system.fluid.free_dofs, modes, out / f"modes_{case.tag}")
-    return ds.assign_attrs(
+    data_path = write_dataset(ds, Path(out) / f"spectrum_{case.tag}.nc")
+    ds = ds.assign_attrs(
         netcdf=str(data_path),
-        vtk=str(vtk_path) if vtk_path else "",
-        mode_figures=json.dumps(mode_paths),
         dofs=",".join(solid.dofs) or "none",
+        unstable=int((ds.growth_rate.values > 0).sum()),
     )
+    return SpectrumResult(ds, steady, system, pairs)
 
 
+@_workflow
 def static_slopes_study(
     cases: list[Case], cache_dir: Path, out: Path, progress: Progress = None
 ) -> xr.Dataset:
-    """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, MODEL.md §9)
+    """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, docs/model.md §9)
     of the plate at each case's Re (same α0 and preset), saved as ``slopes_plate_a{α0}_{preset}.nc``."""
     from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
     from fsistab.store import write_dataset
 
-    say = _say(progress)
+    say = progress
     results = []
     for case in cases:
         say(f"Re = {case.flow.reynolds:g}: steady state and one linear solve")
@@ -234,7 +255,7 @@ def static_slopes_study(
 
 def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings):
     """``(scale, velocities, solid, counter)`` of a search for every threshold along U*: the sweep
-    in the generic U* (the body's divided by ``scale``, MODEL.md §10), the solid at its first
+    in the generic U* (the body's divided by ``scale``, docs/model.md §10), the solid at its first
     value and a factorisation counter."""
     from fsistab.linalg import FactorCounter
 
@@ -243,16 +264,27 @@ def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings):
     return scale, velocities, replace(solid, reduced_velocity=float(velocities[0])), FactorCounter()
 
 
+@_workflow
 def critical_points(
-    case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, progress: Progress = None
+    case: Case,
+    solid: Solid,
+    sweep: SweepSettings,
+    cache_dir: Path,
+    out: Path | None = None,
+    progress: Progress = None,
 ) -> xr.Dataset:
-    """Every threshold along U* at one mass ratio (MODEL.md §8) over the sweep's range: the exact
+    """Every threshold along U* at one mass ratio (docs/model.md §8) over the sweep's range: the exact
     transfer function swept in frequency, each crossing converged by Newton on ``det T``,
     divergence from ``G(0)`` (:func:`fsistab.critical.find_thresholds`). U* in the body's
-    convention (×2π for the cylinder, MODEL.md §10)."""
+    convention (×2π for the cylinder, docs/model.md §10); ``frequency_ratio`` is ``ω_c/ω_n`` (over the
+    solid's natural frequency: ω_θ of the plate, ω_h of the cylinder). What the
+    search did in attributes: ``frequencies_sampled`` (transfer) or ``branches_tracked`` over
+    ``points`` values of U* (tracking). Saved as ``critical_{tag}_m{m}_{preset}.nc`` in ``out``
+    (when given), its path in attribute ``netcdf``."""
     from fsistab.critical import find_thresholds
+    from fsistab.store import write_dataset
 
-    say = _say(progress)
+    say = progress
     scale, velocities, solid, counter = _threshold_sweep(case, solid, sweep)
     _, fluid = _fluid(case, cache_dir, say)
     thresholds, details = find_thresholds(
@@ -264,26 +296,37 @@ def critical_points(
         progress=say,
         method=sweep.method,
     )
-    return xr.Dataset(
+    velocity = np.array([t.reduced_velocity * scale for t in thresholds])
+    frequency = np.array([t.frequency for t in thresholds])
+    ds = xr.Dataset(
         {
             "kind": ("threshold", np.array([t.kind for t in thresholds], dtype=str)),
             "boundary": ("threshold", np.array([t.boundary for t in thresholds], dtype=str)),
-            "reduced_velocity": ("threshold", np.array([t.reduced_velocity * scale for t in thresholds])),
-            "frequency": ("threshold", np.array([t.frequency for t in thresholds])),
+            "reduced_velocity": ("threshold", velocity),
+            "frequency": ("threshold", frequency),
+            # ω_c/ω_n = ω_c U*_c in the generic convention (time unit L/U)
+            "frequency_ratio": ("threshold", frequency * velocity / scale),
         },
         attrs={
             "body": case.kind,
             "reynolds": case.flow.reynolds,
+            "alpha0_deg": case.flow.alpha0_deg,
+            "preset": case.preset,
             "mass_ratio": sweep.mass_ratio,
             "velocity_range": list(sweep.velocity_range),
             "points": sweep.points,
             "method": sweep.method,
             "frequencies_sampled": len(details.get("frequencies", ())),
+            "branches_tracked": len(details.get("branches", ())),
             "unresolved_intervals": len(details.get("unresolved", ())),
             "factorisations": counter.count,
-            "conventions": "U* and m in the body's conventions (MODEL.md §2, §10); frequency in U/L",
+            "conventions": "U* and m in the body's conventions (docs/model.md §2, §10); frequency in U/L",
         },
     )
+    if out is None:
+        return ds
+    path = write_dataset(ds, Path(out) / f"critical_{case.tag}_m{sweep.mass_ratio:g}_{case.preset}.nc")
+    return ds.assign_attrs(netcdf=str(path))
 
 
 # --- stability map in (m, U*) ----------------------------------------------------------------------
@@ -349,6 +392,7 @@ def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, sa
     return as_neutral_map(tmap, template), tmap
 
 
+@_workflow
 def stability_map(
     case: Case,
     template: Solid,
@@ -357,14 +401,15 @@ def stability_map(
     out: Path,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """The stability map of the plate in ``(m, U*)`` (MODEL.md §8): flutter and VIV neutral curves,
+    """The stability map of the plate in ``(m, U*)`` (docs/model.md §8): flutter and VIV neutral curves,
     the divergence curve ``U*_D = √(m r_θ²/(dC_M/dθ))``, turning points and codimension-two
     crossings, by the transfer function (default) or by continuation (settings.method).
 
-    Saves ``neutral_{tag}_map.nc`` (read back by :func:`theodorsen_comparison`) and
-    ``neutral_{tag}_divergence.nc``; the samples, reduced models and curves saved on the way make a
-    rerun resume. The returned map dataset also has each curve's seed mass and stops, the
-    frequency at each turning point, and (transfer) the count of unstable eigenvalues on a grid.
+    Saves ``neutral_{tag}_map.nc`` (also in the cache, where :func:`theodorsen_comparison` finds
+    it: :func:`stored_map_path`) and ``neutral_{tag}_divergence.nc``; the samples, reduced models
+    and curves saved on the way make a rerun resume. The returned map dataset also has each
+    curve's seed mass and stops, the frequency at each turning point, the divergence law's
+    coefficient ``U*_D/√m`` and (transfer) the count of unstable eigenvalues on a grid.
     """
     from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
@@ -372,7 +417,7 @@ def stability_map(
     from fsistab.reduced_model import ReducedModels
     from fsistab.store import write_dataset
 
-    say = _say(progress)
+    say = progress
     out = Path(out)
     template = replace(
         template,
@@ -411,7 +456,9 @@ def stability_map(
     ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
     ds.attrs["factorisations_this_run"] = counter.count
     ds.attrs["reduced_models"] = models
+    ds.attrs["divergence_coefficient"] = divergence_coefficient(ds)
     data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
+    write_dataset(ds, stored_map_path(cache_dir, case.tag))
     divergence = xr.Dataset(
         {"reduced_velocity": ("mass_ratio", result.divergence_velocities)},
         coords={"mass_ratio": result.divergence_mass_ratios},
@@ -467,6 +514,7 @@ def divergence_coefficient(ds: xr.Dataset) -> float:
 # --- neutral curves in the flow plane --------------------------------------------------------------
 
 
+@_workflow
 def flow_neutral_curves(
     case: Case,
     solid: Solid,
@@ -475,7 +523,7 @@ def flow_neutral_curves(
     out: Path,
     progress: Progress = None,
 ) -> xr.Dataset:
-    """Neutral curves in ``(Re, U*)`` or ``(α0, U*)`` at one mass ratio (MODEL.md §8): the flutter
+    """Neutral curves in ``(Re, U*)`` or ``(α0, U*)`` at one mass ratio (docs/model.md §8): the flutter
     thresholds of a sweep in U* at the case's flow, each continued both ways by pseudo-arclength.
     Each half is saved as ``flow_neutral_{tag}_{parameter}_m{m}_curve{k}_{down|up}.nc`` and reused
     by a rerun with the same parameters. Returns the halves stacked along ``point`` (index
@@ -489,7 +537,7 @@ def flow_neutral_curves(
     )
     from fsistab.linalg import FactorCounter
 
-    say = _say(progress)
+    say = progress
     out = Path(out)
     mass = solid.mass_ratio
     counter = FactorCounter()
@@ -543,7 +591,7 @@ def flow_neutral_curves(
 
 
 def typical_section(solid: Solid, settings: TheodorsenSettings):
-    """The typical section of MODEL.md §9 (thin-airfoil slopes until :func:`section_slopes`): the
+    """The typical section of docs/model.md §9 (thin-airfoil slopes until :func:`section_slopes`): the
     settings' m, elastic axis and static unbalance with ``solid``'s other parameters. Cheap: it
     validates the section before any work."""
     from fsistab.theodorsen import TypicalSection
@@ -557,11 +605,12 @@ def typical_section(solid: Solid, settings: TheodorsenSettings):
     return TypicalSection(solid, settings.elastic_axis, settings.static_unbalance)
 
 
+@_workflow
 def section_slopes(
     section, settings: TheodorsenSettings, case: Case, cache_dir: Path, progress: Progress = None
 ):
     """``section`` with the settings' slopes: thin airfoil, given, or the viscous static slopes at
-    the case's Re (``calibrated``, MODEL.md §9: cached steady state, one linear solve)."""
+    the case's Re (``calibrated``, docs/model.md §9: cached steady state, one linear solve)."""
     from fsistab.theodorsen import AirfoilSlopes
 
     if settings.slopes == "thin-airfoil":
@@ -571,7 +620,7 @@ def section_slopes(
         return replace(section, slopes=airfoil)
     from fsistab.slopes import static_slopes
 
-    say = _say(progress)
+    say = progress
     say(f"viscous static slopes at Re = {case.flow.reynolds:g} (steady state, one linear solve)")
     _, fluid = _fluid(case, cache_dir, say)
     return replace(section, slopes=AirfoilSlopes.from_static(static_slopes(fluid)))
@@ -590,7 +639,7 @@ def _slope_attrs(section) -> dict:
 
 
 def theodorsen_points(section, settings: TheodorsenSettings) -> xr.Dataset:
-    """Every flutter boundary and the divergence of the typical section at its m (MODEL.md §9)."""
+    """Every flutter boundary and the divergence of the typical section at its m (docs/model.md §9)."""
     from fsistab.theodorsen import critical_points as section_points
 
     found = section_points(section, settings.velocity_range)
@@ -610,17 +659,22 @@ def theodorsen_points(section, settings: TheodorsenSettings) -> xr.Dataset:
     )
 
 
-def viscous_map_curves(out: Path, tag: str, section):
-    """The viscous neutral curves of ``fsistab neutral`` for ``tag`` in ``out`` (the map dataset
-    ``neutral_{tag}_map.nc`` that both of its methods write), if they were computed with the
-    section's solid parameters: ``({"flutter": [(m, U*), ...], "divergence": (m, U*)}, note)`` or
-    ``(None, why not)``."""
+def stored_map_path(cache_dir: Path, tag: str) -> Path:
+    """Where the cache keeps the last stability map of ``fsistab neutral`` (either method) for the
+    case ``tag``: the viscous map that :func:`theodorsen_comparison` compares with."""
+    return Path(cache_dir) / "maps" / f"neutral_{tag}_map.nc"
+
+
+def viscous_map_curves(cache_dir: Path, tag: str, section):
+    """The viscous neutral curves of the last ``fsistab neutral`` for ``tag`` with this cache
+    (:func:`stored_map_path`), if they were computed with the section's solid parameters:
+    ``({"flutter": [(m, U*), ...], "divergence": (m, U*)}, note)`` or ``(None, why not)``."""
     from fsistab.errors import CacheError
     from fsistab.store import read_dataset
 
-    path = Path(out) / f"neutral_{tag}_map.nc"
+    path = stored_map_path(cache_dir, tag)
     if not path.is_file():
-        return None, f"no {path.name} in {out}: no viscous comparison"
+        return None, f"no stability map of {tag} in the cache {cache_dir}: no viscous comparison"
     if section.elastic_axis != 0 or section.static_unbalance != 0:
         return None, "the viscous plate has a = 0 and x_θ = 0: no viscous comparison"
     try:
@@ -631,7 +685,7 @@ def viscous_map_curves(out: Path, tag: str, section):
     wanted = {"freq_ratio": solid.freq_ratio, "zeta_h": solid.zeta_h, "zeta_theta": solid.zeta_theta}
     wanted["r_theta"] = solid.r_theta
     if any(not math.isclose(float(ds.attrs.get(k, math.nan)), v) for k, v in wanted.items()):
-        return None, f"{path.name} has other solid parameters: no viscous comparison"
+        return None, f"the stored map of {tag} has other solid parameters: no viscous comparison"
     from fsistab.neutral_map import map_curves
 
     flutter = [(m, u) for kind, m, u, _ in map_curves(ds) if kind == "flutter" and len(m)]
@@ -639,24 +693,32 @@ def viscous_map_curves(out: Path, tag: str, section):
     return {"flutter": flutter, "divergence": divergence}, f"viscous neutral curves from {path}"
 
 
+@_workflow
 def theodorsen_comparison(
-    section, settings: TheodorsenSettings, case: Case, out: Path, progress: Progress = None
+    section,
+    settings: TheodorsenSettings,
+    case: Case,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
 ) -> xr.Dataset:
-    """Neutral curves ``U*(m)`` of the typical section over the settings' mass range (MODEL.md §9),
-    with the viscous map of ``fsistab neutral`` for the plate at the case's Re and α0 if it is in ``out``
-    (:func:`viscous_map_curves`) and the relative error of the lowest flutter boundary against it.
-    Saved as ``theodorsen_{tag}_{slopes}.nc``."""
+    """Neutral curves ``U*(m)`` of the typical section over the settings' mass range (docs/model.md §9)
+    with their frequency ratio ``ω_F/ω_θ = ω_F U*_F``, and the viscous map of ``fsistab neutral``
+    for the plate at the case's Re and α0 if the cache holds one (:func:`viscous_map_curves`)
+    with the relative error of the lowest flutter boundary against it. Saved as
+    ``theodorsen_{tag}_{slopes}.nc`` in ``out``."""
     from fsistab.store import write_dataset
     from fsistab.theodorsen import lower_envelope, lowest_flutter_velocity, neutral_curves
 
-    say = _say(progress)
+    say = progress
     masses = np.geomspace(*settings.mass_range, settings.points)
     say(f"Theodorsen neutral curves at {settings.points} mass ratios")
     ds = neutral_curves(section, masses, settings.velocity_range)
+    ds["flutter_frequency_ratio"] = ds.reduced_velocity * ds.frequency  # ω_F/ω_θ
     ds.attrs.update(_slope_attrs(section))
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
     tag = f"plate_Re{case.flow.reynolds:g}_a{case.flow.alpha0_deg:g}"
-    viscous, note = viscous_map_curves(out, tag, section)
+    viscous, note = viscous_map_curves(cache_dir, tag, section)
     ds.attrs["viscous_comparison"] = note
     if viscous:
         say("lowest flutter boundary against the viscous map")
@@ -680,19 +742,37 @@ def theodorsen_comparison(
     return ds.assign_attrs(netcdf=str(path))
 
 
+def theodorsen(
+    section,
+    settings: TheodorsenSettings,
+    case: Case,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+) -> xr.Dataset:
+    """``fsistab theodorsen``: the typical section (:func:`typical_section`) with the settings'
+    slopes (:func:`section_slopes`), then its thresholds at one m (:func:`theodorsen_points`) or,
+    with a mass range, its neutral curves against the viscous map (:func:`theodorsen_comparison`)."""
+    section = section_slopes(section, settings, case, cache_dir, progress)
+    if settings.mass_range is None:
+        return theodorsen_points(section, settings)
+    return theodorsen_comparison(section, settings, case, cache_dir, out, progress)
+
+
 # --- viscous Theodorsen function -------------------------------------------------------------------
 
 
+@_workflow
 def transfer_function(
     case: Case, settings: TransferSettings, cache_dir: Path, out: Path, progress: Progress = None
 ) -> xr.Dataset:
-    """The viscous Theodorsen function ``G(ik)`` beside Theodorsen's model (MODEL.md §9), at
-    ``k = ω L/(2U∞)`` log-spaced; samples kept in the cache as they come (a rerun resumes);
-    saved as ``transfer_{tag}_{preset}.nc``."""
+    """The viscous Theodorsen function ``G(ik)`` beside Theodorsen's model (docs/model.md §9), at
+    ``k = ω L/(2U∞)`` log-spaced (coordinate ``reduced_frequency``); samples kept in the cache as
+    they come (a rerun resumes); saved as ``transfer_{tag}_{preset}.nc``."""
     from fsistab.store import write_dataset
     from fsistab.transfer import viscous_theodorsen_dataset
 
-    say = _say(progress)
+    say = progress
     omega = 2 * np.geomspace(*settings.k_range, settings.points)
     _, fluid = _fluid(case, cache_dir, say)
 
@@ -702,317 +782,15 @@ def transfer_function(
     samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).linear_key()}_{case.tag}.nc"
     ds = viscous_theodorsen_dataset(fluid, omega, progress=count, samples_path=samples_path)
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
+    ds.attrs.update({"body": case.kind, "preset": case.preset})
     path = write_dataset(ds, Path(out) / f"transfer_{case.tag}_{case.preset}.nc")
     return ds.assign_attrs(netcdf=str(path))
-
-
-# --- JSON payloads (docs/cli.md) -----------------------------------------------------
-
-
-def _pair(z) -> list[float]:
-    return [float(z.real), float(z.imag)]
-
-
-def payload(command: str, ds: xr.Dataset) -> dict:
-    """The JSON object a command prints, from the Dataset its workflow returned (and the figure
-    path the command added as the ``figure`` attribute)."""
-    return _PAYLOADS[command](ds)
-
-
-def _mesh_payload(ds):
-    keys = ("triangles", "vertices", "ndof", "h_min", "h_max", "preset", "mesh_key", "figure")
-    return {k: _plain(ds.attrs[k]) for k in keys}
-
-
-def _plain(value):
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def _steady_payload(ds):
-    a = ds.attrs
-    keys = ("body", "reynolds", "alpha0_deg", "lift_coefficient", "moment_coefficient", "drag_coefficient")
-    keys += ("recirculation_length", "ndof", "newton_iterations")
-    result = {k: _plain(a[k]) for k in keys}
-    result["newton_residuals"] = ds.newton_residual.values.tolist()
-    result["continuation"] = [
-        {"reynolds": float(r), "alpha0_deg": float(al), "iterations": int(n)}
-        for r, al, n in zip(
-            ds.path_reynolds.values, ds.path_alpha0_deg.values, ds.path_iterations.values, strict=True
-        )
-    ]
-    result.update(
-        factorisations=_plain(a["factorisations"]),
-        from_cache=bool(a["from_cache"]),
-        seconds=_plain(a["seconds"]),
-        figure=a["figure"],
-    )
-    return result
-
-
-def _spectrum_payload(ds):
-    return {
-        "eigenvalues": [
-            {
-                "growth_rate": float(g),
-                "frequency": float(w),
-                "label": str(label),
-                "residual": float(r),
-            }
-            for g, w, label, r in zip(
-                ds.growth_rate.values, ds.frequency.values, ds.label.values, ds.residual.values, strict=True
-            )
-        ],
-        "ndof": int(ds.attrs["ndof"]),
-        "netcdf": ds.attrs["netcdf"],
-        "figure": ds.attrs["figure"],
-        "vtk": ds.attrs["vtk"] or None,
-        "mode_figures": json.loads(ds.attrs["mode_figures"]),
-    }
-
-
-def _slopes_payload(ds):
-    return {
-        "alpha0_deg": float(ds.attrs["alpha0_deg"]),
-        "slopes": [
-            {"reynolds": float(r), "lift_slope_alpha": float(lift), "moment_slope_alpha": float(moment)}
-            for r, lift, moment in zip(
-                ds.reynolds.values, ds.lift_slope_alpha.values, ds.moment_slope_alpha.values, strict=True
-            )
-        ],
-        "netcdf": ds.attrs["netcdf"],
-        "figure": ds.attrs["figure"],
-    }
-
-
-def _thresholds(ds) -> list[dict]:
-    return [
-        {"kind": str(k), "reduced_velocity": float(u), "frequency": float(w), "boundary": str(b)}
-        for k, u, w, b in zip(
-            ds.kind.values, ds.reduced_velocity.values, ds.frequency.values, ds.boundary.values, strict=True
-        )
-    ]
-
-
-def _critical_payload(ds):
-    return {
-        "mass_ratio": float(ds.attrs["mass_ratio"]),
-        "critical_points": _thresholds(ds),
-        "factorisations": int(ds.attrs["factorisations"]),
-        "method": str(ds.attrs.get("method", "transfer")),
-        "unresolved_intervals": int(ds.attrs.get("unresolved_intervals", 0)),
-    }
-
-
-def _neutral_payload(ds):
-    from fsistab.neutral_map import map_curve_names, map_curves, unshaded_families
-
-    names = map_curve_names(ds)
-    curves = []
-    for i, (kind, m, u, w) in enumerate(map_curves(ds)):
-        fold = ds.fold_curve.values == i
-        seed = float(ds.curve_seed_mass_ratio.values[i])
-        curves.append(
-            {
-                "kind": kind,
-                "seed_mass_ratio": seed if math.isfinite(seed) else None,
-                "mass_ratio": m.tolist(),
-                "reduced_velocity": u.tolist(),
-                "frequency": w.tolist(),
-                "unstable_side": ds.curve_unstable_side.values[ds.curve.values == i].tolist(),
-                "frequency_following": _finite_or_none([ds.curve_frequency_following.values[i]])[0],
-                "turning_points": [
-                    {"mass_ratio": float(a), "reduced_velocity": float(b), "frequency": float(c)}
-                    for a, b, c in zip(
-                        ds.fold_mass_ratio.values[fold],
-                        ds.fold_reduced_velocity.values[fold],
-                        ds.fold_frequency.values[fold],
-                        strict=True,
-                    )
-                ],
-                "stops": [str(ds.curve_stop_low.values[i]), str(ds.curve_stop_high.values[i])],
-            }
-        )
-
-    def name_of(index: int) -> str:
-        return "divergence" if index < 0 else names[index]
-
-    wake = float(ds.attrs["wake_frequency"])
-    return {
-        "curves": curves,
-        "divergence": {
-            "mass_ratio": ds.mass_ratio.values.tolist(),
-            "reduced_velocity": ds.divergence_reduced_velocity.values.tolist(),
-            "moment_slope": float(ds.attrs["moment_slope"]),
-        },
-        "codimension_two": [
-            {
-                "curves": [name_of(int(a)), name_of(int(b))],
-                "kinds": [str(ka), str(kb)],
-                "mass_ratio": float(m),
-                "reduced_velocity": float(u),
-                "frequencies": _finite_or_none([wa, wb]),
-            }
-            for a, b, ka, kb, m, u, wa, wb in zip(
-                ds.crossing_first.values,
-                ds.crossing_second.values,
-                ds.crossing_first_kind.values,
-                ds.crossing_second_kind.values,
-                ds.crossing_mass_ratio.values,
-                ds.crossing_reduced_velocity.values,
-                ds.crossing_first_frequency.values,
-                ds.crossing_second_frequency.values,
-                strict=True,
-            )
-        ],
-        "unresolved": [
-            {"frequency_range": [float(lo), float(hi)], "reason": str(why)}
-            for lo, hi, why in zip(
-                ds.unresolved_low.values, ds.unresolved_high.values, ds.unresolved_reason.values, strict=True
-            )
-        ],
-        "unresolved_count": int(ds.sizes.get("unresolved", 0)),
-        "unshaded": [
-            {"kind": kind, "mass_ratio_range": [low, high]} for kind, low, high in unshaded_families(ds)
-        ],
-        "wake_frequency": wake if math.isfinite(wake) else None,
-        "method": ds.attrs["method"],
-        "factorisations": int(ds.attrs["factorisations_this_run"]),
-        "reduced_models": int(ds.attrs["reduced_models"]),
-        "rational_fits": int(ds.attrs.get("rational_fits", 0)),
-        "interpolated_frequencies": int(ds.attrs.get("interpolated_frequencies", 0)),
-        "data": ds.attrs["data"],
-        "figure": ds.attrs["figure"],
-    }
-
-
-def _flow_neutral_payload(ds):
-    from fsistab.flow_neutral import flow_curves
-
-    parameter = ds.attrs["parameter"]
-    return {
-        "parameter": parameter,
-        "mass_ratio": float(ds.attrs["mass_ratio"]),
-        "curves": [
-            {
-                "kind": kind,
-                "direction": "decreasing" if direction < 0 else "increasing",
-                parameter: values.tolist(),
-                "reduced_velocity": u.tolist(),
-                "frequency": w.tolist(),
-                "turning_points": [
-                    {parameter: float(p), "reduced_velocity": float(v)} for p, v in zip(fp, fu, strict=True)
-                ],
-                "stop": stop,
-            }
-            for kind, direction, values, u, w, fp, fu, stop in flow_curves(ds)
-        ],
-        "factorisations": int(ds.attrs["factorisations"]),
-        "figure": ds.attrs["figure"],
-    }
-
-
-def _slopes_info(ds) -> dict:
-    a = ds.attrs
-    return {
-        "source": a["slopes_source"],
-        "lift_slope_alpha": float(a["lift_slope_alpha"]),
-        "moment_slope_alpha": float(a["moment_slope_alpha"]),
-        "moment_slope_elastic_axis": float(a["moment_slope_elastic_axis"]),
-    }
-
-
-def _theodorsen_points_payload(ds):
-    return {
-        "mass_ratio": float(ds.attrs["mass_ratio"]),
-        "critical_points": _thresholds(ds),
-        "slopes": _slopes_info(ds),
-    }
-
-
-def _theodorsen_map_payload(ds):
-    comparison = None
-    if "comparison_mass_ratio" in ds and ds.sizes.get("comparison", 0):
-        comparison = [
-            {
-                "mass_ratio": float(m),
-                "viscous": float(u),
-                "theodorsen": t,
-                "relative_error": e,
-            }
-            for m, u, t, e in zip(
-                ds.comparison_mass_ratio.values,
-                ds.comparison_viscous.values,
-                _finite_or_none(ds.comparison_theodorsen.values),
-                _finite_or_none(ds.comparison_relative_error.values),
-                strict=True,
-            )
-        ]
-    return {
-        "mass_ratio": ds.mass_ratio.values.tolist(),
-        "flutter": {
-            "reduced_velocity": [_finite_or_none(row) for row in ds.reduced_velocity.values],
-            "frequency": [_finite_or_none(row) for row in ds.frequency.values],
-        },
-        "divergence": _finite_or_none(ds.divergence_velocity.values),
-        "slopes": _slopes_info(ds),
-        "comparison": comparison,
-        "netcdf": ds.attrs["netcdf"],
-        "figure": ds.attrs["figure"],
-    }
-
-
-def _transfer_payload(ds):
-    from fsistab.store import complex_values
-
-    loads = complex_values(ds.viscous_loads)
-    return {
-        "reynolds": float(ds.attrs["reynolds"]),
-        "alpha0_deg": float(ds.attrs["alpha0_deg"]),
-        "ndof": int(ds.attrs["ndof_fluid"]),
-        "factorisations": int(ds.attrs["factorisations"]),
-        "lift_slope_alpha": float(ds.attrs["lift_slope_alpha"]),
-        "moment_slope_alpha": float(ds.attrs["moment_slope_alpha"]),
-        "samples": [
-            {
-                "frequency": float(w),
-                "reduced_frequency": float(w / 2),
-                "lift_per_pitch": _pair(loads[i, 0, 1]),
-                "moment_per_pitch": _pair(loads[i, 1, 1]),
-                "lift_per_heave": _pair(loads[i, 0, 0]),
-                "moment_per_heave": _pair(loads[i, 1, 0]),
-            }
-            for i, w in enumerate(ds.frequency.values)
-        ],
-        "netcdf": ds.attrs["netcdf"],
-        "figure": ds.attrs["figure"],
-    }
-
-
-def _onset_payload(ds):
-    keys = ("parameter", "critical_value", "frequency", "iterations", "factorisations", "data", "figure")
-    return {k: _plain(ds.attrs[k]) for k in keys}
-
-
-_PAYLOADS = {
-    "mesh": _mesh_payload,
-    "steady": _steady_payload,
-    "spectrum": _spectrum_payload,
-    "slopes": _slopes_payload,
-    "critical": _critical_payload,
-    "neutral": _neutral_payload,
-    "flow-neutral": _flow_neutral_payload,
-    "theodorsen-points": _theodorsen_points_payload,
-    "theodorsen-map": _theodorsen_map_payload,
-    "transfer": _transfer_payload,
-    "onset": _onset_payload,
-    "study": lambda ds: _study_payload(ds),  # defined at the end, with the studies
-    "sensitivity": lambda ds: _sensitivity_payload(ds),  # defined at the end
-}
 
 
 # --- onset of a fixed body's wake instability --------------------------------------------------------
 
 
+@_workflow
 def fixed_body_onset(
     case: Case,
     parameter: str,
@@ -1035,7 +813,7 @@ def fixed_body_onset(
     from fsistab.onset import check_onset, critical_onset, fitted_case, onset_dataset
     from fsistab.store import json_attr, write_dataset
 
-    say = _say(progress)
+    say = progress
     guess, shift = check_onset(case.kind, parameter, guess, shift)
     fitted = fitted_case(case, parameter, guess)
     spec = _mesh_spec(fitted)
@@ -1064,88 +842,28 @@ def fixed_body_onset(
     return ds.assign_attrs(data=str(path))
 
 
-# --- parameter studies (fsistab.study) ---------------------------------------------------------------
-
-
-def _study_payload(ds):
-    """``fsistab study --json``: the data file, the counts, each failed point with its error and
-    every classified threshold (docs/cli.md)."""
-    failed = [
-        {"reynolds": float(re), "alpha0": float(a), "error": str(ds.error.sel(reynolds=re, alpha0=a).values)}
-        for re in ds.reynolds.values
-        for a in ds.alpha0.values
-        if str(ds.status.sel(reynolds=re, alpha0=a).values) == "failed"
-    ]
-    thresholds = []
-    if "threshold_class" in ds:
-        for re in ds.reynolds.values:
-            for a in ds.alpha0.values:
-                for m in ds.mass_ratio.values:
-                    sub = ds.sel(reynolds=re, alpha0=a, mass_ratio=m)
-                    for k in range(sub.sizes["threshold"]):
-                        label = str(sub.threshold_class.values[k])
-                        if not label:
-                            continue
-                        thresholds.append(
-                            {
-                                "reynolds": float(re),
-                                "alpha0": float(a),
-                                "mass_ratio": float(m),
-                                "class": label,
-                                "boundary": str(sub.threshold_boundary.values[k]),
-                                "reduced_velocity": float(sub.threshold_reduced_velocity.values[k]),
-                                "frequency": float(sub.threshold_frequency.values[k]),
-                            }
-                        )
-    a = ds.attrs
-    return {
-        "data": a["data"],
-        "points": int(a["points"]),
-        "computed": int(a["computed"]),
-        "failed": failed,
-        "factorisations": int(a["factorisations"]),
-        "seconds": float(a["seconds"]),
-        "execution": a["execution"],
-        "thresholds": thresholds,
-        "figures": json.loads(a.get("figures", "[]")),
-    }
-
-
 # --- adjoint sensitivities (fsistab.sensitivity) ----------------------------------------------------
 
 
-def sensitivity(
-    case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, out: Path, progress: Progress = None
-) -> xr.Dataset:
-    """Every threshold along U* at one mass ratio (as :func:`critical_points`) with its derivatives
-    with respect to every parameter (adjoint, implicit function theorem; MODEL.md §8,
-    docs/reference/sensitivity.md), and the spatial sensitivity maps of each threshold and, with
-    ``sweep.wake_shift``, of the fixed body's wake mode near ``Im(wake_shift)``: a steady force, a
-    control cylinder, the structural sensitivity. U* and its derivatives in the body's convention
-    (MODEL.md §10). Writes ``sensitivity_{stem}.nc`` (thresholds), ``sensitivity_{stem}_maps.nc``
-    (maps at the mesh vertices), ``.vtu`` and a figure; their paths in attributes ``netcdf``,
-    ``maps``, ``vtk``, ``figure`` (None without any map)."""
+class SensitivityResult(NamedTuple):
+    """The thresholds' derivatives (``dataset``), and what the maps' VTK file and figure are made
+    from: the maps (:class:`fsistab.sensitivity.SensitivityMaps`) and the steady state; ``scale``
+    the body's U* over the generic one."""
+
+    dataset: xr.Dataset
+    maps: list
+    steady: object
+    scale: float
+
+
+def _sensitivity_maps(fluid, solid, sweep: SweepSettings, thresholds, results, factor, counter, say):
+    """The spatial sensitivity maps of each threshold and, with ``sweep.wake_shift``, of the fixed
+    body's wake mode near ``Im(wake_shift)``."""
     from fsistab import sensitivity as adjoint
     from fsistab.coupled import CoupledSystem
     from fsistab.critical import wake_mode_near
-    from fsistab.store import write_dataset
 
-    say = _say(progress)
-    scale, velocities, solid, counter = _threshold_sweep(case, solid, sweep)
-    steady, fluid = _fluid(case, cache_dir, say)
-    factors: dict = {}
-    thresholds, results = adjoint.sensitivity_results(
-        fluid,
-        solid,
-        velocities,
-        wake_shift=sweep.wake_shift,
-        counter=counter,
-        progress=say,
-        factors=factors,
-    )
     say(f"sensitivity maps of {len(results)} threshold(s)")
-    if 0j not in factors:
-        factors[0j] = adjoint.steady_factor(fluid, counter)
     maps = []
     for i, (threshold, result) in enumerate(zip(thresholds, results, strict=True)):
         at_point = replace(solid, reduced_velocity=result.reduced_velocity, mass_ratio=result.mass_ratio)
@@ -1155,7 +873,7 @@ def sensitivity(
                 CoupledSystem(fluid, at_point),
                 result.adjoint,
                 f"{threshold.kind}{i}",
-                factor=factors[0j],
+                factor=factor,
                 slope=slope,
             )
         )
@@ -1164,7 +882,46 @@ def sensitivity(
         pair = wake_mode_near(fluid, sweep.wake_shift.imag, counter=counter)
         fixed = CoupledSystem(fluid, Solid(dofs=()))
         mode = adjoint.adjoint_mode(fixed, pair.value, pair.vector, counter=counter)
-        maps.append(adjoint.sensitivity_maps(fixed, mode, "wake", factor=factors[0j]))
+        maps.append(adjoint.sensitivity_maps(fixed, mode, "wake", factor=factor))
+    return maps
+
+
+def _body_derivatives(ds: xr.Dataset, case: Case, scale: float) -> xr.Dataset:
+    """The derivatives in the body's conventions: U* = scale U*_g, and the cylinder's
+    m = 2 m_g / π (docs/model.md §10)."""
+    per_mass = xr.where(ds.parameter == "mass_ratio", case.body.mass_scale, 1.0)
+    ds["reduced_velocity"] = ds.reduced_velocity * scale
+    ds["d_reduced_velocity"] = ds.d_reduced_velocity * scale * per_mass
+    for name in ("d_frequency", "d_growth_rate", "d_eigenfrequency"):
+        ds[name] = ds[name] * per_mass
+    return ds
+
+
+@_workflow
+def sensitivity(
+    case: Case, solid: Solid, sweep: SweepSettings, cache_dir: Path, out: Path, progress: Progress = None
+) -> SensitivityResult:
+    """Every threshold along U* at one mass ratio (as :func:`critical_points`) with its derivatives
+    with respect to every parameter (adjoint, implicit function theorem; docs/model.md §8,
+    docs/reference/sensitivity.md), and the spatial sensitivity maps of each threshold and, with
+    ``sweep.wake_shift``, of the fixed body's wake mode near ``Im(wake_shift)``: a steady force, a
+    control cylinder, the structural sensitivity. U* and its derivatives in the body's convention
+    (docs/model.md §10). Writes ``sensitivity_{stem}.nc`` (thresholds) and ``sensitivity_{stem}_maps.nc``
+    (maps at the mesh vertices); their paths in attributes ``netcdf`` and ``maps`` ("" without
+    any map), the file stem in ``stem``."""
+    from fsistab import sensitivity as adjoint
+    from fsistab.store import write_dataset
+
+    say = progress
+    scale, velocities, solid, counter = _threshold_sweep(case, solid, sweep)
+    steady, fluid = _fluid(case, cache_dir, say)
+    factors: dict = {}
+    thresholds, results = adjoint.sensitivity_results(
+        fluid, solid, velocities, wake_shift=sweep.wake_shift, counter=counter, progress=say, factors=factors
+    )
+    if 0j not in factors:
+        factors[0j] = adjoint.steady_factor(fluid, counter)
+    maps = _sensitivity_maps(fluid, solid, sweep, thresholds, results, factors[0j], counter, say)
     attrs = {
         "body": case.kind,
         "reynolds": case.flow.reynolds,
@@ -1177,28 +934,19 @@ def sensitivity(
         "conventions": case.body.conventions + "; alpha0 derivatives per degree",
     }
     ds = adjoint.sensitivity_dataset(thresholds, results, adjoint.PARAMETERS, attrs)
-    # the body's conventions: U* = scale U*_g, and the cylinder's m = 2 m_g / π (MODEL.md §10)
-    per_mass = xr.where(ds.parameter == "mass_ratio", math.pi / 2 if case.kind == "cylinder" else 1.0, 1.0)
-    ds["reduced_velocity"] = ds.reduced_velocity * scale
-    ds["d_reduced_velocity"] = ds.d_reduced_velocity * scale * per_mass
-    for name in ("d_frequency", "d_growth_rate", "d_eigenfrequency"):
-        ds[name] = ds[name] * per_mass
+    ds = _body_derivatives(ds, case, scale)
     flow, preset = case.flow, case.preset
     stem = f"sensitivity_{case.kind}_Re{flow.reynolds:g}_a{flow.alpha0_deg:g}_m{sweep.mass_ratio:g}_{preset}"
-    paths = {"maps": None, "vtk": None, "figure": None}
+    maps_path = ""
     if maps:
-        say("writing the maps (NetCDF, VTK, figure)")
+        say("writing the maps (NetCDF)")
         maps_ds = adjoint.maps_dataset(maps, steady.mesh, attrs, scale)
-        paths["maps"] = str(write_dataset(maps_ds, Path(out) / f"{stem}_maps.nc"))
-        paths["vtk"] = str(adjoint.write_maps_vtk(maps, steady.mesh, Path(out) / f"{stem}_maps"))
-        paths["figure"] = str(
-            adjoint.plot_sensitivity_maps(maps, steady, Path(out) / f"{stem}_maps.png", scale)
-        )
+        maps_path = str(write_dataset(maps_ds, Path(out) / f"{stem}_maps.nc"))
         restabilising = {f"{t.kind}{i}" for i, t in enumerate(thresholds) if t.boundary == "restabilisation"}
-        best = _best_control(maps_ds, restabilising)
-        ds = ds.assign_attrs(best_control=json.dumps(best))
+        ds = ds.assign_attrs(best_control=json.dumps(_best_control(maps_ds, restabilising)))
     netcdf = write_dataset(ds, Path(out) / f"{stem}.nc")
-    return ds.assign_attrs(netcdf=str(netcdf), **{k: v if v is not None else "" for k, v in paths.items()})
+    ds = ds.assign_attrs(netcdf=str(netcdf), maps=maps_path, stem=str(Path(out) / stem))
+    return SensitivityResult(ds, maps, steady, scale)
 
 
 def _best_control(maps_ds: xr.Dataset, restabilising: set[str] = frozenset()) -> dict:
@@ -1221,35 +969,3 @@ def _best_control(maps_ds: xr.Dataset, restabilising: set[str] = frozenset()) ->
             amount = float(growth[i])
         best[str(target)] = {"x": float(maps_ds.x.values[i]), "y": float(maps_ds.y.values[i]), value: amount}
     return best
-
-
-def _sensitivity_payload(ds):
-    """``fsistab sensitivity --json`` (docs/cli.md)."""
-    thresholds = []
-    for k in range(ds.sizes["threshold"]):
-        row = ds.isel(threshold=k)
-        parameters = [str(p) for p in ds.parameter.values]
-        thresholds.append(
-            {
-                "kind": str(row.kind.values),
-                "boundary": str(row.boundary.values),
-                "reduced_velocity": float(row.reduced_velocity),
-                "frequency": float(row.frequency),
-                "derivatives": dict(zip(parameters, map(float, row.d_reduced_velocity.values), strict=True)),
-                "frequency_derivatives": dict(
-                    zip(parameters, map(float, row.d_frequency.values), strict=True)
-                ),
-                "adjoint_residual": float(row.adjoint_residual),
-            }
-        )
-    a = ds.attrs
-    return {
-        "mass_ratio": float(a["mass_ratio"]),
-        "thresholds": thresholds,
-        "maps": a["maps"] or None,
-        "vtk": a["vtk"] or None,
-        "figure": a["figure"] or None,
-        "best_control": json.loads(a.get("best_control", "{}")),
-        "data": a["netcdf"],
-        "factorisations": int(a["factorisations"]),
-    }
