@@ -16,7 +16,7 @@ Command-line equivalent::
 
 (add ``--map`` for the maps, ``--workers 2`` for two worker processes).
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at α0 = 0 the steady flow is
+Mesh: ``--mesh`` preset (default coarse). Reference (Moulin & Marquet 2021): at α0 = 0 the steady flow is
 symmetric (C_L = C_M = 0) and, at m = 1000, flutter sets in at U*_F ≈ 4.5 and divergence at
 U*_D ≈ 7.4; the reference gives no values at α0 ≠ 0 (thin-airfoil slopes: C_L ≈ 2π α0 for small α0).
 

@@ -13,7 +13,7 @@ Command-line equivalent (thresholds only, no figure)::
     fsistab critical --body plate --Re 2900 --mass-ratio 1000 --wake-shift 11.2j --method tracking \\
         --mesh coarse
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000 flutter sets
+Mesh: ``--mesh`` preset (default coarse). Reference (Moulin & Marquet 2021): at m = 1000 flutter sets
 in at U*_F ≈ 4.5 and static divergence at U*_D ≈ 7.4; the wake mode is slightly stable with
 ω ≈ 11.2; for U* → 0 the solid branches tend to σ/ω_θ = 0.8i (heave) and -0.05 + 0.999i (pitch).
 
@@ -66,7 +66,10 @@ def run(args: argparse.Namespace) -> None:
 
     for t in thresholds:
         print(f"{t.kind:10s} {t.boundary:15s} U* = {t.reduced_velocity:.5f}, ω = {t.frequency:.5f}")
-    for name, branch in branches.items():  # σ/ω_θ = σU* (REFERENCE.md §E: 0.8i heave, -0.05 + 0.999i pitch)
+    for (
+        name,
+        branch,
+    ) in branches.items():  # σ/ω_θ = σU* (Moulin & Marquet 2021: 0.8i heave, -0.05 + 0.999i pitch)
         sigma = branch.values[0] * branch.parameters[0]
         print(f"{name} branch at U* = {branch.parameters[0]:g}: σU* = {sigma.real:+.4f} + {sigma.imag:.4f}i")
     title = f"plate, Re = 2900, m = 1000, {args.mesh} mesh"

@@ -12,7 +12,7 @@ Command-line equivalent (thresholds only, no figure)::
     fsistab critical --body cylinder --Re 60 --mass-ratio 20 --reduced-velocity-range 3 12 \\
         --points 36 --wake-shift 0.75j --method tracking --mesh coarse
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §B, and §A for the fixed
+Mesh: ``--mesh`` preset (default coarse). Reference (the cylinder references of docs/validation.md; for the fixed
 cylinder: σ = 0.046839 + 0.74518i at Re = 60): two branches, a fluid mode tending to the fixed
 cylinder's mode as U* → 0 and a solid mode near (2π/U*)√(m/(m+1)) away from the coincidence
 U* ≈ 8; near coincidence the branches interact and one of them is unstable over a range of U*.
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> None:
         args.out / f"heaving_cylinder_Re60_m20_{args.mesh}.png",
         reference_lines={
             "(2π/U*)√(m/(m+1))": 2 * np.pi / velocities * math.sqrt(MASS_RATIO / (MASS_RATIO + 1)),
-            "fixed cylinder, REFERENCE.md §A": 0.74518,
+            "fixed cylinder, the fixed-cylinder references of docs/validation.md": 0.74518,
         },
         title=f"heaving cylinder, Re = 60, m = 20, {args.mesh} mesh (filled: unstable)",
     )

@@ -13,7 +13,7 @@ Command-line equivalent::
 
 (it draws the two least stable modes; ``--mode-figures N`` draws more).
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000, U* = 4.7,
+Mesh: ``--mesh`` preset (default coarse). Reference (Moulin & Marquet 2021): at m = 1000, U* = 4.7,
 three eigenvalues lie near the neutral axis: an unstable coupled-mode flutter mode with ω ≈ 0.17
 (close to Ω/U* = 0.170), a stable "anti-flutter" mode with ω ≈ 0.15 and the slightly stable wake
 mode with ω ≈ 11.2.
@@ -24,7 +24,7 @@ Usage: python examples/plot_spectrum.py [--mesh coarse] [--out DIR] [--cache DIR
 import argparse
 from pathlib import Path
 
-SHIFTS = (0.17j, 0.15j, 11.2j)  # REFERENCE.md §E: flutter, anti-flutter, wake
+SHIFTS = (0.17j, 0.15j, 11.2j)  # Moulin & Marquet 2021: flutter, anti-flutter, wake
 SOLID_RICH = 0.4  # solid share of the near-body kinetic energy of a flutter or anti-flutter mode
 
 
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> None:
     for p in pairs:
         print(f"{p.growth_rate:+.6f}      {p.frequency:9.6f}     {p.label:8s}  {p.solid_energy_fraction:.2f}")
 
-    # the three modes of REFERENCE.md §E: the least stable solid-rich modes near ω = 0.17 (flutter,
+    # the three modes of Moulin & Marquet 2021: the least stable solid-rich modes near ω = 0.17 (flutter,
     # then anti-flutter: the solid modes share their energy with weakly damped wake modes there) and
     # the least stable mode near the wake frequency
     band = [p for p in pairs if 0.1 < p.frequency < 0.25 and p.solid_energy_fraction >= SOLID_RICH]

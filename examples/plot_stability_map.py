@@ -11,7 +11,7 @@ Command-line equivalent::
 
     fsistab neutral --body plate --Re 2900 --mesh coarse
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): at m = 1000 flutter sets
+Mesh: ``--mesh`` preset (default coarse). Reference (Moulin & Marquet 2021): at m = 1000 flutter sets
 in at U*_F ≈ 4.5 and divergence at U*_D ≈ 7.4. The map's files (``neutral_plate_Re2900_a0_map.nc``
 and the samples and reduced models) stay in ``--out``: a rerun resumes from them, and
 ``plot_theodorsen.py`` with the same ``--cache`` compares with this map.

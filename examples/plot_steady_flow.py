@@ -8,7 +8,7 @@ Command-line equivalent::
 
     fsistab steady --body plate --Re 2900 --mesh coarse
 
-Mesh: ``--mesh`` preset (default coarse). Reference (REFERENCE.md §E): the steady flow at
+Mesh: ``--mesh`` preset (default coarse). Reference (Moulin & Marquet 2021): the steady flow at
 Re = 2900 is symmetric (C_L = C_M = 0), attached, with only a small recirculation behind the blunt
 trailing edge.
 

@@ -14,7 +14,7 @@ Command-line equivalent::
     fsistab theodorsen --mass-ratio-range 1 1e4 --slopes calibrated --Re 2900 --mesh coarse --out DIR
 
 Mesh: ``--mesh`` preset (default coarse), for the calibrated slopes and the viscous map (computed
-here if the cache does not hold it yet). Reference (REFERENCE.md §E,
+here if the cache does not hold it yet). Reference (Moulin & Marquet 2021,
 §D): the viscous plate at m = 1000 has U*_F ≈ 4.5 and U*_D ≈ 7.4; thin-airfoil slopes are
 dC_L/dα = 2π and d(-C_M)/dα = π/2 about mid-chord.
 

@@ -21,7 +21,7 @@ Mesh: ``--mesh`` preset (default coarse), fitted to Re = 500. The coarse mesh gi
 ω_c = 3.947, an artefact of its near-body sizes: on the default mesh (``--mesh medium``) that mode
 stays damped (λ ≈ -0.06 to -0.07 from 8° to 12°), and the wake turns unstable at
 α0_c = 14.766°, ω_c = 2.597, in another mode (``--guess 14 --shift 0+2.5j``; docs/gallery/index.md).
-Reference: REFERENCE.md §E gives the plate's flutter and divergence at α0 = 0 only, nothing on the
+Reference: Moulin & Marquet 2021 gives the plate's flutter and divergence at α0 = 0 only, nothing on the
 fixed plate's onset in α0.
 
 Usage: python examples/plot_wake_onset.py [--mesh coarse] [--out DIR] [--cache DIR] [--guess 9.5]

@@ -106,7 +106,7 @@ def test_spectrum_refuses_bad_solid_before_work(tmp_path):
 
 def test_critical_json_matches_the_static_formula(tmp_path, plate_2900, plate_coarse_spec, plate_operators):
     """``fsistab critical`` (frequency sweep, the default): flutter onset then divergence at
-    m = 1000 (REFERENCE.md §E order); the divergence speed is the torsional formula
+    m = 1000 (Moulin & Marquet 2021 order); the divergence speed is the torsional formula
     √(m r_θ²/(dC_M/dθ)) of the static slope; the JSON names the method and has no unresolved
     interval."""
     import math

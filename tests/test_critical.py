@@ -72,7 +72,7 @@ def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):
         system = CoupledSystem(plate_operators, Solid(mass_ratio=1000, reduced_velocity=velocity))
         pairs = eigenpairs_near(system, [0.003 + 0.17j], 4)
         branch[velocity] = max((p for p in pairs if p.label != "fluid"), key=lambda p: p.growth_rate)
-    assert branch[4.3].growth_rate < 0 < branch[4.7].growth_rate  # flutter onset (REFERENCE.md §E)
+    assert branch[4.3].growth_rate < 0 < branch[4.7].growth_rate  # flutter onset (Moulin & Marquet 2021)
     weight = branch[4.7].growth_rate / (branch[4.7].growth_rate - branch[4.3].growth_rate)
     guess_velocity = 4.7 - weight * 0.4
     solid = Solid(mass_ratio=1000, reduced_velocity=guess_velocity)
@@ -81,7 +81,7 @@ def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):
     point = flutter_point(plate_operators, solid, guess.frequency, guess.vector, counter=counter)
     assert _quadratic(point.history)
     assert counter.count == len(point.history) - 1  # one factorisation per Newton step
-    assert 4.0 < point.reduced_velocity < 4.7  # REFERENCE.md §E: U*_F ≈ 4.5 (fine mesh)
+    assert 4.0 < point.reduced_velocity < 4.7  # Moulin & Marquet 2021: U*_F ≈ 4.5 (fine mesh)
     # the eigen-solver at the critical U* finds a neutral eigenvalue at the critical frequency
     at_critical = CoupledSystem(
         plate_operators, Solid(mass_ratio=1000, reduced_velocity=point.reduced_velocity)
@@ -104,7 +104,7 @@ def test_critical_point_needs_a_solid(plate_operators):
 
 
 def test_thresholds_along_reduced_velocity(plate_operators):
-    """m = 1000: flutter onset, then divergence (REFERENCE.md §E order), from one sweep."""
+    """m = 1000: flutter onset, then divergence (Moulin & Marquet 2021 order), from one sweep."""
     from fsistab.critical import find_thresholds
 
     counter = FactorCounter()
@@ -155,7 +155,7 @@ def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900, tmp_p
 
 
 def test_wake_mode_is_refined_from_a_guess(plate_operators):
-    """The fixed plate's wake mode (REFERENCE.md §E: slightly stable, ω ≈ 11.2) from a rough guess;
+    """The fixed plate's wake mode (Moulin & Marquet 2021: slightly stable, ω ≈ 11.2) from a rough guess;
     it is the least stable of the fixed-body eigenvalues near the guess. Coarse mesh, default
     domain [-20, 40] × [-20, 20]: ω within 5 % of 11.2 (the coarse value is 3.5 % low)."""
     from fsistab.critical import wake_mode_near

@@ -97,7 +97,7 @@ def test_sweep_reproduces_the_branch_tracking(plate_operators):
         residual = system.jacobian @ q + 1j * t.frequency * (system.mass @ q)
         scale = spla.norm(system.jacobian, 1) * np.linalg.norm(q)  # ‖J‖₁‖q‖: ‖Jq‖ vanishes at ω = 0
         assert np.linalg.norm(residual) < 1e-10 * scale
-    assert swept[0].branch == "heave"  # REFERENCE.md §E: the heave branch goes unstable
+    assert swept[0].branch == "heave"  # Moulin & Marquet 2021: the heave branch goes unstable
     onset = swept[0]
     assert onset.frequency * onset.reduced_velocity == pytest.approx(solid.freq_ratio, rel=0.1)
     following = _following_by_differences(plate_operators, solid, onset)

@@ -54,7 +54,9 @@ def test_flutter_curve_towards_small_mass_ratios(plate_operators):
     )
     assert len(curve.points) == 4 and len(saved) == 3 and curve.stop == "max_points"
     m, u = curve.mass_ratios, curve.reduced_velocities
-    assert np.all(np.diff(m) < 0) and np.all(np.diff(u) < 0)  # U*_F falls with m (REFERENCE.md §E trend)
+    assert np.all(np.diff(m) < 0) and np.all(
+        np.diff(u) < 0
+    )  # U*_F falls with m (Moulin & Marquet 2021 trend)
     # every point is neutral: the eigen-solver finds λ = 0 at (m, U*_c) with ω = ω_c
     last = curve.points[-1]
     _assert_neutral(plate_operators, last.mass_ratio, last.reduced_velocity, last.frequency)

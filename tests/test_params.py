@@ -36,7 +36,7 @@ def test_plate_aspect_ratio_above_one(value):
 def test_defaults_and_conventions():
     plate = Plate()
     assert plate.thickness == pytest.approx(0.05)
-    assert plate.radius_of_gyration == pytest.approx(0.2891, abs=1e-4)  # MODEL.md §2
+    assert plate.radius_of_gyration == pytest.approx(0.2891, abs=1e-4)  # docs/model.md §2
     assert Flow(100, 5).theta0 == pytest.approx(-math.radians(5))  # θ0 = -α0
     assert Solid(dofs=("pitch", "heave")).dofs == ("heave", "pitch")
     with pytest.raises(InputError):
@@ -50,7 +50,7 @@ def test_defaults_and_conventions():
 
 
 def test_cylinder_scalings_map_to_generic_form():
-    """MODEL.md §10: h'' + (2π/U*)² h = 2 C_L/(π m)  <=>  h'' + (Ω/U*_g)² h = C_L/m_g."""
+    """docs/model.md §10: h'' + (2π/U*)² h = 2 C_L/(π m)  <=>  h'' + (Ω/U*_g)² h = C_L/m_g."""
     solid = Solid.cylinder(mass_ratio=20, reduced_velocity=8)
     assert solid.dofs == ("heave",)
     assert solid.freq_ratio / solid.reduced_velocity == pytest.approx(2 * math.pi / 8)
@@ -64,7 +64,7 @@ def test_solid_defaults_are_taken_for_none_only():
     from fsistab.params import solid_for
 
     assert solid_for("plate").mass_ratio == 1000.0 and solid_for("plate").reduced_velocity == 4.7
-    cylinder = solid_for("cylinder")  # MODEL.md §10 defaults m = 20, U* = 8, in the generic form
+    cylinder = solid_for("cylinder")  # docs/model.md §10 defaults m = 20, U* = 8, in the generic form
     assert cylinder.mass_ratio == pytest.approx(math.pi * 20 / 2)
     assert cylinder.reduced_velocity == pytest.approx(8 / (2 * math.pi)) and cylinder.dofs == ("heave",)
     for kind in ("plate", "cylinder"):

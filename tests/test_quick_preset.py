@@ -1,5 +1,5 @@
 """Validation on the `quick` preset (plate, Re = 2900, α0 = 0, m = 1000): the issue's key physical
-quantities against the converged default `medium` and REFERENCE.md §E.
+quantities against the converged default `medium` and Moulin & Marquet 2021.
 
 The rest of the suite runs on `coarse` (15 k unknowns, not converged: U*_F 3.6 % low, the wake
 mode damped twice as much); `quick` (268 542 unknowns: `medium` with 0.1-chord wake elements
@@ -42,7 +42,7 @@ MEDIUM_WAKE_MODE = complex(-0.0317, 11.0983)  # fixed plate, least stable mode n
 # (docs/discretisation.md, section "Re 500 and Re 110", rows `far2-layer`).
 MEDIUM_DRAG = 0.06811
 
-# REFERENCE.md §E (the reference paper, two or three significant figures).
+# Moulin & Marquet 2021 (the reference paper, two or three significant figures).
 REFERENCE_FLUTTER_VELOCITY = 4.5
 REFERENCE_DIVERGENCE_VELOCITY = 7.4
 REFERENCE_WAKE_FREQUENCY = 11.2
@@ -62,7 +62,7 @@ DRAG_REL = 1e-3
 # `quick` until 1 December 2026: −0.0279). `coarse`'s near body gives −0.070 (docs/how-to/meshes.md,
 # "Which preset"), 0.038 apart: 0.005 tells them apart.
 WAKE_GROWTH_ABS = 5e-3
-# Against REFERENCE.md §E: `medium` itself is +1.3 % (U*_F) and −1.3 % (U*_D) from it
+# Against Moulin & Marquet 2021: `medium` itself is +1.3 % (U*_F) and −1.3 % (U*_D) from it
 # (docs/discretisation.md, "The wake band and the outlet sponge ..."), its wake frequency 11.0983
 # is −0.9 % from 11.2; `coarse`'s U*_F 4.3928 is −2.4 % and its wake frequency 10.807 −3.5 %
 # (docs/how-to/meshes.md, "Which preset"). 2 %.
@@ -85,7 +85,7 @@ def quick_operators(quick_2900):
 
 
 def test_quick_steady_flow_is_symmetric_with_medium_drag(quick_2900):
-    """REFERENCE.md §E: the steady flow at α0 = 0 is symmetric (C_L = C_M = 0); C_D as `medium`."""
+    """Moulin & Marquet 2021: the steady flow at α0 = 0 is symmetric (C_L = C_M = 0); C_D as `medium`."""
     assert quick_2900.ndof > 250_000  # the quick mesh, not coarse (docs: 268 542 free)
     assert quick_2900.history[-1] < 1e-9
     c = aerodynamic_coefficients(quick_2900)
@@ -94,8 +94,8 @@ def test_quick_steady_flow_is_symmetric_with_medium_drag(quick_2900):
 
 
 def test_quick_static_slopes_and_divergence(quick_operators):
-    """Static slopes (MODEL.md §9) and divergence at m = 1000 (MODEL.md §8) against `medium` and
-    REFERENCE.md §E (U*_D ≈ 7.4); the thin-airfoil values 2π and π/2 bound them from above."""
+    """Static slopes (docs/model.md §9) and divergence at m = 1000 (docs/model.md §8) against `medium` and
+    Moulin & Marquet 2021 (U*_D ≈ 7.4); the thin-airfoil values 2π and π/2 bound them from above."""
     slopes = static_slopes(quick_operators)
     assert slopes.lift_slope_alpha == pytest.approx(MEDIUM_LIFT_SLOPE, rel=QUICK_REL)
     assert slopes.moment_slope_alpha == pytest.approx(MEDIUM_MOMENT_SLOPE, rel=QUICK_REL)
@@ -108,7 +108,7 @@ def test_quick_static_slopes_and_divergence(quick_operators):
 
 def test_quick_flutter_threshold_at_m_1000(quick_operators):
     """`fsistab critical --mass-ratio 1000` (the transfer function swept in frequency) on U* ∈ [4, 5]:
-    one threshold, the coupled-mode flutter onset, at `medium`'s U*_F and ω_F (REFERENCE.md §E:
+    one threshold, the coupled-mode flutter onset, at `medium`'s U*_F and ω_F (Moulin & Marquet 2021:
     U*_F ≈ 4.5)."""
     counter = FactorCounter()
     thresholds, _ = find_thresholds(
@@ -127,7 +127,7 @@ def test_quick_flutter_threshold_at_m_1000(quick_operators):
 
 
 def test_quick_wake_mode_of_the_fixed_plate(quick_operators):
-    """REFERENCE.md §E: the fixed plate's wake mode is slightly stable with ω ≈ 11.2; `quick` keeps
+    """Moulin & Marquet 2021: the fixed plate's wake mode is slightly stable with ω ≈ 11.2; `quick` keeps
     `medium`'s near-body sizes, which decide it (docs/discretisation.md, "A quick preset")."""
     wake = wake_mode_near(quick_operators, 11.1)
     assert wake.label == "fluid"

@@ -4,7 +4,7 @@ Every derivative is checked against a central finite difference of the quantity 
 eigenvalue recomputed by Arnoldi, a threshold re-converged by the neutral-point Newton), on
 coarse meshes: the plate at Re = 2900, α0 = 2° (at α0 = 0 every α0 derivative vanishes by symmetry;
 at 5° the heave mode is unstable at every U* on this mesh: no flutter threshold) and the fixed
-cylinder at Re = 50 (REFERENCE.md §A).
+cylinder at Re = 50 (the fixed-cylinder references of docs/validation.md).
 """
 
 import json
@@ -164,7 +164,7 @@ def test_adjoint_mode_reports_bad_input_and_failures(operators_alpha, heave_mode
 
 
 # --------------------------------------------------------------------------------------------
-# adjoint modes of the fixed cylinder (REFERENCE.md §A; Giannetti & Luchini 2007)
+# adjoint modes of the fixed cylinder (the fixed-cylinder references of docs/validation.md; Giannetti & Luchini 2007)
 
 
 @pytest.fixture(scope="module")
@@ -181,7 +181,9 @@ def test_cylinder_adjoint_modes_are_biorthogonal_and_upstream(cylinder_50):
     modes = adjoint_modes(system, pairs, fluid_factors=factors, counter=counter)
     lead = max(range(len(pairs)), key=lambda i: pairs[i].growth_rate)
     mode = modes[lead]
-    assert mode.value == pytest.approx(0.013206 + 0.73761j, abs=2e-3)  # REFERENCE.md §A, Re = 50
+    assert mode.value == pytest.approx(
+        0.013206 + 0.73761j, abs=2e-3
+    )  # the fixed-cylinder references of docs/validation.md, Re = 50
     # the leading mode from the Arnoldi factorisation itself, by adjoint solves only
     assert mode.shift == 0.01 + 0.75j and mode.iterations < 20
     for m in modes:
@@ -222,7 +224,7 @@ def test_cylinder_adjoint_modes_are_biorthogonal_and_upstream(cylinder_50):
     sensitivity = structural_sensitivity(fluid, mode, points)
     x_peak, y_peak = points[np.argmax(sensitivity)]
     bubble = recirculation_length(cylinder_50)
-    assert 2.5 < bubble < 3.5  # REFERENCE.md §A: 2.9–3.0 D at Re = 50
+    assert 2.5 < bubble < 3.5  # the fixed-cylinder references of docs/validation.md: 2.9–3.0 D at Re = 50
     assert 0.5 < x_peak < 0.5 + bubble and abs(y_peak) < 1.0
     far = (points[:, 0] < -2) | (points[:, 0] > 0.5 + 2 * bubble)
     assert sensitivity[far].max() < 0.3 * sensitivity.max()

@@ -1,4 +1,4 @@
-"""Static slopes (MODEL.md §9) against finite differences of steady solutions at α0 ± δ."""
+"""Static slopes (docs/model.md §9) against finite differences of steady solutions at α0 ± δ."""
 
 import math
 

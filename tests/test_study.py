@@ -130,7 +130,7 @@ def test_classes_of_the_stored_alpha0_study():
 
 
 def test_plate_flutter_at_re_2900_is_coupled_mode(plate_operators):
-    """REFERENCE.md §E: the plate's flutter at Re 2900, m = 1000 is coupled-mode flutter. Its
+    """Moulin & Marquet 2021: the plate's flutter at Re 2900, m = 1000 is coupled-mode flutter. Its
     critical mode holds 94 % of the near-body kinetic energy in heave (coarse mesh, U*_c 4.3928,
     ω_c 0.18762), but heave alone and pitch alone are both stable there."""
     from fsistab.study import single_dof_growth

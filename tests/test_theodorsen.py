@@ -1,4 +1,4 @@
-"""Analytic typical section with Theodorsen aerodynamics (docs/model.md §9, REFERENCE.md §C–§E).
+"""Analytic typical section with Theodorsen aerodynamics (docs/model.md §9, Theodorsen 1935; Hodges & Pierce; Moulin & Marquet 2021).
 
 Fast: no mesh, except the one CLI test of calibrated slopes (marked slow).
 """
@@ -35,7 +35,7 @@ from fsistab.theodorsen import (
 PLATE = TypicalSection.create(mass_ratio=1000.0)  # docs/model.md §2: Ω 0.8, ζ_h 0, ζ_θ 0.05, r_θ 0.289
 
 
-# --- C(k), REFERENCE.md §C ---------------------------------------------------------------------
+# --- C(k), Theodorsen 1935, docs/validation.md ---------------------------------------------------------------------
 
 TABLE_K = [0.05, 0.1, 0.2, 0.3, 0.5, 1.0, 2.0]
 TABLE_F = [0.90901, 0.83192, 0.72758, 0.66497, 0.59794, 0.53943, 0.51295]
@@ -120,7 +120,7 @@ def test_added_mass_is_symmetric_and_thin_airfoil_moment_slope_about_the_elastic
         assert section.moment_slope_elastic_axis == pytest.approx(math.pi / 2 * (1 + 4 * a), rel=1e-14)
 
 
-# --- Hodges & Pierce, REFERENCE.md §D -----------------------------------------------------------
+# --- Hodges & Pierce, Hodges & Pierce, docs/validation.md -----------------------------------------------------------
 
 
 def _hodges_pierce_section():
@@ -203,7 +203,7 @@ def test_flutter_point_is_a_neutral_p_k_root():
 
 
 def test_plate_thin_airfoil_at_m_1000_against_the_viscous_reference():
-    """REFERENCE.md §E: the viscous plate at Re = 2900 flutters at U*_F ≈ 4.5 with ω ≈ Ω/U* and
+    """Moulin & Marquet 2021: the viscous plate at Re = 2900 flutters at U*_F ≈ 4.5 with ω ≈ Ω/U* and
     diverges at U*_D ≈ 7.4; the potential-flow section is a few per cent away."""
     found = critical_points(PLATE)
     assert [p.kind for p in found] == ["flutter", "divergence"]
@@ -284,7 +284,7 @@ def test_pk_branches_start_at_the_added_mass_corrected_solid_frequencies():
     inertia = m * r2 + math.pi / 64
     pitch = (-m * r2 * zeta + 1j * math.sqrt(inertia * m * r2 - (m * r2 * zeta) ** 2)) / inertia
     assert limits["pitch"] == pytest.approx(pitch, abs=1e-14)
-    # REFERENCE.md §E (m = 1000): 0.8i and -0.05 + 0.999i within the O(1/m) added mass
+    # Moulin & Marquet 2021 (m = 1000): 0.8i and -0.05 + 0.999i within the O(1/m) added mass
     assert abs(limits["heave"] - 0.8j) < 1e-3 and abs(limits["pitch"] - (-0.05 + 0.999j)) < 1e-3
     # in vacuo as m → ∞: iΩ and -ζ_θ + i√(1 - ζ_θ²)
     heavy = small_velocity_limit(PLATE.with_mass_ratio(1e9))
@@ -489,7 +489,7 @@ def test_cli_neutral_curves_and_viscous_comparison(tmp_path):
 @pytest.mark.slow
 def test_cli_calibrated_slopes_coarse_mesh(tmp_path):
     """Viscous slopes of docs/model.md §9 (coarse mesh, Re = 2900) in the Theodorsen model: close to the
-    viscous thresholds of REFERENCE.md §E (U*_F ≈ 4.5, U*_D ≈ 7.3–7.4)."""
+    viscous thresholds of Moulin & Marquet 2021 (U*_F ≈ 4.5, U*_D ≈ 7.3–7.4)."""
     args = ["--mass-ratio", "1000", "--slopes", "calibrated", "--Re", "2900", "--mesh", "coarse", "--json"]
     result = _run(args, tmp_path)
     assert result.exit_code == 0, result.output

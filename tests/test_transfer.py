@@ -47,7 +47,7 @@ def test_transfer_derivative_matches_finite_difference(plate_fluid_alpha5):
 
 @pytest.mark.parametrize("fixture", ["plate_operators", "plate_fluid_alpha5"])
 def test_zero_frequency_loads_are_the_static_slopes(fixture, request):
-    """G(0) is the quasi-static response: the pitch column of the loads gives MODEL.md §9's slopes."""
+    """G(0) is the quasi-static response: the pitch column of the loads gives docs/model.md §9's slopes."""
     fluid = request.getfixturevalue(fixture)
     factor = FluidFactor(fluid, 0.0)  # one factorisation of J_ff serves both
     loads = aerodynamic_loads(exact_transfer(fluid, 0.0, factor=factor), fluid.theta0, fluid.loads0, 0.0)
@@ -93,7 +93,7 @@ def test_block_solve_in_threads_is_the_column_by_column_solve(plate_operators):
 
 def test_a_zero_column_of_a_block_is_not_solved(plate_operators):
     """The heave column of ``J_fs + s M_fs`` is zero (the body-frame equations do not see the heave
-    displacement, MODEL.md §7): its solution is returned as zeros without a solve, the other
+    displacement, docs/model.md §7): its solution is returned as zeros without a solve, the other
     columns as solved one by one."""
     fluid = plate_operators
     shift = 0.3 + 0.6j
@@ -146,7 +146,7 @@ def test_characteristic_matrix_is_singular_at_coupled_eigenvalues(fixture, solid
 
 
 def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_operators):
-    """Newton on det T(iω; U*) = 0 (4 × 4) and on the augmented sparse system (MODEL.md §8) find the
+    """Newton on det T(iω; U*) = 0 (4 × 4) and on the augmented sparse system (docs/model.md §8) find the
     same neutral point, and the former converges quadratically."""
     solid = Solid(1000.0, 4.5)
     point = transfer_flutter_point(plate_operators, solid, 0.18)

@@ -63,7 +63,7 @@ def sample_03(fluid):
 
 @pytest.mark.parametrize("dofs", [("heave", "pitch"), ("heave",), ("pitch",)])
 def test_characteristic_function_is_det_t_and_its_derivatives_match_differences(fluid, sample_03, dofs):
-    """F = det(m W − A) is det T(s) times m^n r_θ^(2·pitch) (T of fsistab.transfer, MODEL.md §7);
+    """F = det(m W − A) is det T(s) times m^n r_θ^(2·pitch) (T of fsistab.transfer, docs/model.md §7);
     ∂F/∂m, ∂F/∂u and ∂F/∂s (with dA/ds from dG/ds) against centred differences."""
     solid = Solid(mass_ratio=37.0, reduced_velocity=2.3, zeta_h=0.02, dofs=dofs)
     s, m, u = 0.3j, solid.mass_ratio, 1 / solid.reduced_velocity

@@ -49,7 +49,7 @@ frequency ``ω_w`` (the fixed body's wake mode followed from ``wake_shift``, whe
    flutter``. Energy alone misleads for the plate: its coupled-mode flutter at Re 2900,
    m = 1000 holds 94 % of the kinetic energy in heave (``r_θ² = 0.084`` weighs pitch down), yet
    heave alone and pitch alone are both stable there (growth rates −0.003 and −0.014 on the
-   coarse mesh), as REFERENCE.md §E says.
+   coarse mesh), as Moulin & Marquet 2021 says.
 
 Without ``ω_w`` (no ``wake_shift``) rule 2 rests on the threshold's kind alone: the sweep
 recognises a lock-in on the wake by itself. ``wake_shift`` adds the frequency test, which also

@@ -2,7 +2,7 @@
 
 A rigid flat plate on a heave spring and a pitch spring attached at the elastic axis, loaded by
 Theodorsen's potential-flow lift and moment. Its flutter and divergence boundaries are the cheap
-reference against which the viscous global-stability results are read (REFERENCE.md §C–§E).
+reference against which the viscous global-stability results are read (Theodorsen 1935; Hodges & Pierce; Moulin & Marquet 2021).
 
 Conventions (those of the project, docs/model.md §1–§3, never the textbooks'):
 
@@ -37,10 +37,9 @@ Theodorsen's loads (docs/model.md §9 with ``C(k)``; ``dC_L/dθ``, ``dC_M/dθ`` 
     C_M = (π/4)[2a h'' - (1/16 + 2a²) θ''] + (π/4)(2a - 1/2) θ'
           + C(k) dC_M/dθ [θ + h' + (1/4 - a) θ']
 
-The non-circulatory ``h''`` term of ``C_M`` is ``(π/2) a h''``: docs/model.md §9 prints ``(π/4) a h''``,
-which would make the added-mass matrix non-symmetric (the heave–pitch added mass of a plate is
-``(π/4)·a`` in units of ``ρc²``, times 2 for the coefficient, in both rows); the two agree for the
-paper's ``a = 0``. Converting Theodorsen's textbook loads (``h`` down, ``α`` nose-up, ``b``) with
+The non-circulatory ``h''`` term of ``C_M`` is ``(π/2) a h''`` (docs/model.md §9): the heave–pitch
+added mass of a plate is ``(π/4)·a`` in units of ``ρc²``, times 2 for the coefficient, in both rows,
+so that the added-mass matrix is symmetric. Converting Theodorsen's textbook loads (``h`` down, ``α`` nose-up, ``b``) with
 ``h → -h``, ``α → -θ``, ``b = 1/2``, ``a_b = 2a`` gives exactly the lines above (the test suite
 checks the symmetry and the Hodges & Pierce case).
 """
@@ -64,7 +63,7 @@ _K_SMALL = 1e-100  # C(k) = 1 to double precision below this (correction ~ k log
 _K_LARGE = 1e8  # C(k) = 1/2 - i/(8k) to double precision above this (correction ~ 1/k²)
 
 CONVENTIONS = (
-    "Theodorsen typical section (MODEL.md §9), project units: chord c = 1, time c/U, "
+    "Theodorsen typical section (docs/model.md §9), project units: chord c = 1, time c/U, "
     "m = m_solid/(0.5 rho c^2), U* = U/(c omega_theta), Omega = omega_h/omega_theta, "
     "r_theta about the elastic axis, elastic_axis a and static_unbalance x_theta in chords "
     "(positive downstream, a from mid-chord, x_theta from the elastic axis to the centre of mass), "
@@ -75,7 +74,7 @@ CONVENTIONS = (
 
 def theodorsen_function(k):
     """Theodorsen's function ``C(k) = H₁⁽²⁾(k) / (H₁⁽²⁾(k) + i H₀⁽²⁾(k))`` (docs/model.md §9,
-    REFERENCE.md §C).
+    Theodorsen 1935, docs/validation.md).
 
     ``k`` is the reduced frequency on the semi-chord (``k = ω/2`` in chord units), a scalar or an
     array. Exact Hankel functions (SciPy) in between the limits ``C(0) = 1`` (returned exactly for
