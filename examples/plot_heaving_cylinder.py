@@ -12,8 +12,8 @@ Command-line equivalent (thresholds only, no figure)::
     fsistab critical --body cylinder --Re 60 --mass-ratio 20 --reduced-velocity-range 3 12 \\
         --points 36 --wake-shift 0.75j --method tracking --mesh coarse
 
-Mesh: ``--mesh`` preset (default coarse). Reference (the cylinder references of docs/validation.md; for the fixed
-cylinder: σ = 0.046839 + 0.74518i at Re = 60): two branches, a fluid mode tending to the fixed
+Mesh: ``--mesh`` preset (default coarse). Reference (the cylinder references of docs/validation.md; for the
+fixed cylinder: σ = 0.046839 + 0.74518i at Re = 60): two branches, a fluid mode tending to the fixed
 cylinder's mode as U* → 0 and a solid mode near (2π/U*)√(m/(m+1)) away from the coincidence
 U* ≈ 8; near coincidence the branches interact and one of them is unstable over a range of U*.
 

@@ -14,7 +14,8 @@ Command-line equivalent::
 
 (add ``--map`` for the maps, ``--workers 2`` for two worker processes).
 
-Mesh: ``--mesh`` preset (default coarse; one mesh per Re, fitted to it). Reference (Moulin & Marquet 2021): at Re = 2900 flutter sets in at U*_F ≈ 4.5 and divergence at U*_D ≈ 7.4 (m = 1000); the
+Mesh: ``--mesh`` preset (default coarse; one mesh per Re, fitted to it). Reference (Moulin & Marquet 2021): at
+Re = 2900 flutter sets in at U*_F ≈ 4.5 and divergence at U*_D ≈ 7.4 (m = 1000); the
 thin-airfoil limits of the slopes are dC_L/dα = 2π and d(-C_M)/dα = π/2 about mid-chord
 (Moulin & Marquet 2021); the reference gives no values at other Re.
 

@@ -1,6 +1,7 @@
 """Onset of a fixed body's wake instability (fsistab.onset, ``fsistab onset``): the secant on
 analytic growth rates with known roots, input checks before any work, and the fixed cylinder's
-critical Reynolds number on the coarse mesh against the fixed-cylinder references of docs/validation.md, rerun from the cache."""
+critical Reynolds number on the coarse mesh against the fixed-cylinder references of docs/validation.md, rerun
+from the cache."""
 
 import json
 import math
@@ -199,8 +200,8 @@ def coarse_onset(tmp_path_factory):
 
 
 def test_cylinder_critical_reynolds_coarse(coarse_onset):
-    """the fixed-cylinder references of docs/validation.md: Re_c 46.6–46.8, ω_c 0.733–0.744. The coarse mesh (20 433 unknowns) gives
-    Re_c = 46.766, ω_c = 0.73450, inside both ranges (the medium mesh: 46.695, 0.73417)."""
+    """The fixed-cylinder references of docs/validation.md: Re_c 46.6–46.8, ω_c 0.733–0.744. The coarse
+    mesh (20 433 unknowns) gives Re_c = 46.766, ω_c = 0.73450, inside both ranges (the medium mesh: 46.695, 0.73417)."""
     _, payload = coarse_onset
     assert set(payload) == {
         "parameter",

@@ -164,7 +164,8 @@ def test_adjoint_mode_reports_bad_input_and_failures(operators_alpha, heave_mode
 
 
 # --------------------------------------------------------------------------------------------
-# adjoint modes of the fixed cylinder (the fixed-cylinder references of docs/validation.md; Giannetti & Luchini 2007)
+# adjoint modes of the fixed cylinder (the fixed-cylinder references of docs/validation.md; Giannetti &
+# Luchini 2007)
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,5 @@
-"""Analytic typical section with Theodorsen aerodynamics (docs/model.md §9, Theodorsen 1935; Hodges & Pierce; Moulin & Marquet 2021).
+"""Analytic typical section with Theodorsen aerodynamics (docs/model.md §9, Theodorsen 1935; Hodges & Pierce;
+Moulin & Marquet 2021).
 
 Fast: no mesh, except the one CLI test of calibrated slopes (marked slow).
 """
@@ -35,7 +36,8 @@ from fsistab.theodorsen import (
 PLATE = TypicalSection.create(mass_ratio=1000.0)  # docs/model.md §2: Ω 0.8, ζ_h 0, ζ_θ 0.05, r_θ 0.289
 
 
-# --- C(k), Theodorsen 1935, docs/validation.md ---------------------------------------------------------------------
+# --- C(k), Theodorsen 1935, docs/validation.md
+# ---------------------------------------------------------------------
 
 TABLE_K = [0.05, 0.1, 0.2, 0.3, 0.5, 1.0, 2.0]
 TABLE_F = [0.90901, 0.83192, 0.72758, 0.66497, 0.59794, 0.53943, 0.51295]
@@ -120,7 +122,8 @@ def test_added_mass_is_symmetric_and_thin_airfoil_moment_slope_about_the_elastic
         assert section.moment_slope_elastic_axis == pytest.approx(math.pi / 2 * (1 + 4 * a), rel=1e-14)
 
 
-# --- Hodges & Pierce, Hodges & Pierce, docs/validation.md -----------------------------------------------------------
+# --- Hodges & Pierce, Hodges & Pierce, docs/validation.md
+# -----------------------------------------------------------
 
 
 def _hodges_pierce_section():

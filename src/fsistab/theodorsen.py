@@ -2,7 +2,8 @@
 
 A rigid flat plate on a heave spring and a pitch spring attached at the elastic axis, loaded by
 Theodorsen's potential-flow lift and moment. Its flutter and divergence boundaries are the cheap
-reference against which the viscous global-stability results are read (Theodorsen 1935; Hodges & Pierce; Moulin & Marquet 2021).
+reference against which the viscous global-stability results are read (Theodorsen 1935; Hodges & Pierce;
+Moulin & Marquet 2021).
 
 Conventions (those of the project, docs/model.md §1–§3, never the textbooks'):
 
@@ -39,8 +40,8 @@ Theodorsen's loads (docs/model.md §9 with ``C(k)``; ``dC_L/dθ``, ``dC_M/dθ`` 
 
 The non-circulatory ``h''`` term of ``C_M`` is ``(π/2) a h''`` (docs/model.md §9): the heave–pitch
 added mass of a plate is ``(π/4)·a`` in units of ``ρc²``, times 2 for the coefficient, in both rows,
-so that the added-mass matrix is symmetric. Converting Theodorsen's textbook loads (``h`` down, ``α`` nose-up, ``b``) with
-``h → -h``, ``α → -θ``, ``b = 1/2``, ``a_b = 2a`` gives exactly the lines above (the test suite
+so that the added-mass matrix is symmetric. Converting Theodorsen's textbook loads (``h`` down, ``α`` nose-up,
+``b``) with ``h → -h``, ``α → -θ``, ``b = 1/2``, ``a_b = 2a`` gives exactly the lines above (the test suite
 checks the symmetry and the Hodges & Pierce case).
 """
 
