@@ -201,7 +201,8 @@ def coarse_onset(tmp_path_factory):
 
 def test_cylinder_critical_reynolds_coarse(coarse_onset):
     """The fixed-cylinder references of docs/validation.md: Re_c 46.6–46.8, ω_c 0.733–0.744. The coarse
-    mesh (20 433 unknowns) gives Re_c = 46.766, ω_c = 0.73450, inside both ranges (the medium mesh: 46.695, 0.73417)."""
+    mesh (20 433 unknowns) gives Re_c = 46.766, ω_c = 0.73450, inside both ranges (the medium mesh:
+    46.695, 0.73417)."""
     _, payload = coarse_onset
     assert set(payload) == {
         "parameter",
