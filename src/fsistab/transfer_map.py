@@ -337,17 +337,14 @@ def transfer_neutral_map(
     reduced model); intervals it leaves are listed with their reasons (:class:`UnresolvedInterval`).
 
     Where the samples come from (:mod:`fsistab.map_sources`): with ``reduced``
-    (:class:`fsistab.reduced_model.ReducedModels`) a frequency is evaluated from the model whose
-    certified interval holds it, or from a new model if it lies near an exact sample (a region being
-    refined); defaults ``tolerance`` 3e-3, ``min_step`` 1e-7, ``max_samples`` 4000. Without, exact
-    samples (one factorisation each, ``threads`` at a time, each saved as it finishes), reduced
-    models of ``resonance_blocks`` Krylov blocks at a sharp resonance and at ``s = 0`` (0: none;
-    saved next to ``samples_path``), and certified rational fits of the exact samples where exact
-    bisection stops at ``min_step`` or, with ``fit_first``, before each exact bisection; defaults
-    ``tolerance`` ``EXACT_TOLERANCE``, ``min_step`` 1e-3, ``max_samples`` 400 (the fitted frequencies
-    not counted). With ``samples_path`` every sample is saved and a rerun of the same mesh and flow
-    reuses them, for any solid parameters; models lost from a damaged file are rebuilt where they
-    were built (:meth:`fsistab.reduced_model.ReducedModels.restore`).
+    (:class:`fsistab.reduced_model.ReducedModels`), reduced models certified on intervals, built near
+    exact samples (defaults ``tolerance`` 3e-3, ``min_step`` 1e-7, ``max_samples`` 4000); without,
+    exact samples (``threads`` at a time, each saved as it finishes), reduced models of
+    ``resonance_blocks`` Krylov blocks at a sharp resonance and at ``s = 0`` (0: none), and certified
+    rational fits of the exact samples, tried before exact bisections with ``fit_first`` (defaults
+    ``EXACT_TOLERANCE``, 1e-3, 400 not counting fitted frequencies). With ``samples_path`` the samples
+    and models are saved and reused by a rerun of the same mesh and flow, for any solid parameters;
+    models lost from a damaged file are rebuilt (:meth:`fsistab.reduced_model.ReducedModels.restore`).
 
     The result's ``factorisations`` are this run's (counted by ``counter``), its
     ``factorisations_total`` those of every run that built the samples and models it reuses.
@@ -382,9 +379,18 @@ def transfer_neutral_map(
     )
     sources.resonances.charge(counter)
     tracker = RootTracker(template, policy.wide, fluid.theta0, fluid.loads0)
-    engine = MapEngine(policy, sources, store, tracker, counter, say)
-    run = engine.run(initial_frequencies(policy.omega_range, initial, wake_frequency))
-    curves = _assemble(tracker.roots, tracker.tracks, mass_range)
+    run = MapEngine(policy, sources, store, tracker, counter, say).run(
+        initial_frequencies(policy.omega_range, initial, wake_frequency)
+    )
+    spent = counter.count - start
+    return _transfer_map(run, sources, policy, template, fluid, (spent, spent + reused))
+
+
+def _transfer_map(run, sources: MapSources, policy, template: Solid, fluid, factorisations) -> TransferMap:
+    """The map of the loop's ``run``: curves assembled from its roots, divergence from ``G(0)``;
+    ``factorisations``: this run's and the total."""
+    tracker = run.tracker
+    curves = _assemble(tracker.roots, tracker.tracks, policy.inner)
     lambdas, rates = divergence_lines(run.static, template, fluid.theta0, fluid.loads0)
     return TransferMap(
         tuple(curves),
@@ -392,12 +398,12 @@ def transfer_neutral_map(
         rates,
         np.array(sorted({0.0, *tracker.roots})),
         (float(policy.inner[0]), float(policy.inner[1])),
-        counter.count - start,
+        factorisations[0],
         unresolved_intervals(run.unresolved, curves),
         len(sources.fits.fits),
         run.interpolated,
         len(sources.resonances.covers),
-        factorisations_total=counter.count - start + reused,
+        factorisations_total=factorisations[1],
     )
 
 
