@@ -1,4 +1,4 @@
-"""The spring-mounted plate of Moulin & Marquet (2021, Phys. Fluids 33, 034133) on the three mesh presets.
+"""The spring-mounted plate of Moulin & Marquet (2021, Phys. Fluids 33) on the three mesh presets.
 
 Plate, Re = 2900, α0 = 0, m = 1000, U* = 4.7, heave and pitch (docs/model.md §2 defaults): eigenvalues
 nearest the shifts 0.17i, 0.15i and 11.2i. Reported: the least stable mode with 0.1 < ω < 0.25
