@@ -126,9 +126,13 @@ def test_a_workflow_runs_pinned_and_reporting(monkeypatch, caplog):
 
 @pytest.fixture
 def fsistab_logger():
-    """The logger ``fsistab`` restored after the test (handlers and level)."""
+    """The logger ``fsistab`` as a fresh process has it (no handler, level unset: the command
+    line's warning handler, installed by other tests in the same worker, removed), restored after
+    the test."""
     logger = logging.getLogger("fsistab")
     handlers, level = list(logger.handlers), logger.level
+    logger.handlers[:] = []
+    logger.setLevel(logging.NOTSET)
     yield logger
     logger.handlers[:] = handlers
     logger.setLevel(level)

@@ -191,6 +191,9 @@ def _neutral_payload(ds):
         "wake_frequency": wake if math.isfinite(wake) else None,
         "method": ds.attrs["method"],
         "factorisations": int(ds.attrs["factorisations_this_run"]),
+        "factorisations_total": int(
+            ds.attrs.get("factorisations_total", ds.attrs["factorisations_this_run"])
+        ),
         "reduced_models": int(ds.attrs["reduced_models"]),
         "rational_fits": int(ds.attrs.get("rational_fits", 0)),
         "interpolated_frequencies": int(ds.attrs.get("interpolated_frequencies", 0)),

@@ -203,7 +203,8 @@ def stability_map(ds: xr.Dataset, p: dict, mass_range, out: Path) -> list:
     lines = [table(title, columns, _map_rows(ds, p, mass_range)), *_map_notes(ds, p)]
     # a rerun reuses the saved samples: the map's frequencies are its cost, this count the run's
     lines.append(
-        f"{p['factorisations']} factorisations in this run; curves and map saved in {out}; "
+        f"{p['factorisations']} factorisations in this run, {p['factorisations_total']} in total; "
+        f"curves and map saved in {out}; "
         f"figure {p['figure']}"
     )
     return lines

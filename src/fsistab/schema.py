@@ -117,6 +117,9 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "reduced_velocity": Field(_U),
         "mass_ratio": Field(_M),
         "frequency_ratio": Field("critical frequency over the pitch natural frequency, omega_c U*_c"),
+        "flutter_frequency_ratio": Field("flutter frequency over the pitch natural frequency, omega_F U*_F"),
+        "leading_growth_rate": Field(f"growth rate lambda of the study point's leading mode {_SIGMA}"),
+        "leading_frequency": Field("angular frequency of the study point's leading mode (time unit L/U)"),
         "wake_frequency": Field("angular frequency of the fixed body's wake mode (time unit L/U)"),
         "threshold_reduced_velocity": Field(f"critical {_U}"),
         "threshold_frequency": Field("critical angular frequency omega_c (time unit L/U)"),
@@ -213,6 +216,10 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "load_mass_s": Field("direct inertial load term of G(s)"),
         "ends": Field("sizes of the nested Krylov bases of the model"),
         "interval": Field("frequency interval where the model is certified (time unit L/U)"),
+        "built_shift": Field("shift of a reduced model as it was built (time unit L/U; the models' index)"),
+        "built_interval": Field(
+            "frequency interval a reduced model was certified on when built (time unit L/U)"
+        ),
         # --- Theodorsen typical section (docs/model.md §9)
         "branch": _text("p-k branch of the typical section"),
         "onset": Field("1 onset, 0 restabilisation, -1 no boundary"),

@@ -455,6 +455,9 @@ def stability_map(
         map_attrs["interpolated_frequencies"] = tmap.interpolated
     ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
     ds.attrs["factorisations_this_run"] = counter.count
+    # over every run that built the map's samples and models (a resumed map counts them all)
+    earlier = tmap.factorisations_total - tmap.factorisations if tmap is not None else 0
+    ds.attrs["factorisations_total"] = earlier + counter.count
     ds.attrs["reduced_models"] = models
     ds.attrs["divergence_coefficient"] = divergence_coefficient(ds)
     data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
