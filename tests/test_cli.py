@@ -238,8 +238,11 @@ def test_neutral_map_by_transfer_json_and_reuse(tmp_path, plate_2900, plate_coar
     assert 0.289 * (1000 / slope) ** 0.5 == pytest.approx(7.31235, rel=1e-5)
     assert (tmp_path / "out" / "reduced_plate_Re2900_a0_models.nc").is_file()
     assert (tmp_path / "out" / "neutral_plate_Re2900_a0.png").stat().st_size > 10_000
+    assert payload["factorisations_total"] == payload["factorisations"]  # nothing reused
     again = json.loads(runner.invoke(app, args).stdout)
     assert again["factorisations"] == 0
+    # the total counts every run that built the samples and models the rerun reuses
+    assert again["factorisations_total"] == payload["factorisations_total"]
     assert again["curves"] == payload["curves"]
     # `fsistab theodorsen` finds the map the default method stored in the cache (its own --out
     # elsewhere) and compares its lowest flutter boundary with Theodorsen's: the viscous values are
