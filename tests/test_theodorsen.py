@@ -444,11 +444,12 @@ def test_cli_bad_input_one_line_error(tmp_path, args, message):
     assert not (tmp_path / "out").exists()
 
 
-def _write_viscous_curves(out, factor):
-    """Stand-in for `fsistab neutral` output (its map dataset, written by either method): the
-    Theodorsen flutter boundary × factor."""
+def _write_viscous_curves(cache, factor):
+    """Stand-in for `fsistab neutral`'s map stored in the cache (its map dataset, written by either
+    method): the Theodorsen flutter boundary × factor."""
     from fsistab.neutral_map import MapCurve, NeutralMap, NeutralPoint, neutral_map_dataset
     from fsistab.store import write_dataset
+    from fsistab.workflows import stored_map_path
 
     attrs = {"reynolds": 2900.0, "alpha0_deg": 0.0, "freq_ratio": 0.8, "zeta_h": 0.0, "zeta_theta": 0.05}
     attrs |= {"r_theta": 0.289}
@@ -461,7 +462,7 @@ def _write_viscous_curves(out, factor):
     curve = MapCurve("flutter", 1000.0, "onset", points, (), ("m_bound", "m_bound"))
     masses = np.geomspace(10.0, 1e4, 20)
     result = NeutralMap((curve,), masses, np.sqrt(masses * 0.289**2 / 1.562), 1.562, (), 0)
-    write_dataset(neutral_map_dataset(result, attrs), out / "neutral_plate_Re2900_a0_map.nc")
+    write_dataset(neutral_map_dataset(result, attrs), stored_map_path(cache, "plate_Re2900_a0"))
 
 
 def test_cli_neutral_curves_and_viscous_comparison(tmp_path):
@@ -472,7 +473,7 @@ def test_cli_neutral_curves_and_viscous_comparison(tmp_path):
     assert payload["comparison"] is None and len(payload["mass_ratio"]) == 5
     assert (out / "theodorsen_plate_Re2900_a0_thin-airfoil.nc").is_file()
     assert (out / "theodorsen_plate_Re2900_a0_thin-airfoil.png").stat().st_size > 10_000
-    _write_viscous_curves(out, factor=1.1)
+    _write_viscous_curves(tmp_path / "c", factor=1.1)
     result = _run(["--mass-ratio-range", "10", "1e4", "--points", "5", "--json"], tmp_path)
     assert result.exit_code == 0, result.output
     comparison = json.loads(result.stdout)["comparison"]
