@@ -372,7 +372,7 @@ def software_versions() -> dict[str, str]:
 
 def provenance(argv: Sequence[str] | None = None, now: datetime.datetime | None = None) -> dict[str, str]:
     """The global attributes that say where a file comes from: ``Conventions``, ``fsistab_version``,
-    ``software_versions`` (JSON), ``source`` and ``history`` (``2026-12-02T17:03:11Z fsistab
+    ``software_versions`` (JSON), ``source`` and ``history`` (``YYYY-MM-DDThh:mm:ssZ fsistab
     neutral --mesh coarse``). ``argv`` defaults to ``sys.argv`` and ``now`` to the present, read
     at each call."""
     from fsistab import __version__
