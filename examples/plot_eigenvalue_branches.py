@@ -125,7 +125,7 @@ def critical_mode_figure(steady, fluid, solid, threshold, path: Path) -> Path:
     from fsistab.plots import plot_mode_snapshot
 
     system = CoupledSystem(fluid, replace(solid, reduced_velocity=threshold.reduced_velocity))
-    pair = neutral_eigenpair(system, threshold.frequency, threshold.point.mode)
+    pair = neutral_eigenpair(system, threshold.frequency, threshold.mode)
     return plot_mode_snapshot(steady, fluid.free_dofs, pair, system, path)
 
 

@@ -384,17 +384,24 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
     from fsistab.neutral_map import (
         CurveCrossing,
         MapCrossing,
-        MapCurve,
+        NeutralCurve,
         NeutralMap,
         NeutralPoint,
         neutral_map_dataset,
     )
     from fsistab.params import MapSettings
 
-    points = tuple(NeutralPoint(m, u, 0.2, np.zeros(1), 3) for m, u in [(500, 3.1), (1000, 4.4), (2000, 6.2)])
+    points = tuple(
+        NeutralPoint(m, u, 0.2, mode=np.zeros(1), iterations=3)
+        for m, u in [(500, 3.1), (1000, 4.4), (2000, 6.2)]
+    )
     masses = np.geomspace(500, 2000, 5)
     result = NeutralMap(
-        (MapCurve("flutter", 1000.0, "onset", points, (), ("m_bound", "m_bound")),),
+        (
+            NeutralCurve(
+                points, kind="flutter", seed_mass_ratio=1000.0, boundary="onset", stops=("m_bound", "m_bound")
+            ),
+        ),
         masses,
         0.289 * np.sqrt(masses / 1.562),
         1.562,

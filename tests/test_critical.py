@@ -43,7 +43,7 @@ def test_divergence_is_the_torsional_formula(plate_operators):
         expected = math.sqrt(mass_ratio * 0.289**2 / slope)
         assert point.reduced_velocity == pytest.approx(expected, rel=1e-9)
         assert point.kind == "divergence" and point.frequency == 0
-        assert _quadratic(point.history)
+        assert _quadratic(point.residuals)
     assert counter.count == 2  # one real factorisation of J_ff per call
 
 
@@ -79,8 +79,8 @@ def test_flutter_point_is_an_eigenvalue_crossing(plate_operators):
     counter = FactorCounter()
     guess = branch[4.7]
     point = flutter_point(plate_operators, solid, guess.frequency, guess.vector, counter=counter)
-    assert _quadratic(point.history)
-    assert counter.count == len(point.history) - 1  # one factorisation per Newton step
+    assert _quadratic(point.residuals)
+    assert counter.count == len(point.residuals) - 1  # one factorisation per Newton step
     assert 4.0 < point.reduced_velocity < 4.7  # Moulin & Marquet 2021: U*_F ≈ 4.5 (fine mesh)
     # the eigen-solver at the critical U* finds a neutral eigenvalue at the critical frequency
     at_critical = CoupledSystem(
@@ -121,7 +121,7 @@ def test_thresholds_along_reduced_velocity(plate_operators):
         plate_operators,
         Solid(mass_ratio=1000, reduced_velocity=thresholds[0].reduced_velocity * 1.01),
         thresholds[0].frequency,
-        thresholds[0].point.mode,
+        thresholds[0].mode,
     )
     assert thresholds[0].reduced_velocity == pytest.approx(direct.reduced_velocity, rel=1e-8)
     divergence = next(t for t in thresholds if t.kind == "divergence")
@@ -142,16 +142,17 @@ def test_thresholds_continue_along_reynolds(plate_coarse_spec, plate_2900, tmp_p
     sweep = critical_points_along_flow(
         plate_coarse_spec, flows, Solid(1000.0, 4.5), 0.18, cache_dir=tmp_path, initial=plate_2900
     )
-    points = list(sweep)
-    assert [p.reynolds for p in points] == [2900.0, 2600.0]
-    point = points[1]
+    pairs = list(sweep)
+    assert [(f.reynolds, d.reynolds) for f, d in pairs] == [(2900.0, 2900.0), (2600.0, 2600.0)]
+    assert [(f.kind, d.kind) for f, d in pairs] == [("flutter", "divergence")] * 2
+    flutter, divergence = pairs[1]
     fluid = fluid_operators(solve_steady(plate_coarse_spec, flows[1], cache_dir=tmp_path))  # cached
-    system = CoupledSystem(fluid, Solid(1000.0, point.flutter_velocity))
-    nearest = eigenpairs_near(system, [1j * point.flutter_frequency], 2)[0]
-    assert abs(nearest.value - 1j * point.flutter_frequency) < 1e-8
+    system = CoupledSystem(fluid, Solid(1000.0, flutter.reduced_velocity))
+    nearest = eigenpairs_near(system, [1j * flutter.frequency], 2)[0]
+    assert abs(nearest.value - 1j * flutter.frequency) < 1e-8
     slope = static_slopes(fluid).moment
-    assert point.divergence_velocity == pytest.approx(math.sqrt(1000.0 * 0.289**2 / slope), rel=1e-9)
-    assert point.flutter_velocity != pytest.approx(points[0].flutter_velocity, rel=1e-3)  # it moved
+    assert divergence.reduced_velocity == pytest.approx(math.sqrt(1000.0 * 0.289**2 / slope), rel=1e-9)
+    assert flutter.reduced_velocity != pytest.approx(pairs[0][0].reduced_velocity, rel=1e-3)  # it moved
 
 
 def test_wake_mode_is_refined_from_a_guess(plate_operators):
@@ -186,8 +187,6 @@ def test_thresholds_at_re_100_hold_each_point_once(tmp_path):
     assert [t.kind for t in found].count("divergence") == 1
     for t in found:
         if t.kind != "divergence":
-            assert abs(t.point.frequency) > 1e-6
-    points = [
-        (t.kind, t.boundary, round(t.reduced_velocity, 6), round(abs(t.point.frequency), 6)) for t in found
-    ]
+            assert abs(t.frequency) > 1e-6
+    points = [(t.kind, t.boundary, round(t.reduced_velocity, 6), round(abs(t.frequency), 6)) for t in found]
     assert len(points) == len(set(points))

@@ -56,7 +56,7 @@ def test_points_along_reynolds_are_neutral(plate_2900, plate_coarse_spec, cache_
         initial=plate_2900,
         counter=counter,
     )
-    assert curve.stop == "max_points" and len(curve.points) == 3
+    assert curve.stops[-1] == "max_points" and len(curve.points) == 3
     reynolds = curve.values("reynolds")
     assert reynolds[0] == pytest.approx(2900) and np.all(np.diff(reynolds) < 0)
     for point in curve.points[1:]:

@@ -52,7 +52,7 @@ def test_flutter_curve_towards_small_mass_ratios(plate_operators):
     curve = continue_neutral_curve(
         plate_operators, start, solid, direction=-1, max_points=4, on_point=saved.append
     )
-    assert len(curve.points) == 4 and len(saved) == 3 and curve.stop == "max_points"
+    assert len(curve.points) == 4 and len(saved) == 3 and curve.stops[-1] == "max_points"
     m, u = curve.mass_ratios, curve.reduced_velocities
     assert np.all(np.diff(m) < 0) and np.all(
         np.diff(u) < 0
@@ -190,7 +190,10 @@ def test_turning_points_are_stored_with_the_curve(tmp_path):
     from fsistab.neutral_map import TurningPoint
     from fsistab.store import read_dataset
 
-    folds = [TurningPoint(1.9, 4.9, 0.21, 1, True), TurningPoint(2.6, 5.2, 0.22, 4, False)]
+    folds = [
+        TurningPoint(1.9, 4.9, 0.21, index=1, localised=True),
+        TurningPoint(2.6, 5.2, 0.22, index=4, localised=False),
+    ]
     table = curve_table(tmp_path / "c.nc", {"case": "plate"})
     for fold in folds:
         record = {"fold_mass_ratio": fold.mass_ratio, "fold_reduced_velocity": fold.reduced_velocity}
@@ -205,12 +208,13 @@ def test_turning_points_are_stored_with_the_curve(tmp_path):
 def test_a_threshold_on_a_traced_curve_is_recognised():
     """Seeds that find a curve already traced do not trace it again (1 % in U* at that m)."""
     from fsistab.neutral import _on_traced_curve
-    from fsistab.neutral_map import MapCurve, NeutralPoint
+    from fsistab.neutral_map import NeutralCurve, NeutralPoint
 
     points = tuple(
-        NeutralPoint(m, u, 0.2, np.zeros(0), 0) for m, u in ((10.0, 1.0), (100.0, 2.0), (50.0, 3.0))
+        NeutralPoint(m, u, 0.2, mode=np.zeros(0), iterations=0)
+        for m, u in ((10.0, 1.0), (100.0, 2.0), (50.0, 3.0))
     )
-    curve = MapCurve("flutter", 100.0, "onset", points, (), ("", ""))
+    curve = NeutralCurve(points, kind="flutter", seed_mass_ratio=100.0, boundary="onset", stops=("", ""))
     half = math.sqrt(10.0 * 100.0)  # log-midpoint of the first segment: U* = 1.5
     assert _on_traced_curve([curve], "flutter", half, 1.505)
     assert not _on_traced_curve([curve], "flutter", half, 1.6)
@@ -314,12 +318,13 @@ def test_determinant_formulation_points_and_curve():
 
 
 def _curve(kind, pairs, frequencies):
-    from fsistab.neutral_map import MapCurve, NeutralPoint
+    from fsistab.neutral_map import NeutralCurve, NeutralPoint
 
     points = tuple(
-        NeutralPoint(m, u, w, np.zeros(0), 0) for (m, u), w in zip(pairs, frequencies, strict=True)
+        NeutralPoint(m, u, w, mode=np.zeros(0), iterations=0)
+        for (m, u), w in zip(pairs, frequencies, strict=True)
     )
-    return MapCurve(kind, math.nan, "onset", points, (), ("", ""))
+    return NeutralCurve(points, kind=kind, seed_mass_ratio=math.nan, boundary="onset", stops=("", ""))
 
 
 def test_crossings_of_known_lines_are_found_at_the_analytic_points():

@@ -233,24 +233,30 @@ def _map_result():
     from fsistab.neutral_map import (
         CurveCrossing,
         MapCrossing,
-        MapCurve,
+        NeutralCurve,
         NeutralMap,
         NeutralPoint,
         TurningPoint,
     )
 
     def points(pairs):
-        return tuple(NeutralPoint(m, u, 0.2, np.zeros(1), 3) for m, u in pairs)
+        return tuple(NeutralPoint(m, u, 0.2, mode=np.zeros(1), iterations=3) for m, u in pairs)
 
     curves = (
-        MapCurve("flutter", 1000.0, "onset", points([(500, 3.1), (1000, 4.4), (2000, 6.2)]), (), ("a", "b")),
-        MapCurve(
-            "viv",
-            1.0,
-            "onset",
+        NeutralCurve(
+            points([(500, 3.1), (1000, 4.4), (2000, 6.2)]),
+            kind="flutter",
+            seed_mass_ratio=1000.0,
+            boundary="onset",
+            stops=("a", "b"),
+        ),
+        NeutralCurve(
             points([(1, 0.07), (3, 0.08)]),
-            (TurningPoint(2, 0.075, 11, 0, True),),
-            ("c", "d"),
+            kind="viv",
+            seed_mass_ratio=1.0,
+            boundary="onset",
+            turning_points=(TurningPoint(2, 0.075, 11, index=0, localised=True),),
+            stops=("c", "d"),
         ),
     )
     masses = np.geomspace(1, 2000, 7)

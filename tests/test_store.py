@@ -513,7 +513,7 @@ def _curve_points():
     from fsistab.neutral_map import NeutralPoint
 
     mode = np.array([1 + 2j, -0.5j, 3.0])
-    return [NeutralPoint(m, 5.0 + m / 100, 0.2, mode * m, 2) for m in (10.0, 20.0, 30.0)]
+    return [NeutralPoint(m, 5.0 + m / 100, 0.2, mode=mode * m, iterations=2) for m in (10.0, 20.0, 30.0)]
 
 
 def _saved_curve(path, attrs, points, stop=None, folds=()):
@@ -555,17 +555,17 @@ def test_an_interrupted_curve_continues_from_its_last_point(tmp_path, monkeypatc
 
     path, attrs = tmp_path / "curve.nc", {"case": "a"}
     points = _curve_points()
-    fold = neutral_map.TurningPoint(9.0, 5.05, 0.2, 0, True)
+    fold = neutral_map.TurningPoint(9.0, 5.05, 0.2, index=0, localised=True)
     _saved_curve(path, attrs, points, folds=[fold])
     calls = []
 
     class Curve:
-        stop = "max_points"
+        stops = ("max_points",)
 
     def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
         calls.append((start, options))
-        on_fold(neutral_map.TurningPoint(35.0, 5.4, 0.2, 1, False))
-        on_point(neutral_map.NeutralPoint(40.0, 5.4, 0.2, start.mode * 2, 3))
+        on_fold(neutral_map.TurningPoint(35.0, 5.4, 0.2, index=1, localised=False))
+        on_point(neutral_map.NeutralPoint(40.0, 5.4, 0.2, mode=start.mode * 2, iterations=3))
         return Curve()
 
     monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)
@@ -587,7 +587,7 @@ def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeyp
     """The damaged file is not resumed: tracing restarts from the given start point."""
     import fsistab.neutral as neutral
     import fsistab.neutral_map as neutral_map
-    from fsistab.critical import CriticalPoint
+    from fsistab.neutral_point import NeutralPoint
 
     path = tmp_path / "curve.nc"
     points = _curve_points()
@@ -597,15 +597,15 @@ def test_a_damaged_curve_is_reported_and_traced_afresh(tmp_path, caplog, monkeyp
     started = []
 
     class Curve:
-        stop = "mass_range"
+        stops = ("mass_range",)
 
     def continue_neutral_curve(fluid, start, template, on_point, on_fold, **options):
         started.append(start)
-        on_point(neutral_map.NeutralPoint(start.mass_ratio * 2, 6.0, 0.3, start.mode, 1))
+        on_point(neutral_map.NeutralPoint(start.mass_ratio * 2, 6.0, 0.3, mode=start.mode, iterations=1))
         return Curve()
 
     monkeypatch.setattr(neutral, "continue_neutral_curve", continue_neutral_curve)
-    start = CriticalPoint("flutter", 7.0, 4.0, 0.25, np.array([1j, 2.0]), (), 0)
+    start = NeutralPoint(7.0, 4.0, 0.25, kind="flutter", mode=np.array([1j, 2.0]))
     with caplog.at_level(logging.WARNING, logger=LOGGER):
         traced = neutral.trace_curve_resumable(None, start, None, path, attrs)
     assert started == [start] and str(path) in caplog.text and "recomputing" in caplog.text

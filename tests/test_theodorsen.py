@@ -152,7 +152,7 @@ def test_hodges_pierce_flutter_and_divergence():
     speed_to_v = 2.0  # V = U/(bω_θ) = U* c/b
     v_f = speed_to_v * flutter[0].reduced_velocity
     assert abs(v_f - 2.18) < 0.005  # exact C(k): ≈ 2.18 (the book's 2.17 uses a rational C(k))
-    assert 0.64 <= flutter[0].frequency_ratio <= 0.65
+    assert 0.64 <= flutter[0].frequency * flutter[0].reduced_velocity <= 0.65
     assert flutter[0].boundary == "onset"
     assert speed_to_v * divergence[0].reduced_velocity == pytest.approx(2 * math.sqrt(2), rel=1e-13)
     assert speed_to_v * divergence_velocity_from_determinant(section) == pytest.approx(
@@ -262,7 +262,7 @@ def test_high_mass_ratio_limit():
         (point,) = flutter_points(PLATE.with_mass_ratio(m), (0.01, 1e4))
         results[m] = point
         correction = first_order / math.sqrt(m)
-        residuals[m] = abs(point.frequency_ratio - omega - correction)
+        residuals[m] = abs(point.frequency * point.reduced_velocity - omega - correction)
         assert residuals[m] < 0.5 * abs(correction)
         assert point.boundary == "onset"
     # the first-order term is the whole O(m^-1/2) deviation: what is left decays faster
@@ -447,7 +447,7 @@ def test_cli_bad_input_one_line_error(tmp_path, args, message):
 def _write_viscous_curves(cache, factor):
     """Stand-in for `fsistab neutral`'s map stored in the cache (its map dataset, written by either
     method): the Theodorsen flutter boundary × factor."""
-    from fsistab.neutral_map import MapCurve, NeutralMap, NeutralPoint, neutral_map_dataset
+    from fsistab.neutral_map import NeutralCurve, NeutralMap, NeutralPoint, neutral_map_dataset
     from fsistab.store import write_dataset
     from fsistab.workflows import stored_map_path
 
@@ -455,11 +455,13 @@ def _write_viscous_curves(cache, factor):
     attrs |= {"r_theta": 0.289}
     points = tuple(
         NeutralPoint(
-            m, factor * flutter_points(PLATE.with_mass_ratio(m))[0].reduced_velocity, 0.2, np.zeros(2), 0
+            m, factor * flutter_points(PLATE.with_mass_ratio(m))[0].reduced_velocity, 0.2, mode=np.zeros(2)
         )
         for m in (100.0, 300.0, 1000.0, 3000.0)
     )
-    curve = MapCurve("flutter", 1000.0, "onset", points, (), ("m_bound", "m_bound"))
+    curve = NeutralCurve(
+        points, kind="flutter", seed_mass_ratio=1000.0, boundary="onset", stops=("m_bound", "m_bound")
+    )
     masses = np.geomspace(10.0, 1e4, 20)
     result = NeutralMap((curve,), masses, np.sqrt(masses * 0.289**2 / 1.562), 1.562, (), 0)
     write_dataset(neutral_map_dataset(result, attrs), stored_map_path(cache, "plate_Re2900_a0"))

@@ -62,10 +62,10 @@ def test_neutral_mode_from_the_transfer_function_is_the_arnoldi_eigenvector(plat
     of the characteristic matrix (no Arnoldi) is the eigenvector that shift-invert Arnoldi finds
     at σ = iω_c: same eigenvalue, label, energy share and normalised vector."""
     fluid = plate_operators
-    point = transfer_flutter_point(fluid, Solid(1000.0, 4.4), 0.187)
+    point, sample = transfer_flutter_point(fluid, Solid(1000.0, 4.4), 0.187)
     solid = Solid(1000.0, point.reduced_velocity)
     system = CoupledSystem(fluid, solid)
-    vector = point.sample.mode(solid, fluid.theta0, fluid.loads0)
+    vector = sample.mode(solid, fluid.theta0, fluid.loads0)
     pair = neutral_eigenpair(system, point.frequency, vector)
     arnoldi = min(eigenpairs_near(system, [1j * point.frequency], 2), key=lambda p: abs(p.value - pair.value))
     assert abs(arnoldi.value - 1j * point.frequency) < 1e-7
@@ -149,7 +149,7 @@ def test_transfer_newton_finds_the_augmented_newton_flutter_point(plate_operator
     """Newton on det T(iω; U*) = 0 (4 × 4) and on the augmented sparse system (docs/model.md §8) find the
     same neutral point, and the former converges quadratically."""
     solid = Solid(1000.0, 4.5)
-    point = transfer_flutter_point(plate_operators, solid, 0.18)
+    point, _ = transfer_flutter_point(plate_operators, solid, 0.18)
     residuals = np.array(point.residuals)
     assert residuals[-1] < 1e-12
     pairs = [

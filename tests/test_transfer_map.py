@@ -427,7 +427,7 @@ def test_unstable_sides_agree_with_the_eigenvalue_count():
     points, the continuation method), the unstable side is the change of the number of unstable
     eigenvalues of the quartic between U*(1 − 1e-6) and U*(1 + 1e-6) at that m; the curves, whose
     frequency follows the solid's (ω U* ≈ const), are flutter."""
-    from fsistab.neutral_map import MapCurve, characterised
+    from fsistab.neutral_map import NeutralCurve, characterised
     from fsistab.transfer_map import as_neutral_map
 
     solid = Solid()
@@ -452,7 +452,7 @@ def test_unstable_sides_agree_with_the_eigenvalue_count():
         m, u = points[seed].mass_ratio, points[seed].reduced_velocity
         above = _quasi_steady_unstable(solid, m, u * (1 + 1e-6))
         role = "onset" if above > _quasi_steady_unstable(solid, m, u * (1 - 1e-6)) else "restabilisation"
-        continued = MapCurve("flutter", m, role, points, (), ("", ""))
+        continued = NeutralCurve(points, kind="flutter", seed_mass_ratio=m, boundary=role, stops=("", ""))
         relabelled = characterised(continued, seed, (10.0, 2000.0))
         assert relabelled.unstable_sides == sides and relabelled.kind == curve.kind
     assert checked > 20

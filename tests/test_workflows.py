@@ -14,7 +14,7 @@ from fsistab.flow_neutral import flow_curves, stack_flow_curves
 from fsistab.neutral_map import (
     CurveCrossing,
     MapCrossing,
-    MapCurve,
+    NeutralCurve,
     NeutralMap,
     NeutralPoint,
     TurningPoint,
@@ -31,21 +31,23 @@ VIV = [(400.0, 0.5), (600.0, 0.5), (800.0, 0.5)]  # lower than both: must not en
 
 
 def _points(pairs, frequency=0.2):
-    return tuple(NeutralPoint(m, u, frequency, np.zeros(1), 3) for m, u in pairs)
+    return tuple(NeutralPoint(m, u, frequency, mode=np.zeros(1), iterations=3) for m, u in pairs)
 
 
 def _map(r_theta=0.289, moment_slope=1.562):
     curves = (
-        MapCurve(
-            "flutter",
-            1000.0,
-            "onset",
+        NeutralCurve(
             _points(FLUTTER),
-            (TurningPoint(900.0, 4.0, 0.21, 0, True),),
-            ("a", "b"),
+            kind="flutter",
+            seed_mass_ratio=1000.0,
+            boundary="onset",
+            turning_points=(TurningPoint(900.0, 4.0, 0.21, index=0, localised=True),),
+            stops=("a", "b"),
         ),
-        MapCurve("flutter", math.nan, "onset", _points(UPPER), (), ("c", "d")),
-        MapCurve("viv", 1.0, "onset", _points(VIV, 11.0), (), ("e", "f")),
+        NeutralCurve(
+            _points(UPPER), kind="flutter", seed_mass_ratio=math.nan, boundary="onset", stops=("c", "d")
+        ),
+        NeutralCurve(_points(VIV, 11.0), kind="viv", seed_mass_ratio=1.0, boundary="onset", stops=("e", "f")),
     )
     masses = np.geomspace(500, 2000, 5)
     divergence = np.sqrt(masses * r_theta**2 / moment_slope)

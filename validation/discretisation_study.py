@@ -209,7 +209,9 @@ def run_variant(
     solid = Solid(mass_ratio=MASS_RATIO, reduced_velocity=flutter_guess[1])
     modes = wake_modes(fluid, counter) if reynolds == REYNOLDS else []
     try:
-        flutter = transfer_flutter_point(fluid, solid, flutter_guess[0], counter=counter, max_iterations=40)
+        flutter, _ = transfer_flutter_point(
+            fluid, solid, flutter_guess[0], counter=counter, max_iterations=40
+        )
         flutter_velocity, flutter_frequency, flutter_error = flutter.reduced_velocity, flutter.frequency, None
     except ConvergenceError as exc:  # e.g. the flutter mode hybridised with free-stream modes
         flutter_velocity, flutter_frequency, flutter_error = math.nan, math.nan, str(exc)

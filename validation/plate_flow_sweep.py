@@ -43,8 +43,8 @@ def sweep(spec, flows, solid, cache, label):
         for point in critical_points_along_flow(spec, flows, solid, 0.18, cache_dir=cache, counter=counter):
             points.append(point)
             print(
-                f"| {point.reynolds:g} | {point.alpha0_deg:g} | {point.flutter_velocity:.5f} | "
-                f"{point.flutter_frequency:.5f} | {point.divergence_velocity:.5f} | {point.factorisations} |",
+                f"| {point[0].reynolds:g} | {point[0].alpha0_deg:g} | {point[0].reduced_velocity:.5f} | "
+                f"{point[0].frequency:.5f} | {point[1].reduced_velocity:.5f} | {point[0].factorisations} |",
                 flush=True,
             )
     except ConvergenceError as exc:
@@ -76,9 +76,9 @@ def main() -> None:
         print(f"{len(points)} points, {factorisations} factorisations, {seconds:.0f} s")
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for ax, (name, (points, _, _)) in zip(axes, results.items(), strict=True):
-        x = [p.reynolds if name == "reynolds" else p.alpha0_deg for p in points]
-        ax.plot(x, [p.flutter_velocity for p in points], "o-", color="tab:red", label="flutter U*_F")
-        ax.plot(x, [p.divergence_velocity for p in points], "s-", color="k", label="divergence U*_D")
+        x = [p[0].reynolds if name == "reynolds" else p[0].alpha0_deg for p in points]
+        ax.plot(x, [p[0].reduced_velocity for p in points], "o-", color="tab:red", label="flutter U*_F")
+        ax.plot(x, [p[1].reduced_velocity for p in points], "s-", color="k", label="divergence U*_D")
         ax.set_xlabel("Re" if name == "reynolds" else "α0 [deg]")
         ax.set_ylabel("U*")
         if name == "reynolds":
@@ -91,13 +91,13 @@ def main() -> None:
     for name, (points, factorisations, seconds) in results.items():
         ds = xr.Dataset(
             {
-                "flutter_velocity": ("point", np.array([p.flutter_velocity for p in points])),
-                "flutter_frequency": ("point", np.array([p.flutter_frequency for p in points])),
-                "divergence_velocity": ("point", np.array([p.divergence_velocity for p in points])),
+                "flutter_velocity": ("point", np.array([p[0].reduced_velocity for p in points])),
+                "flutter_frequency": ("point", np.array([p[0].frequency for p in points])),
+                "divergence_velocity": ("point", np.array([p[1].reduced_velocity for p in points])),
             },
             coords={
-                "reynolds": ("point", np.array([p.reynolds for p in points])),
-                "alpha0_deg": ("point", np.array([p.alpha0_deg for p in points])),
+                "reynolds": ("point", np.array([p[0].reynolds for p in points])),
+                "alpha0_deg": ("point", np.array([p[0].alpha0_deg for p in points])),
             },
             attrs={
                 "mass_ratio": args.mass_ratio,

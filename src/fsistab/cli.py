@@ -686,6 +686,7 @@ def single_threaded_blas(environ: MutableMapping[str, str]) -> MutableMapping[st
 
 def main() -> None:  # pragma: no cover - console entry point (tested in a subprocess)
     single_threaded_blas(os.environ)
+    os.environ.setdefault("MPLBACKEND", "Agg")  # the commands write figures to files, never to a window
     app()
 
 

@@ -20,8 +20,7 @@ once for all iterations.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -31,9 +30,10 @@ from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver
-from fsistab.neutral_point import STATIC_FREQUENCY, divergence_velocity, unit_index
+from fsistab.neutral_point import STATIC_FREQUENCY, NeutralPoint, divergence_velocity, unit_index
 from fsistab.operators import FluidOperators, fluid_operators
 from fsistab.params import THRESHOLD_METHODS, Solid
+from fsistab.progress import Progress
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.tracking import track_branches
@@ -177,23 +177,6 @@ class AugmentedProblem:
         return self.curve().pinned(self.mass_index, math.log(mass_ratio))
 
 
-@dataclass(frozen=True)
-class CriticalPoint:
-    """A point of a neutral curve: ``λ = 0`` at ``(m, U*_c)`` with frequency ``ω_c`` (L/U∞ units).
-
-    ``kind`` is ``flutter`` (ω_c > 0) or ``divergence`` (ω_c = 0); ``mode`` the critical mode
-    (coupled vector, solid states first); ``history`` the Newton residual norms.
-    """
-
-    kind: str
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    mode: np.ndarray
-    history: tuple[float, ...]
-    factorisations: int
-
-
 def _with_velocity(solid: Solid, reduced_velocity: float) -> Solid:
     if not np.isfinite(reduced_velocity) or reduced_velocity <= 0:
         raise ConvergenceError(
@@ -212,7 +195,7 @@ def flutter_point(
     tol: float = 1e-10,
     maxit: int = 12,
     counter: FactorCounter | None = None,
-) -> CriticalPoint:
+) -> NeutralPoint:
     """The neutral point of docs/model.md §8 at ``solid.mass_ratio``: :func:`fsistab.continuation.newton`
     on the augmented sparse system (:class:`AugmentedProblem`, ``m`` held)
     from ``(mode, frequency, solid.reduced_velocity)``.
@@ -227,8 +210,15 @@ def flutter_point(
     result = newton(problem.at_mass_ratio(solid.mass_ratio), y0, tol=tol, max_iterations=maxit)
     q, omega, velocity, _ = problem.unpack(result.point)
     if result.converged:
-        return CriticalPoint(
-            "flutter", solid.mass_ratio, velocity, omega, q, result.residuals, counter.count - start
+        return NeutralPoint(
+            solid.mass_ratio,
+            velocity,
+            omega,
+            kind="flutter",
+            mode=q,
+            residuals=result.residuals,
+            iterations=result.iterations,
+            factorisations=counter.count - start,
         )
     raise ConvergenceError(
         f"flutter Newton did not converge near U* = {velocity:.4g}, omega = {omega:.4g} "
@@ -310,7 +300,7 @@ def divergence_point(
     maxit: int = 20,
     counter: FactorCounter | None = None,
     fluid_factor: FluidFactor | None = None,
-) -> CriticalPoint:
+) -> NeutralPoint:
     """Static instability ``J(U*) q̂ = 0`` (``θ̂ = 1``): :func:`fsistab.continuation.newton` on
     :class:`DivergenceProblem` in ``(q̂, 1/U*²)`` from ``solid.reduced_velocity``.
 
@@ -333,41 +323,21 @@ def divergence_point(
     )
     velocity = problem.velocity(result.point[-1])
     if result.converged:
-        return CriticalPoint(
-            "divergence",
+        return NeutralPoint(
             solid.mass_ratio,
             velocity,
             0.0,
-            result.point[:-1].copy(),
-            result.residuals,
-            counter.count - start,
+            kind="divergence",
+            branch="static",
+            mode=result.point[:-1].copy(),
+            residuals=result.residuals,
+            iterations=result.iterations,
+            factorisations=counter.count - start,
         )
     raise ConvergenceError(
         f"divergence Newton did not converge near U* = {velocity:.4g} "
         f"(residuals {', '.join(f'{r:.1e}' for r in result.residuals[-4:])}); try another starting U*"
     )
-
-
-@dataclass(frozen=True)
-class Threshold:
-    """An instability threshold along U* at fixed m: ``kind`` flutter, divergence or viv;
-    ``boundary`` onset (unstable above U*_c along the branch) or restabilisation;
-    ``frequency_following`` the local frequency following of its neutral curve that labelled it
-    (:func:`fsistab.frequency_sweep.local_following`; NaN for divergence and by tracking)."""
-
-    kind: str
-    boundary: str
-    branch: str
-    point: CriticalPoint
-    frequency_following: float = math.nan
-
-    @property
-    def reduced_velocity(self) -> float:
-        return self.point.reduced_velocity
-
-    @property
-    def frequency(self) -> float:
-        return self.point.frequency
 
 
 def solid_mode_starts(
@@ -393,7 +363,7 @@ def solid_mode_starts(
 
 def _same_point(point, threshold, rtol: float = 1e-7) -> bool:
     """Whether ``point`` is ``threshold``'s neutral point (U* and ω within ``rtol``)."""
-    other = threshold.point
+    other = threshold
     return abs(point.reduced_velocity - other.reduced_velocity) <= rtol * abs(other.reduced_velocity) and abs(
         point.frequency - other.frequency
     ) <= rtol * max(abs(other.frequency), 1.0)
@@ -406,10 +376,10 @@ def find_thresholds(
     *,
     wake_shift: complex | None = None,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
     static_factor: FluidFactor | None = None,
     method: str = "transfer",
-) -> tuple[list[Threshold], dict]:
+) -> tuple[list[NeutralPoint], dict]:
     """Every threshold with U* between ``velocities[0]`` and ``velocities[-1]`` (increasing) at
     ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue.
 
@@ -453,14 +423,10 @@ def find_thresholds(
         at = replace(solid, reduced_velocity=t.reduced_velocity)
         if t.kind == "divergence":  # real, θ̂ = 1 (as divergence_point)
             mode = (t.mode / t.mode[active_states(at).index(1)]).real  # state 1 of (h, θ, ḣ, θ') is θ
-            point = CriticalPoint("divergence", t.mass_ratio, t.reduced_velocity, 0.0, mode, (), 0)
         else:  # Re(ĥ) = 0, q̂ᴴMq̂ = 1 (as flutter_point: the curves of fsistab.neutral start from it)
             problem = AugmentedProblem(fluid, at)
             mode = problem.unpack(problem.start(t.mode, t.frequency, t.reduced_velocity, t.mass_ratio))[0]
-            point = CriticalPoint(
-                "flutter", t.mass_ratio, t.reduced_velocity, t.frequency, mode, t.residuals, t.factorisations
-            )
-        thresholds.append(Threshold(t.kind, t.boundary, t.branch, point, t.frequency_following))
+        thresholds.append(replace(t, mode=mode))
     return thresholds, {
         "wake_frequency": wake,
         "frequencies": result.frequencies,
@@ -475,9 +441,9 @@ def track_thresholds(
     *,
     wake_shift: complex | None = None,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
     static_factor: FluidFactor | None = None,
-) -> tuple[list[Threshold], dict]:
+) -> tuple[list[NeutralPoint], dict]:
     """Every threshold along ``velocities`` (increasing U*) at ``solid.mass_ratio`` by branch
     tracking.
 
@@ -496,31 +462,28 @@ def track_thresholds(
 
     starts = solid_mode_starts(system_at(velocities[0]), wake_shift)
 
-    def tracking(i: int, velocity: float) -> None:
-        say(f"tracking branches: point {i + 1}/{len(velocities)}, {counter.count} factorisations")
-
     branches = track_branches(
-        system_at, velocities, starts, inverse_scaling=solid.dofs, counter=counter, progress=tracking
+        system_at, velocities, starts, inverse_scaling=solid.dofs, counter=counter, progress=say
     )
     wake_frequency = starts["wake"].frequency if "wake" in starts else None
-    found: list[Threshold] = []
+    found: list[NeutralPoint] = []
     for name, branch in branches.items():
         found += _branch_crossings(fluid, solid, name, branch, wake_frequency, counter)
     if "pitch" in solid.dofs:
         point = _tracked_divergence(fluid, solid, static_factor, counter)
         if point is not None and velocities[0] <= point.reduced_velocity <= velocities[-1]:
-            found.append(Threshold("divergence", "onset", "static", point))
+            found.append(replace(point, boundary="onset"))
     return sorted(found, key=lambda t: t.reduced_velocity), {
         "branches": branches,
         "wake_frequency": wake_frequency,
     }
 
 
-def _branch_crossings(fluid, solid: Solid, name: str, branch, wake_frequency, counter) -> list[Threshold]:
+def _branch_crossings(fluid, solid: Solid, name: str, branch, wake_frequency, counter) -> list[NeutralPoint]:
     """The dynamic thresholds where the growth rate of the tracked ``branch`` (named ``name``)
     changes sign, each converged by :func:`flutter_point` from the interpolated crossing, each
     once per boundary."""
-    found: list[Threshold] = []
+    found: list[NeutralPoint] = []
     growth = np.array([v.real for v in branch.values])
     for i in np.nonzero(np.sign(growth[1:]) != np.sign(growth[:-1]))[0]:
         u0, u1 = branch.parameters[i], branch.parameters[i + 1]
@@ -545,11 +508,11 @@ def _branch_crossings(fluid, solid: Solid, name: str, branch, wake_frequency, co
         is_viv = name == "wake" or (
             wake_frequency is not None and abs(point.frequency - wake_frequency) < 0.3 * wake_frequency
         )
-        found.append(Threshold("viv" if is_viv else "flutter", boundary, name, point))
+        found.append(replace(point, kind="viv" if is_viv else "flutter", boundary=boundary, branch=name))
     return found
 
 
-def _tracked_divergence(fluid, solid: Solid, static_factor, counter) -> CriticalPoint | None:
+def _tracked_divergence(fluid, solid: Solid, static_factor, counter) -> NeutralPoint | None:
     """The divergence point by :func:`divergence_point`, started a little below the
     torsional-divergence estimate ``√(m r_θ²/(dC_M/dθ))`` (exact at α0 = 0; at the root itself the
     static system is singular); None without a positive moment slope."""
@@ -563,19 +526,6 @@ def _tracked_divergence(fluid, solid: Solid, static_factor, counter) -> Critical
     )
 
 
-@dataclass(frozen=True)
-class FlowCriticalPoint:
-    """Flutter and divergence thresholds at one flow ``(reynolds, alpha0_deg)`` for fixed solid
-    parameters (``mass_ratio`` etc.); ``reduced_velocity`` and ``frequency`` in the body's units."""
-
-    reynolds: float
-    alpha0_deg: float
-    flutter_velocity: float
-    flutter_frequency: float
-    divergence_velocity: float
-    factorisations: int
-
-
 def critical_points_along_flow(
     spec,
     flows,
@@ -585,12 +535,14 @@ def critical_points_along_flow(
     cache_dir=None,
     initial=None,
     counter: FactorCounter | None = None,
-    progress=None,
+    progress: Progress = None,
 ):
     """Neutral curves in the ``(Re, U*)`` or ``(α0, U*)`` plane (docs/model.md §8) at fixed solid
     parameters: natural continuation along ``flows`` (ordered), on one mesh ``spec``. A generator
-    of :class:`FlowCriticalPoint`, one per flow, so that a caller keeps the points computed before
-    a failure (:class:`~fsistab.errors.ConvergenceError`: try smaller steps in the flow parameter).
+    of ``(flutter, divergence)`` neutral points, one pair per flow, each with its ``reynolds``,
+    ``alpha0_deg`` and the factorisations of that flow (counted once, on the flutter point), so
+    that a caller keeps the points computed before a failure
+    (:class:`~fsistab.errors.ConvergenceError`: try smaller steps in the flow parameter).
 
     Each steady state continues from the previous one; the flutter point is converged by Newton on
     ``det T(iω; U*) = 0`` (:func:`fsistab.transfer.transfer_flutter_point`), started from a secant
@@ -617,7 +569,7 @@ def critical_points_along_flow(
             omega, log_u = w2 + ratio * (w2 - w1), u2 + ratio * (u2 - u1)
         else:
             omega, log_u = guesses[-1]
-        flutter = transfer_flutter_point(
+        flutter, _ = transfer_flutter_point(
             fluid, replace(solid, reduced_velocity=float(np.exp(log_u))), omega, counter=counter
         )
         guesses.append((flutter.frequency, float(np.log(flutter.reduced_velocity))))
@@ -627,14 +579,11 @@ def critical_points_along_flow(
         # restart a little below the last root: at the root itself the static system is singular
         divergence_guess = 0.95 * divergence.reduced_velocity
         if progress:
-            progress(i + 1, len(flows))
-        yield FlowCriticalPoint(
-            flow.reynolds,
-            flow.alpha0_deg,
-            flutter.reduced_velocity,
-            flutter.frequency,
-            divergence.reduced_velocity,
-            counter.count - start,
+            progress(f"flow {i + 1}/{len(flows)}: Re = {flow.reynolds:g}, alpha0 = {flow.alpha0_deg:g} deg")
+        at_flow = {"reynolds": flow.reynolds, "alpha0_deg": flow.alpha0_deg}
+        yield (
+            replace(flutter, kind="flutter", factorisations=counter.count - start, **at_flow),
+            replace(divergence, factorisations=0, **at_flow),
         )
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +31,8 @@ import numpy as np
 from fsistab.continuation import ContinuationIterator, ContinuationSettings, TestFunction
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter
-from fsistab.neutral_point import DeterminantProblem
+from fsistab.neutral_map import NeutralCurve
+from fsistab.neutral_point import DeterminantProblem, NeutralPoint, TurningPoint
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
 from fsistab.steady import solve_steady
@@ -39,30 +40,6 @@ from fsistab.transfer import characteristic_matrix, determinant_gradient, exact_
 
 PARAMETERS = ("reynolds", "alpha0")
 _FD_STEP = {"reynolds": 1e-4, "alpha0": 1e-3}  # in log Re and in degrees (steady states to 1e-10)
-
-
-@dataclass(frozen=True)
-class FlowNeutralPoint:
-    """A point of a neutral curve in a flow-parameter plane (``frequency`` in ``U∞/L``)."""
-
-    reynolds: float
-    alpha0_deg: float
-    reduced_velocity: float
-    frequency: float
-
-
-@dataclass(frozen=True)
-class FlowNeutralCurve:
-    """Points in order of arclength, turning points in the flow parameter, why it stopped."""
-
-    parameter: str
-    points: tuple[FlowNeutralPoint, ...]
-    turning_points: tuple[FlowNeutralPoint, ...]
-    stop: str
-    factorisations: int
-
-    def values(self, name: str) -> np.ndarray:
-        return np.array([getattr(p, name) for p in self.points])
 
 
 class _FlowDeterminant:
@@ -165,9 +142,20 @@ def _set_scale(problem: _FlowDeterminant, p0: float, solid: Solid, omega: float)
     problem.scale = abs(np.linalg.det(in_vacuo))
 
 
-def _flow_point(problem: _FlowDeterminant, y: np.ndarray) -> FlowNeutralPoint:
+def _flow_point(problem: _FlowDeterminant, y: np.ndarray) -> NeutralPoint:
     f = problem.flow_at(float(y[2]))
-    return FlowNeutralPoint(f.reynolds, f.alpha0_deg, math.exp(float(y[1])), float(y[0]))
+    return NeutralPoint(
+        problem.solid.mass_ratio,
+        math.exp(float(y[1])),
+        float(y[0]),
+        reynolds=f.reynolds,
+        alpha0_deg=f.alpha0_deg,
+    )
+
+
+def _flow_turning_point(problem: _FlowDeterminant, event) -> TurningPoint:
+    point = _flow_point(problem, event.point)
+    return TurningPoint(**vars(point), index=event.index, localised=event.localised)
 
 
 def _flow_stop(iterator: ContinuationIterator, parameter: str) -> str:
@@ -202,7 +190,7 @@ def continue_flow_neutral_curve(
     fluid=None,
     counter: FactorCounter | None = None,
     on_point=None,
-) -> FlowNeutralCurve:
+) -> NeutralCurve:
     """Follow the dynamic neutral curve through ``(flow, solid.reduced_velocity, frequency)`` (e.g.
     a flutter threshold of :func:`fsistab.critical.find_thresholds`, refined here) in the plane of
     ``parameter`` (``reynolds``: ``log Re`` is the continuation variable; ``alpha0``: degrees)
@@ -212,7 +200,7 @@ def continue_flow_neutral_curve(
     plane ``(log U*, p)``. The curve stops at a bound, when the frequency reaches zero (a
     codimension-two point with divergence) or after ``max_points`` (the corrected start included).
     ``initial`` (the steady state at ``flow``) or ``fluid`` (its operators) are reused when given.
-    ``on_point(point)`` is called for every accepted :class:`FlowNeutralPoint` after the start.
+    ``on_point(point)`` is called for every accepted neutral point after the start.
     """
     p_range = _checked_range(parameter, parameter_range, frequency)
     counter = counter if counter is not None else FactorCounter()
@@ -236,7 +224,7 @@ def continue_flow_neutral_curve(
     points, turning = [], []
     try:
         for accepted in iterator:
-            turning += [_flow_point(problem, e.point) for e in accepted.events if e.kind == "fold"]
+            turning += [_flow_turning_point(problem, e) for e in accepted.events if e.kind == "fold"]
             points.append(_flow_point(problem, accepted.point))
             if on_point and accepted.index > 0:
                 on_point(points[-1])
@@ -247,7 +235,14 @@ def continue_flow_neutral_curve(
             "an eigenvalue sweep (fsistab critical)"
         ) from None
     stop = _flow_stop(iterator, parameter)
-    return FlowNeutralCurve(parameter, tuple(points), tuple(turning), stop, counter.count - first)
+    return NeutralCurve(
+        tuple(points),
+        parameter=parameter,
+        turning_points=tuple(turning),
+        folds=tuple(t.index for t in turning),
+        stops=(stop,),
+        factorisations=counter.count - first,
+    )
 
 
 FLOW_CURVE_FIELDS = {
@@ -265,7 +260,7 @@ def flow_curve_table(path, attrs: dict):
     return ResumableTable(path, attrs, FLOW_CURVE_FIELDS)
 
 
-def record_flow_curve(table, curve: FlowNeutralCurve):
+def record_flow_curve(table, curve: NeutralCurve):
     """Record ``curve`` in ``table`` (:func:`flow_curve_table`, emptied first) and finish it with
     attributes ``parameter``, ``stop`` and ``factorisations``; returns the table's dataset, the
     input of :func:`stack_flow_curves`."""
@@ -283,7 +278,9 @@ def record_flow_curve(table, curve: FlowNeutralCurve):
         table.append(columns(point), kind="point", save=False)
     for point in curve.turning_points:
         table.append(columns(point, "fold_"), kind="fold", save=False)
-    table.finish({"parameter": curve.parameter, "stop": curve.stop, "factorisations": curve.factorisations})
+    table.finish(
+        {"parameter": curve.parameter, "stop": curve.stops[-1], "factorisations": curve.factorisations}
+    )
     return table.dataset()
 
 

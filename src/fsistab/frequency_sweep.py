@@ -58,7 +58,6 @@ Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
@@ -68,9 +67,10 @@ import numpy.polynomial.polynomial as npoly
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.neutral_map import following_kind, following_ratio
-from fsistab.neutral_point import divergence_velocity
+from fsistab.neutral_point import NeutralPoint, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.progress import Progress
 from fsistab.transfer import (
     TransferSample,
     sample_threads,
@@ -122,33 +122,12 @@ class SweepSample:
 
 
 @dataclass(frozen=True)
-class SweepThreshold:
-    """A threshold of the sweep: ``kind`` flutter, viv (by ``frequency_following``,
-    :func:`local_following`) or divergence; ``boundary`` onset (unstable above
-    ``reduced_velocity`` at fixed m) or restabilisation; ``branch`` the dof with most of the
-    critical mode's solid kinetic energy (``static`` for divergence); ``mode`` the coupled critical
-    mode; ``residuals`` ``σ_min(T)/‖T‖`` at the Newton iterates; ``frequency_following`` NaN for
-    divergence."""
-
-    kind: str
-    boundary: str
-    branch: str
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    mode: np.ndarray
-    residuals: tuple[float, ...]
-    factorisations: int
-    frequency_following: float = math.nan
-
-
-@dataclass(frozen=True)
 class SweepResult:
     """What :func:`sweep_thresholds` found: the thresholds sorted by U*, the sampled frequencies,
     the intervals left unresolved (narrower than ``MIN_STEP`` and still ambiguous, or holding a
     crossing whose Newton iteration did not converge) and the factorisations made."""
 
-    thresholds: tuple[SweepThreshold, ...]
+    thresholds: tuple[NeutralPoint, ...]
     frequencies: np.ndarray
     unresolved: tuple[tuple[float, float], ...]
     factorisations: int
@@ -443,7 +422,7 @@ def sweep_thresholds(
     wake_frequency: float | None = None,
     static_factor: FluidFactor | None = None,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
     threads: int | None = None,
 ) -> SweepResult:
     """Every threshold with ``U*`` in ``velocity_range`` at ``solid.mass_ratio`` (module docstring),
@@ -537,25 +516,28 @@ def _bisect(samples: dict, add, solid: Solid, relevant, threads: int):
         add(*(w0 + (w1 - w0) * k / parts for w0, w1 in todo for k in range(1, parts)))
 
 
-def _converge(fluid, solid: Solid, omega: float, velocity: float, counter) -> SweepThreshold:
+def _converge(fluid, solid: Solid, omega: float, velocity: float, counter) -> NeutralPoint:
     """The neutral point from the start ``(ω, U*)`` by Newton on ``det T``
     (:func:`fsistab.transfer.transfer_flutter_point`), labelled from the loads of its last iterate
     (no further factorisation, :func:`neutral_root`): ``viv`` when the local frequency following
     of its neutral curve is below ``VIV_FOLLOWING``, ``flutter`` otherwise
     (:func:`local_following`); onset or restabilisation by the sign of the crossing rate."""
-    point = transfer_flutter_point(
+    point, sample = transfer_flutter_point(
         fluid, replace(solid, reduced_velocity=velocity), omega, counter=counter,
         tolerance=NEWTON_STEP, refine=False,
     )  # fmt: skip
     critical = replace(solid, reduced_velocity=point.reduced_velocity)
-    mode = point.sample.mode(critical, fluid.theta0, fluid.loads0)
-    root = neutral_root(point.sample, critical, fluid.theta0, fluid.loads0)
+    mode = sample.mode(critical, fluid.theta0, fluid.loads0)
+    root = neutral_root(sample, critical, fluid.theta0, fluid.loads0)
     following = local_following(root)
-    return SweepThreshold(
-        following_kind(following), "onset" if root.crossing_rate > 0 else "restabilisation",
-        _branch(mode, solid), solid.mass_ratio, point.reduced_velocity, point.frequency, mode,
-        point.residuals, point.factorisations, following,
-    )  # fmt: skip
+    return replace(
+        point,
+        kind=following_kind(following),
+        boundary="onset" if root.crossing_rate > 0 else "restabilisation",
+        branch=_branch(mode, solid),
+        frequency_following=following,
+        mode=mode,
+    )
 
 
 def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> NeutralRoot:
@@ -620,6 +602,14 @@ def _divergence(static: TransferSample, solid: Solid, fluid, velocity_range) -> 
             mode = static.mode(critical, fluid.theta0, fluid.loads0)
             boundary = "onset" if rate > 0 else "restabilisation"
             found.append(
-                SweepThreshold("divergence", boundary, "static", solid.mass_ratio, velocity, 0.0, mode, (), 0)
+                NeutralPoint(
+                    solid.mass_ratio,
+                    velocity,
+                    0.0,
+                    kind="divergence",
+                    boundary=boundary,
+                    branch="static",
+                    mode=mode,
+                )
             )
     return found

@@ -40,11 +40,11 @@ from pathlib import Path
 import numpy as np
 
 from fsistab.continuation import ContinuationIterator, ContinuationSettings, Event, TestFunction
-from fsistab.critical import AugmentedProblem, CriticalPoint, Threshold, find_thresholds
+from fsistab.critical import AugmentedProblem, find_thresholds
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.neutral_map import (
-    MapCurve,
+    NeutralCurve,
     NeutralMap,
     NeutralPoint,
     TurningPoint,
@@ -52,40 +52,12 @@ from fsistab.neutral_map import (
     divergence_curve,
     map_crossings,
 )
+from fsistab.neutral_point import STATIC_FREQUENCY
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.progress import Progress
 from fsistab.slopes import static_slopes
 from fsistab.store import ResumableTable
-
-
-@dataclass(frozen=True)
-class NeutralCurve:
-    """Points of one neutral curve in order of arclength; ``folds`` are indices after which
-    ``d(log m)/ds`` changes sign (turning points in m), ``turning_points`` those points located on
-    the curve; ``stop`` says why the continuation ended."""
-
-    points: tuple[NeutralPoint, ...]
-    folds: tuple[int, ...]
-    stop: str
-    factorisations: int
-    turning_points: tuple[TurningPoint, ...] = ()
-
-    @property
-    def mass_ratios(self) -> np.ndarray:
-        return np.array([p.mass_ratio for p in self.points])
-
-    @property
-    def reduced_velocities(self) -> np.ndarray:
-        return np.array([p.reduced_velocity for p in self.points])
-
-    @property
-    def frequencies(self) -> np.ndarray:
-        return np.array([p.frequency for p in self.points])
-
-    @property
-    def plane_points(self) -> np.ndarray:
-        """``(log m, U*)`` of every point (rows), the input of :func:`curve_crossings`."""
-        return np.column_stack([np.log(self.mass_ratios), self.reduced_velocities])
 
 
 def _zero_frequency(y: np.ndarray) -> float:
@@ -96,12 +68,12 @@ def _zero_frequency(y: np.ndarray) -> float:
 
 def _neutral_point(problem: AugmentedProblem, y: np.ndarray, iterations: int) -> NeutralPoint:
     q, omega, velocity, log_mass = problem.unpack(y)
-    return NeutralPoint(math.exp(log_mass), velocity, omega, q, iterations)
+    return NeutralPoint(math.exp(log_mass), velocity, omega, mode=q, iterations=iterations)
 
 
 def _turning_point(problem: AugmentedProblem, event: Event) -> TurningPoint:
     _, omega, velocity, log_mass = problem.unpack(event.point)
-    return TurningPoint(math.exp(log_mass), velocity, omega, event.index, event.localised)
+    return TurningPoint(math.exp(log_mass), velocity, omega, index=event.index, localised=event.localised)
 
 
 def _neutral_stop(iterator: ContinuationIterator, n: int) -> str:
@@ -138,7 +110,7 @@ def _neutral_iterator(
 
 def continue_neutral_curve(
     fluid: FluidOperators,
-    start: CriticalPoint,
+    start: NeutralPoint,
     template: Solid,
     *,
     mass_range: tuple[float, float] = (1.0, 1e4),
@@ -154,7 +126,7 @@ def continue_neutral_curve(
     on_point: Callable[[NeutralPoint], None] | None = None,
     on_fold: Callable[[TurningPoint], None] | None = None,
 ) -> NeutralCurve:
-    """Follow the flutter/VIV neutral curve through ``start`` (a flutter CriticalPoint).
+    """Follow the flutter/VIV neutral curve through ``start`` (a dynamic neutral point with its mode).
 
     Arclength in the plane ``(U*, log m)``; ``direction`` −1 starts towards smaller m, or
     ``initial_direction = (ΔU*, Δlog m)`` orients the first step (to resume past a turning point).
@@ -166,7 +138,7 @@ def continue_neutral_curve(
     each). ``on_point`` is called for every accepted point (to save progress), ``on_fold`` for
     every turning point, before the point that follows it.
     """
-    if start.kind != "flutter":
+    if start.kind == "divergence" or abs(start.frequency) < STATIC_FREQUENCY or start.mode is None:
         raise InputError("continue_neutral_curve follows dynamic (ω > 0) neutral curves")
     if not 0 < mass_range[0] < mass_range[1] or not 0 < velocity_range[0] < velocity_range[1]:
         raise InputError("mass and velocity ranges must be positive and increasing")
@@ -185,11 +157,8 @@ def continue_neutral_curve(
         start.reduced_velocity,
         math.log(start.mass_ratio),
     )
-    points = [
-        NeutralPoint(
-            start.mass_ratio, start.reduced_velocity, start.frequency, y0[:n] + 1j * y0[n : 2 * n], 0
-        )
-    ]
+    mode = y0[:n] + 1j * y0[n : 2 * n]
+    points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, mode=mode)]
     turning: list[TurningPoint] = []
     iterator = _neutral_iterator(problem, y0, settings, mass_range, velocity_range, orientation)
     try:
@@ -203,10 +172,13 @@ def continue_neutral_curve(
             if on_point:
                 on_point(points[-1])
     except ConvergenceError:  # no step from the start converged: a one-point curve
-        return NeutralCurve(tuple(points), (), "step_too_small", counter.count - first, ())
-    folds = tuple(t.index for t in turning)
+        return NeutralCurve(tuple(points), stops=("step_too_small",), factorisations=counter.count - first)
     return NeutralCurve(
-        tuple(points), folds, _neutral_stop(iterator, problem.n), counter.count - first, tuple(turning)
+        tuple(points),
+        turning_points=tuple(turning),
+        folds=tuple(t.index for t in turning),
+        stops=(_neutral_stop(iterator, problem.n),),
+        factorisations=counter.count - first,
     )
 
 
@@ -224,7 +196,7 @@ def curve_table(path, attrs: dict):
     return ResumableTable(path, attrs, CURVE_FIELDS, state=("last_mode",))
 
 
-def _point_record(point: NeutralPoint | CriticalPoint) -> dict:
+def _point_record(point: NeutralPoint) -> dict:
     return {
         "mass_ratio": point.mass_ratio,
         "reduced_velocity": point.reduced_velocity,
@@ -246,7 +218,7 @@ def saved_points(table) -> list[NeutralPoint]:
     """The points of a curve table; only the last one carries its mode (the others an empty one)."""
     points = [
         NeutralPoint(
-            float(r["mass_ratio"]), float(r["reduced_velocity"]), float(r["frequency"]), np.zeros(0), 0
+            float(r["mass_ratio"]), float(r["reduced_velocity"]), float(r["frequency"]), mode=np.zeros(0)
         )
         for r in table.records_of("point")
     ]
@@ -262,8 +234,8 @@ def saved_turning_points(table) -> list[TurningPoint]:
             float(r["fold_mass_ratio"]),
             float(r["fold_reduced_velocity"]),
             float(r["fold_frequency"]),
-            int(r["fold_index"]),
-            bool(r["fold_localised"]),
+            index=int(r["fold_index"]),
+            localised=bool(r["fold_localised"]),
         )
         for r in table.records_of("fold")
     ]
@@ -288,7 +260,7 @@ class _CurveRecorder:
 
 def trace_curve_resumable(
     fluid: FluidOperators,
-    start: CriticalPoint,
+    start: NeutralPoint,
     template: Solid,
     path,
     attrs: dict,
@@ -316,17 +288,17 @@ def trace_curve_resumable(
                 last.reduced_velocity - before.reduced_velocity,
                 math.log(last.mass_ratio / before.mass_ratio),
             )
-        start = CriticalPoint(
-            "flutter", last.mass_ratio, last.reduced_velocity, last.frequency, last.mode, (), 0
+        start = NeutralPoint(
+            last.mass_ratio, last.reduced_velocity, last.frequency, kind="flutter", mode=last.mode
         )
     else:
-        points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, start.mode, 0)]
+        points = [NeutralPoint(start.mass_ratio, start.reduced_velocity, start.frequency, mode=start.mode)]
         table.append(_point_record(start), kind="point", state={"last_mode": start.mode}, save=False)
     recorder = _CurveRecorder(table, points, len(points) - 1)
     curve = continue_neutral_curve(
         fluid, start, template, on_point=recorder.save, on_fold=recorder.save_fold, **options
     )
-    table.finish({"stop": curve.stop})
+    table.finish({"stop": curve.stops[-1]})
     return points
 
 
@@ -365,7 +337,7 @@ def map_seeds(
     return seeds
 
 
-def _on_traced_curve(curves: Sequence[MapCurve], kind: str, mass_ratio: float, velocity: float) -> bool:
+def _on_traced_curve(curves: Sequence[NeutralCurve], kind: str, mass_ratio: float, velocity: float) -> bool:
     """Whether a threshold at ``(m, U*)`` lies on a curve already traced (1 % in U*, linear
     interpolation between the curve's points at that m)."""
     log_m = math.log(mass_ratio)
@@ -383,7 +355,7 @@ def _on_traced_curve(curves: Sequence[MapCurve], kind: str, mass_ratio: float, v
 
 def _trace_both_ways(
     fluid: FluidOperators,
-    threshold: Threshold,
+    threshold: NeutralPoint,
     solid: Solid,
     seed_mass: float,
     index: int,
@@ -394,7 +366,7 @@ def _trace_both_ways(
     max_points: int,
     counter: FactorCounter,
     say: Callable[[str], None],
-) -> tuple[MapCurve, int]:
+) -> tuple[NeutralCurve, int]:
     """Curve ``index`` of a map: the neutral curve through ``threshold`` (of a sweep at
     ``seed_mass`` with the solid ``solid``) continued towards smaller and larger m
     (:func:`trace_curve_resumable`, files ``neutral_{tag}_curve{index}_{down|up}.nc`` in the
@@ -407,7 +379,7 @@ def _trace_both_ways(
         identity = {**attrs, "kind": threshold.kind, "direction": direction}
         say(f"curve {index} ({threshold.kind} from m = {seed_mass:g}) towards {name}")
         traced = trace_curve_resumable(
-            fluid, threshold.point, solid, path, identity,
+            fluid, threshold, solid, path, identity,
             direction=direction, mass_range=mass_range, max_points=max_points, counter=counter,
         )  # fmt: skip
         table = curve_table(path, identity)  # the saved half: its turning points and stop
@@ -415,8 +387,13 @@ def _trace_both_ways(
         turning.extend(saved_turning_points(table))
         stops.append(str(table.final_attrs.get("stop", "")))
     ordered = tuple(reversed(halves[0])) + tuple(halves[1][1:])
-    curve = MapCurve(
-        threshold.kind, seed_mass, threshold.boundary, ordered, tuple(turning), (stops[0], stops[1])
+    curve = NeutralCurve(
+        ordered,
+        kind=threshold.kind,
+        boundary=threshold.boundary,
+        seed_mass_ratio=seed_mass,
+        turning_points=tuple(turning),
+        stops=(stops[0], stops[1]),
     )
     return curve, len(halves[0]) - 1
 
@@ -432,7 +409,7 @@ def trace_neutral_map(
     mass_range: tuple[float, float] = (1.0, 1e4),
     max_points: int = 60,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
 ) -> NeutralMap:
     """The stability map of docs/model.md §8 in the plane ``(m, U*)``.
 
@@ -449,7 +426,7 @@ def trace_neutral_map(
     out_dir = Path(out_dir)
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
-    curves: list[MapCurve] = []
+    curves: list[NeutralCurve] = []
     seeds_at: list[int] = []  # per curve: the seed's index in its points
     static = FluidFactor(fluid, 0.0, counter)  # J_ff: divergence of every sweep and the slope
     for seed in seeds:
@@ -465,7 +442,7 @@ def trace_neutral_map(
         )
         for threshold in thresholds:
             if threshold.kind == "divergence" or _on_traced_curve(
-                curves, threshold.kind, threshold.point.mass_ratio, threshold.reduced_velocity
+                curves, threshold.kind, threshold.mass_ratio, threshold.reduced_velocity
             ):
                 continue
             curve, seed_index = _trace_both_ways(

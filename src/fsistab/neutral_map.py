@@ -19,29 +19,7 @@ import numpy as np
 
 from fsistab.continuation import polyline_intersections
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.neutral_point import divergence_velocity
-
-
-@dataclass(frozen=True)
-class NeutralPoint:
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    mode: np.ndarray
-    newton_iterations: int
-
-
-@dataclass(frozen=True)
-class TurningPoint:
-    """A turning point of a neutral curve in m (a fold of ``U*_c(m)``: ``d(log m)/ds = 0``) between
-    the curve's points ``index`` and ``index + 1``; ``localised`` when it was located on the curve
-    (otherwise it is the sampled point of extreme m)."""
-
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    index: int
-    localised: bool
+from fsistab.neutral_point import NeutralPoint, TurningPoint, divergence_velocity
 
 
 def divergence_curve(moment_slope: float, r_theta: float, mass_ratios: np.ndarray) -> np.ndarray:
@@ -89,27 +67,57 @@ def curve_crossings(
     return tuple(crossings)
 
 
+CURVE_PARAMETERS = ("mass_ratio", "reynolds", "alpha0")
+
+
 @dataclass(frozen=True)
-class MapCurve:
-    """One dynamic neutral curve of a map, traced both ways from a threshold of a seed sweep:
-    ``points`` in order of arclength (the part towards smaller m reversed, then the rest).
+class NeutralCurve:
+    """A neutral curve: the one curve type of every threshold method (continuation in ``(m, U*)``,
+    :mod:`fsistab.neutral`; the transfer map, :mod:`fsistab.transfer_map`; continuation in a flow
+    parameter, :mod:`fsistab.flow_neutral`). ``points`` in order of arclength, ``parameter`` the
+    coordinate that moves with ``U*`` along it: ``mass_ratio``, ``reynolds`` or ``alpha0`` (the
+    points' ``alpha0_deg``).
 
-    ``kind`` is ``flutter`` or ``viv`` (:func:`curve_kind`, from its ``frequency_following``);
-    per point, ``unstable_sides`` is +1 where the system is unstable for larger U* at fixed m, −1
-    for smaller (0: not known; an empty tuple: unknown for every point)."""
+    ``kind`` is ``flutter`` or ``viv`` (:func:`curve_kind`, from its ``frequency_following``) when
+    known; ``boundary`` the seed's role (onset or restabilisation) and ``seed_mass_ratio`` where a
+    map curve was seeded; per point, ``unstable_sides`` is +1 where the system is unstable for
+    larger U* at fixed m, −1 for smaller (0: not known; an empty tuple: unknown for every point).
+    ``folds`` are indices after which ``d(parameter)/ds`` changes sign, ``turning_points`` those
+    located on the curve; ``stops`` say why each traced direction ended."""
 
-    kind: str
-    seed_mass_ratio: float
-    boundary: str
     points: tuple[NeutralPoint, ...]
-    turning_points: tuple[TurningPoint, ...]
-    stops: tuple[str, str]
+    parameter: str = "mass_ratio"
+    kind: str = ""
+    boundary: str = ""
+    seed_mass_ratio: float = math.nan
+    turning_points: tuple[TurningPoint, ...] = ()
+    folds: tuple[int, ...] = ()
+    stops: tuple[str, ...] = ()
+    factorisations: int = 0
     unstable_sides: tuple[int, ...] = ()
     frequency_following: float = math.nan
 
     def __post_init__(self):
+        if self.parameter not in CURVE_PARAMETERS:
+            raise InputError(f"a neutral curve's parameter is one of {', '.join(CURVE_PARAMETERS)}")
         if len(self.unstable_sides) not in (0, len(self.points)):
             raise InputError("unstable_sides needs one value per point of the curve")
+
+    def values(self, name: str) -> np.ndarray:
+        """One field of every point (``mass_ratio``, ``reduced_velocity``, ``frequency``, ...)."""
+        return np.array([getattr(p, name) for p in self.points], dtype=float)
+
+    @property
+    def mass_ratios(self) -> np.ndarray:
+        return self.values("mass_ratio")
+
+    @property
+    def reduced_velocities(self) -> np.ndarray:
+        return self.values("reduced_velocity")
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        return self.values("frequency")
 
     def sides(self) -> np.ndarray:
         """``unstable_sides`` as an array, 0 for every point if unknown."""
@@ -117,9 +125,8 @@ class MapCurve:
 
     @property
     def plane_points(self) -> np.ndarray:
-        return np.column_stack(
-            [np.log([p.mass_ratio for p in self.points]), [p.reduced_velocity for p in self.points]]
-        )
+        """``(log m, U*)`` of every point (rows), the input of :func:`curve_crossings`."""
+        return np.column_stack([np.log(self.mass_ratios), self.reduced_velocities])
 
 
 VIV_FOLLOWING = 0.5  # a curve whose frequency follows less than half of the solid's is VIV
@@ -207,7 +214,7 @@ def sides_from_role(plane: np.ndarray, seed_index: int, boundary: str) -> tuple[
     return tuple(int(constant * g) for g in growth)
 
 
-def characterised(curve: MapCurve, seed_index: int, mass_range: tuple[float, float]) -> MapCurve:
+def characterised(curve: NeutralCurve, seed_index: int, mass_range: tuple[float, float]) -> NeutralCurve:
     """A continued curve with its unstable sides (:func:`sides_from_role`), frequency following and
     kind (:func:`curve_kind`, on its points in ``mass_range``)."""
     inside = [p for p in curve.points if mass_range[0] <= p.mass_ratio <= mass_range[1]] or curve.points
@@ -243,7 +250,7 @@ class NeutralMap:
     and the codimension-two crossings of all of them; ``unresolved`` the frequency intervals
     ``(low, high, reason)`` the transfer method left unresolved (none by continuation)."""
 
-    curves: tuple[MapCurve, ...]
+    curves: tuple[NeutralCurve, ...]
     divergence_mass_ratios: np.ndarray
     divergence_velocities: np.ndarray
     moment_slope: float
@@ -253,7 +260,7 @@ class NeutralMap:
 
 
 def map_crossings(
-    curves: Sequence[MapCurve],
+    curves: Sequence[NeutralCurve],
     masses: np.ndarray,
     divergence: np.ndarray,
     r_theta: float | None = None,

@@ -32,7 +32,9 @@ NumPy-only (the analytic Theodorsen model uses it without the finite elements). 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,6 +42,56 @@ from fsistab.continuation import CurveProblem, SquareProblem
 from fsistab.errors import InputError
 
 STATIC_FREQUENCY = 1e-8  # |ω| below which a neutral point is static (divergence; U∞/L units)
+KINDS = ("flutter", "viv", "divergence")
+BOUNDARIES = ("onset", "restabilisation")
+
+
+@dataclass(frozen=True)
+class NeutralPoint:
+    """A neutral point, ``λ = iω`` (docs/model.md §8): the one point type of every threshold method
+    (the augmented system, the transfer determinant, the frequency sweep, the transfer map,
+    continuation in ``(m, U*)`` and in the flow parameters, the Theodorsen model's thresholds).
+
+    ``frequency`` in the body's time unit ``L/U∞`` (0 for divergence); ``reynolds`` and
+    ``alpha0_deg`` the flow, NaN when the caller holds it implicitly. What a method knows beyond the
+    point is optional: ``kind`` (flutter, viv or divergence; '' when not classified), ``boundary``
+    (onset: unstable above ``reduced_velocity`` at fixed m; restabilisation; '' unknown),
+    ``branch`` (the solid dof with most of the critical mode's kinetic energy, ``static`` for
+    divergence), ``frequency_following`` (the local rule that labelled flutter or VIV,
+    docs/model.md §8), ``mode`` (the coupled critical mode), the Newton ``residuals`` and
+    ``iterations``, and the ``factorisations`` it cost.
+    """
+
+    mass_ratio: float
+    reduced_velocity: float
+    frequency: float
+    kind: str = ""
+    boundary: str = ""
+    branch: str = ""
+    frequency_following: float = math.nan
+    reynolds: float = math.nan
+    alpha0_deg: float = math.nan
+    mode: np.ndarray | None = None
+    residuals: tuple[float, ...] = ()
+    iterations: int = 0
+    factorisations: int = 0
+
+    def __post_init__(self):
+        if self.kind not in ("", *KINDS):
+            raise InputError(f"unknown kind of neutral point {self.kind!r}: choose {', '.join(KINDS)}")
+        if self.boundary not in ("", *BOUNDARIES):
+            raise InputError(f"unknown boundary {self.boundary!r}: choose {', '.join(BOUNDARIES)}")
+
+
+@dataclass(frozen=True)
+class TurningPoint(NeutralPoint):
+    """A neutral point where a curve turns in its parameter (a fold of ``U*_c(m)``,
+    ``d(log m)/ds = 0``, or of ``U*_c(Re)``), between the curve's points ``index`` and ``index + 1``
+    (``-1`` when not known); ``localised`` when it was located on the curve (otherwise it is the
+    sampled point of extreme parameter)."""
+
+    index: int = -1
+    localised: bool = False
 
 
 def _checked(name: str, value, positive: bool) -> np.ndarray:

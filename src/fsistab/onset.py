@@ -43,6 +43,7 @@ from pathlib import Path
 from fsistab.bodies import body_type
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.params import MAX_REYNOLDS, Flow
+from fsistab.progress import Progress
 
 PARAMETERS = ("reynolds", "alpha0")
 MAX_ALPHA0 = 45.0  # degrees, as fsistab.params.Flow
@@ -317,7 +318,7 @@ def fixed_body_evaluator(
     *,
     cache_dir: Path | None = None,
     n_eigenvalues: int = 6,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
 ) -> Callable[[float, complex], OnsetIterate]:
     """``evaluate(p, predicted)`` for :func:`secant_onset` on the mesh of ``spec``: the steady
     state at ``p`` continued from the previous evaluation's (cached in ``cache_dir``), the fixed
@@ -377,7 +378,7 @@ def critical_onset(
     step_tol: float = 1e-6,
     max_iterations: int = 12,
     cache_dir: Path | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
 ) -> OnsetResult:
     """The fixed body's critical ``parameter`` (``reynolds``, or ``alpha0`` in degrees at
     ``base.reynolds``; the other flow parameter is ``base``'s) on the mesh of ``spec``: the

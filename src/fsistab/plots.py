@@ -1,4 +1,5 @@
-"""Figures: one function per figure, each taking computed objects and a path (matplotlib, Agg).
+"""Figures: one function per figure, each taking computed objects and a path (matplotlib: the command
+line uses the Agg backend, a notebook or a script its own; the backend is never set on import).
 
 Every figure is drawn inside :func:`figure_style` (one set of fonts and sizes, restored afterwards)
 and written by :func:`save_figure`, atomically, as PNG or, inside :func:`figure_format`, as PDF or
@@ -16,15 +17,12 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import NamedTuple
 
-import matplotlib
+import matplotlib.pyplot as plt
+import matplotlib.ticker
+import matplotlib.tri as mtri
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import matplotlib.ticker  # noqa: E402
-import matplotlib.tri as mtri  # noqa: E402
-import numpy as np  # noqa: E402
-
-from fsistab.bodies import body_type  # noqa: E402
+from fsistab.bodies import body_type
 
 # --- style and output format -------------------------------------------------------------------------
 
@@ -753,7 +751,7 @@ def plot_stability_map(
     (kind ``flutter`` or ``viv``, red and blue, numbered as in the tables when there are several), in
     order of arclength; ``divergence``: ``(mass_ratios, reduced_velocities)``, static instability
     above it (grey). ``sides``: per curve, the unstable side of each point (+1: larger U*, −1:
-    smaller, 0: unknown; :class:`fsistab.neutral_map.MapCurve`), shaded as a narrow band along the curve
+    smaller, 0: unknown; :class:`fsistab.neutral_map.NeutralCurve`), shaded as a narrow band along the curve
     on that side (:func:`_side_bands`): exact, and readable however many curves cross. ``unstable =
     (m, U*, count)`` (1-D, 1-D, len(U*) × len(m)), when known
     (:func:`fsistab.transfer_map.unstable_grid`), shades the exact unstable regions, darker with more

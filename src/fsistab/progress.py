@@ -159,6 +159,9 @@ class Reporter:
 
 
 Progress = Callable[[str], None] | None
+"""The one progress interface of fsistab: a callable taking one line of text (or None: silent).
+Every long computation reports through it (workflows, thresholds, solvers, the steady flow); the
+command line passes a :class:`Reporter`, the Python API a logging reporter (:func:`reporting`)."""
 
 
 @contextmanager

@@ -35,7 +35,6 @@ cylinder, docs/model.md §2, §10); loads as in :func:`fsistab.transfer.exact_tr
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -47,6 +46,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.progress import Progress
 from fsistab.store import ResumableTable
 from fsistab.transfer import flow_identity
 
@@ -254,7 +254,7 @@ class ReducedModels:
         blocks: int = 60,
         path: Path | None = None,
         counter: FactorCounter | None = None,
-        progress: Callable[[str], None] | None = None,
+        progress: Progress = None,
         refine: bool = True,
     ):
         if not 0 < tolerance < 1e-2:
@@ -398,7 +398,7 @@ def reduced_cover(
     blocks: int = 60,
     path: Path | None = None,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
 ) -> ReducedModels:
     """Reduced models whose certified intervals cover ``[0, omega_max]``: ``G(iω)`` on that whole
     segment with an estimated error below ``tolerance`` (module docstring).

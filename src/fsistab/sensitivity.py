@@ -560,7 +560,7 @@ def threshold_sensitivity(
     factors: dict[complex, FluidFactor] | None = None,
     tangents: dict[str, FlowTangent] | None = None,
 ) -> ThresholdSensitivity:
-    """Derivatives of the neutral point ``point`` (a :class:`fsistab.critical.CriticalPoint` of
+    """Derivatives of the neutral point ``point`` (a :class:`fsistab.neutral_point.NeutralPoint` of
     ``fluid`` with the other solid parameters of ``solid``) by (S1) and (S3).
 
     One factorisation at ``σ = iω_c`` (or reused from ``factors``), the adjoint by inverse
@@ -625,7 +625,7 @@ def sensitivity_results(
     tangents: dict[str, FlowTangent] = {}
     results = [
         threshold_sensitivity(
-            fluid, solid, t.point, parameters, counter=counter, factors=factors, tangents=tangents
+            fluid, solid, t, parameters, counter=counter, factors=factors, tangents=tangents
         )
         for t in thresholds
     ]

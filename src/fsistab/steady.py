@@ -23,6 +23,7 @@ from fsistab.errors import CacheError, ConvergenceError, InputError
 from fsistab.geometry import DIRICHLET
 from fsistab.mesh import MeshSpec, build_mesh
 from fsistab.params import Flow
+from fsistab.progress import Progress
 
 NEWTON_TOL = 1e-9  # Euclidean norm of the residual on free dofs
 
@@ -329,7 +330,7 @@ def continuation(
     first_step: float = 0.25,
     min_step: float = 1e-3,
     path_tol: float = NEWTON_TOL,
-    progress: Callable[[Flow, int], None] | None = None,
+    progress: Progress = None,
 ) -> tuple[list[float], list[tuple[float, float, int]]]:
     """Follow the steady branch from ``start`` (where ``state`` converged) to ``target``.
 
@@ -368,7 +369,10 @@ def continuation(
             continue
         path.append((flow.reynolds, flow.alpha0_deg, len(history) - 1))
         if progress:
-            progress(flow, len(history) - 1)
+            progress(
+                f"continuation: Re = {flow.reynolds:.4g}, alpha0 = {flow.alpha0_deg:.3g} deg "
+                f"converged in {len(history) - 1} Newton iterations"
+            )
         previous_vector = previous[1] if previous else current.CreateVector()
         previous_vector.data = current
         previous = (s, previous_vector)
@@ -388,7 +392,7 @@ def solve_steady(
     *,
     cache_dir: Path | None = None,
     initial: SteadyState | None = None,
-    progress: Callable[[Flow, int], None] | None = None,
+    progress: Progress = None,
     backend: str = "umfpack",
 ) -> SteadyState:
     """Steady state for ``flow`` on the mesh of ``spec`` (docs/model.md §6), cached under its key.

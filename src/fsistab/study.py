@@ -92,7 +92,7 @@ import contextlib
 import json
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -113,8 +113,7 @@ from fsistab.params import (
     body_velocity_scale,
     solid_for,
 )
-
-Progress = Callable[[str], None] | None
+from fsistab.progress import Progress
 
 CLASSES = (
     "coupled-mode flutter",
@@ -650,7 +649,7 @@ def _thresholds(fluid, settings: StudySettings, kind: str, counter, static, say)
             if t.kind == "divergence":
                 shares = (math.nan, math.nan, math.nan)
             else:
-                e_h, e_t, e_f = mode_energies(system, t.point.mode)
+                e_h, e_t, e_f = mode_energies(system, t.mode)
                 total = e_h + e_t + e_f
                 shares = (e_h / total, e_t / total, e_f / total)
                 if set(solid.dofs) == {"heave", "pitch"} and t.kind == "flutter":

@@ -54,7 +54,7 @@ import numpy as np
 
 from fsistab.continuation import newton
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.neutral_point import DeterminantProblem
+from fsistab.neutral_point import DeterminantProblem, NeutralPoint
 from fsistab.neutral_point import divergence_velocity as divergence_velocity_formula
 from fsistab.params import SOLID_DOFS, Solid, _finite, _interval, _positive
 
@@ -355,24 +355,6 @@ def divergence_velocity_from_determinant(
     )
 
 
-@dataclass(frozen=True)
-class TheodorsenPoint:
-    """A neutral point along U* at fixed m: ``kind`` flutter or divergence, ``frequency`` ω (U∞/c),
-    ``boundary`` onset (unstable just above U*) or restabilisation, ``residual`` |det D|/scale."""
-
-    kind: str
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    boundary: str = "onset"
-    residual: float = 0.0
-
-    @property
-    def frequency_ratio(self) -> float:
-        """``ω/ω_θ = ω U*``."""
-        return self.frequency * self.reduced_velocity
-
-
 def _quartic_in_w(section: TypicalSection, omega: np.ndarray) -> np.ndarray:
     """Coefficients (highest first, shape (N, 5)) of ``det D(iω)`` as a polynomial in ``w = 1/U*``.
 
@@ -459,7 +441,7 @@ def flutter_points(
     section: TypicalSection,
     velocity_range=(1e-2, 1e2),
     points_per_decade: int = 400,
-) -> list[TheodorsenPoint]:
+) -> list[NeutralPoint]:
     """Every flutter boundary (real ``ω > 0``, ``U*`` in ``velocity_range``) at ``section``'s m.
 
     ``det D(iω; U*)`` (docs/model.md §9) is, for each ``ω``, a quartic in ``w = 1/U*`` (the loads depend
@@ -502,7 +484,7 @@ def flutter_points(
             brackets += [
                 (fine[j], fine[j + 1]) for j in np.nonzero(np.sign(values[1:]) != np.sign(values[:-1]))[0]
             ]
-    found: list[TheodorsenPoint] = []
+    found: list[NeutralPoint] = []
     for a, b in brackets:
         omega = brentq(lambda om: float(indicator_at(om)[0]), a, b, xtol=1e-15, rtol=1e-14)
         w_all = _w_roots(section, omega)[0]
@@ -525,7 +507,14 @@ def flutter_points(
             continue
         boundary = _boundary(section, velocity, omega)
         found.append(
-            TheodorsenPoint("flutter", s.mass_ratio, float(velocity), float(omega), boundary, residual)
+            NeutralPoint(
+                s.mass_ratio,
+                float(velocity),
+                float(omega),
+                kind="flutter",
+                boundary=boundary,
+                residuals=(residual,),
+            )
         )
     return sorted(found, key=lambda p: p.reduced_velocity)
 
@@ -541,16 +530,18 @@ def _boundary(section: TypicalSection, velocity: float, omega: float, delta: flo
     return "onset" if above.real > below.real else "restabilisation"
 
 
-def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> TheodorsenPoint | None:
-    """Torsional divergence as a :class:`TheodorsenPoint` (ω = 0) if its U* is in ``velocity_range``."""
+def divergence_point(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> NeutralPoint | None:
+    """Torsional divergence as a neutral point (ω = 0) if its U* is in ``velocity_range``."""
     lo, hi = _velocity_range(velocity_range)
     velocity = divergence_velocity(section)
     if not (math.isfinite(velocity) and lo <= velocity <= hi):
         return None
-    return TheodorsenPoint("divergence", section.mass_ratio, velocity, 0.0, "onset", 0.0)
+    return NeutralPoint(
+        section.mass_ratio, velocity, 0.0, kind="divergence", boundary="onset", branch="static"
+    )
 
 
-def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[TheodorsenPoint]:
+def critical_points(section: TypicalSection, velocity_range=(1e-2, 1e2)) -> list[NeutralPoint]:
     """Every flutter boundary and the divergence in ``velocity_range``, sorted by U*."""
     found = flutter_points(section, velocity_range)
     divergence = divergence_point(section, velocity_range)

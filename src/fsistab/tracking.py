@@ -19,6 +19,7 @@ from fsistab.coupled import CoupledSystem
 from fsistab.eigen import Eigenpair, label_mode
 from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter, ShiftedSolver, residual_norm, shift_invert_operator
+from fsistab.progress import Progress
 
 
 @dataclass
@@ -104,7 +105,7 @@ def track_branches(
     *,
     inverse_scaling: Sequence[str] = (),
     counter: FactorCounter | None = None,
-    progress: Callable[[int, float], None] | None = None,
+    progress: Progress = None,
 ) -> dict[str, EigenBranch]:
     """Follow each eigenpair of ``starts`` (computed at ``parameters[0]``) along ``parameters``.
 
@@ -138,5 +139,5 @@ def track_branches(
             branch.labels.append(label)
             branch.vectors.append(q)
         if progress:
-            progress(i, parameter)
+            progress(f"tracking branches: point {i + 1}/{len(parameters)}, {counter.count} factorisations")
     return branches

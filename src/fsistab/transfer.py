@@ -31,7 +31,7 @@ exactly by :func:`transfer_flutter_point` (the transfer-determinant formulation 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -50,9 +50,10 @@ from fsistab.coupled import (
 )
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor, sample_threads, shared_analysis
-from fsistab.neutral_point import DeterminantProblem
+from fsistab.neutral_point import DeterminantProblem, NeutralPoint
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.progress import Progress
 from fsistab.store import ResumableTable, complex_variable
 
 LOADS = ("force_x", "force_y", "moment")
@@ -292,22 +293,6 @@ class TransferDeterminant:
         return DeterminantProblem(self.characteristic)
 
 
-@dataclass(frozen=True)
-class TransferCriticalPoint:
-    """A neutral point ``det T(iω_c; U*_c) = 0`` at fixed ``mass_ratio`` (time unit ``L/U∞``);
-    ``sample`` the last evaluation of ``G`` (its frequency within the last Newton step of
-    ``ω_c``), from which the critical mode (:meth:`TransferSample.mode`) and the crossing rate
-    follow with no further factorisation."""
-
-    mass_ratio: float
-    reduced_velocity: float
-    frequency: float
-    iterations: int
-    residuals: tuple[float, ...]
-    factorisations: int
-    sample: TransferSample | None = None
-
-
 def transfer_flutter_point(
     fluid: FluidOperators,
     solid: Solid,
@@ -317,11 +302,14 @@ def transfer_flutter_point(
     max_iterations: int = 12,
     counter: FactorCounter | None = None,
     refine: bool = True,
-) -> TransferCriticalPoint:
+) -> tuple[NeutralPoint, TransferSample]:
     """Dynamic neutral point from the exact transfer function: :func:`fsistab.continuation.newton` on
     the two real equations ``det T(iω; U*) = 0`` in ``(ω, log U*)`` (:class:`TransferDeterminant`,
     ``m`` held), starting from ``(frequency, solid.reduced_velocity)``, until the step is below
     ``tolerance`` (relative in ω). ``residuals`` are ``σ_min(T)/‖T‖₂`` at the iterates.
+    Returns the point and the last evaluation of ``G`` (its frequency within the last Newton step
+    of ``ω_c``), from which the critical mode (:meth:`TransferSample.mode`) and the crossing rate
+    follow with no further factorisation.
     ``refine=False``: solves without the refinement step (relative residual about 1e-12), which
     moves the root by about that much, far below a ``tolerance`` of 1e-8, for a third of the
     solve cost.
@@ -360,9 +348,15 @@ def transfer_flutter_point(
             "start closer to the dynamic crossing"
         )
     last = determinant.sample(float(result.path[-1][0]))  # the factorisation nearest the root
-    return TransferCriticalPoint(
-        solid.mass_ratio, velocity, omega, result.iterations, tuple(residuals), counter.count - start, last
+    point = NeutralPoint(
+        solid.mass_ratio,
+        velocity,
+        omega,
+        residuals=tuple(residuals),
+        iterations=result.iterations,
+        factorisations=counter.count - start,
     )
+    return point, last
 
 
 MOTIONS = ("heave", "pitch")
@@ -385,7 +379,7 @@ def viscous_theodorsen_dataset(
     frequencies: Sequence[float],
     *,
     counter: FactorCounter | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress = None,
     samples_path: Path | None = None,
 ) -> xr.Dataset:
     """``G(iω)`` at ``frequencies`` (> 0, time unit ``L/U∞``) and the loads ``(C_L, C_M)`` per unit
@@ -415,7 +409,7 @@ def viscous_theodorsen_dataset(
                 table.append({"frequency": float(w), "transfer": stored[float(w)]})
         samples.append(stored[float(w)])
         if progress:
-            progress(i + 1, len(omega))
+            progress(f"G(iω): {i + 1}/{len(omega)} frequencies ({fluid.n_fluid} fluid unknowns)")
     samples = np.array(samples)
     viscous = np.array(
         [

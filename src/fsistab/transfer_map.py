@@ -37,7 +37,7 @@ time ``L/U∞`` (docs/model.md §2, §10); ``m``, ``U*`` as in :class:`fsistab.p
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -121,7 +121,7 @@ from fsistab.map_tracker import (  # noqa: F401 (the root tracker, public here t
     _swept,
 )
 from fsistab.neutral_map import (
-    MapCurve,
+    NeutralCurve,
     NeutralMap,
     NeutralPoint,
     TurningPoint,
@@ -133,6 +133,7 @@ from fsistab.neutral_map import (
 from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
+from fsistab.progress import Progress
 from fsistab.reduced_model import ReducedModels
 
 # root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
@@ -316,7 +317,7 @@ def transfer_neutral_map(
     samples_path: Path | None = None,
     reduced: ReducedModels | None = None,
     counter: FactorCounter | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = None,
     threads: int | None = None,
     fit_first: bool = True,
     resonance_blocks: int = RESONANCE_BLOCKS,
@@ -587,22 +588,19 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
             for k, r in enumerate(curve.roots)
             if inside[k] or (k > 0 and inside[k - 1]) or (k + 1 < len(inside) and inside[k + 1])
         ]
-        neutral = tuple(
-            NeutralPoint(r.mass_ratio, r.reduced_velocity, r.frequency, np.zeros(0), 0) for r in keep
-        )
+        neutral = tuple(NeutralPoint(r.mass_ratio, r.reduced_velocity, r.frequency) for r in keep)
         folds = tuple(
-            TurningPoint(m, u, w, -1, True) for m, u, w in curve.turning_points() if low <= m <= high
+            TurningPoint(m, u, w, localised=True) for m, u, w in curve.turning_points() if low <= m <= high
         )
         onset = np.mean([r.crossing_rate > 0 for r in keep]) >= 0.5
         inside_roots = [r for r in keep if low <= r.mass_ratio <= high]
         curves.append(
-            MapCurve(
-                curve.kind,
-                float("nan"),
-                "onset" if onset else "restabilisation",
+            NeutralCurve(
                 neutral,
-                folds,
-                ("", ""),
+                kind=curve.kind,
+                boundary="onset" if onset else "restabilisation",
+                turning_points=folds,
+                stops=("", ""),
                 unstable_sides=tuple(int(np.sign(r.crossing_rate)) for r in keep),
                 frequency_following=frequency_following(*_points_of(inside_roots)),
             )

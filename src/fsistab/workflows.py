@@ -39,9 +39,7 @@ from fsistab.params import (
     TransferSettings,
     body_velocity_scale,
 )
-from fsistab.progress import running
-
-Progress = Callable[[str], None] | None
+from fsistab.progress import Progress, running
 
 
 def _workflow(function):
@@ -73,19 +71,9 @@ def _fluid(case: Case, cache_dir: Path, say: Callable[[str], None]):
     from fsistab.steady import solve_steady
 
     say(f"steady state: {case.kind}, Re = {case.flow.reynolds:g}, alpha0 = {case.flow.alpha0_deg:g} deg")
-    steady = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=_steady_progress(say))
+    steady = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=say)
     say("fluid operators")
     return steady, fluid_operators(steady)
-
-
-def _steady_progress(say: Callable[[str], None]):
-    def progress(step_flow, iterations: int) -> None:
-        say(
-            f"continuation: Re = {step_flow.reynolds:.4g}, alpha0 = {step_flow.alpha0_deg:.3g} deg "
-            f"converged in {iterations} Newton iterations"
-        )
-
-    return progress
 
 
 def _divergence_velocity(moment_slope, r_theta, mass_ratio):
@@ -141,7 +129,7 @@ def steady_flow(case: Case, cache_dir: Path, progress: Progress = None) -> Stead
 
     say = progress
     say("steady Navier–Stokes (Newton, continuation in Re)")
-    result = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=_steady_progress(say))
+    result = solve_steady(_mesh_spec(case), case.flow, cache_dir=cache_dir, progress=say)
     coefficients = aerodynamic_coefficients(result)
     path = np.array(result.path, dtype=float).reshape(-1, 3)
     ds = xr.Dataset(
@@ -652,7 +640,10 @@ def theodorsen_points(section, settings: TheodorsenSettings) -> xr.Dataset:
             "boundary": ("threshold", np.array([p.boundary for p in found], dtype=str)),
             "reduced_velocity": ("threshold", np.array([p.reduced_velocity for p in found], dtype=float)),
             "frequency": ("threshold", np.array([p.frequency for p in found], dtype=float)),
-            "frequency_ratio": ("threshold", np.array([p.frequency_ratio for p in found], dtype=float)),
+            "frequency_ratio": (
+                "threshold",
+                np.array([p.frequency * p.reduced_velocity for p in found], dtype=float),
+            ),
         },
         attrs={
             "mass_ratio": section.mass_ratio,
@@ -779,11 +770,8 @@ def transfer_function(
     omega = 2 * np.geomspace(*settings.k_range, settings.points)
     _, fluid = _fluid(case, cache_dir, say)
 
-    def count(done: int, total: int) -> None:
-        say(f"G(iω): {done}/{total} frequencies ({fluid.n_fluid} fluid unknowns)")
-
     samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).linear_key()}_{case.tag}.nc"
-    ds = viscous_theodorsen_dataset(fluid, omega, progress=count, samples_path=samples_path)
+    ds = viscous_theodorsen_dataset(fluid, omega, progress=say, samples_path=samples_path)
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
     ds.attrs.update({"body": case.kind, "preset": case.preset})
     path = write_dataset(ds, Path(out) / f"transfer_{case.tag}_{case.preset}.nc")
