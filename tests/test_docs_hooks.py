@@ -76,3 +76,19 @@ def test_docs_execute_switch_refuses_a_typo():
     assert hook.executing({}) and not hook.executing({"FSISTAB_DOCS_EXECUTE": "0"})
     with pytest.raises(ValueError):
         hook.executing({"FSISTAB_DOCS_EXECUTE": "no"})
+
+
+def test_every_module_has_a_reference_page_a_row_and_a_place_in_the_nav():
+    """A new module is documented: its page under docs/reference, its row in the reference index
+    and its entry in mkdocs.yml's nav (the site build would not notice a page left out)."""
+    modules = sorted(p.stem for p in (ROOT / "src" / "fsistab").glob("*.py") if p.stem != "__init__")
+    index = (ROOT / "docs" / "reference" / "index.md").read_text()
+    nav = (ROOT / "mkdocs.yml").read_text()
+    missing = [
+        m
+        for m in modules
+        if not (ROOT / "docs" / "reference" / f"{m}.md").is_file()
+        or f"[`fsistab.{m}`]({m}.md)" not in index
+        or f"reference/{m}.md" not in nav
+    ]
+    assert missing == []

@@ -435,6 +435,19 @@ def test_study_thresholds_mark_onsets_filled_and_restabilisations_open(tmp_path,
     assert ax.yaxis.get_major_formatter().__class__.__name__ == "LogFormatter"
 
 
+def test_study_without_thresholds_says_so_instead_of_failing(tmp_path, figures):
+    """A study whose U* range holds no threshold (every critical U* NaN) draws its panel with a
+    note: a log axis cannot be drawn without one positive value."""
+    import xarray as xr
+
+    data = xr.load_dataset(Path(__file__).parents[1] / "docs" / "data" / "reynolds_study_medium.nc")
+    data["threshold_reduced_velocity"] = data.threshold_reduced_velocity * np.nan
+    plots.plot_study_thresholds(data, tmp_path / "t.png")
+    ax = figures[-1].axes[-1]
+    assert (tmp_path / "t.png").is_file() and ax.get_yscale() == "linear"
+    assert [t.get_text() for t in ax.texts] == [plots.NO_THRESHOLD]
+
+
 def test_adjacent_unresolved_intervals_are_one_place():
     """A refinement stalled near one frequency leaves hundreds of adjacent intervals: one line for
     them (with their count), apart from an interval elsewhere and from another reason's."""

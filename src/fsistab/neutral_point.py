@@ -1,4 +1,6 @@
-"""The neutral point of docs/model.md §8, independent of how the coupled problem is discretised.
+"""The neutral point of docs/model.md §8, independent of how the coupled problem is discretised:
+:class:`NeutralPoint`, the one point type that every threshold method returns (a
+:class:`TurningPoint` is one that also says where its curve turns), and the problem it solves.
 
 The static neutral point (divergence, ``ω = 0``) of the pitching body has a closed form: the
 static moment does not depend on the heave, so ``J(U*) q̂ = 0`` reduces to the torsional balance

@@ -1110,6 +1110,7 @@ def plot_theodorsen_comparison(ds, path: Path, title: str = "") -> Path:
 
 # --- parameter studies (fsistab.study) -------------------------------------------------------------
 
+NO_THRESHOLD = "no threshold in the U* range"
 _STUDY_MARKERS = {
     "coupled-mode flutter": "o",
     "pitch single-mode flutter": "^",
@@ -1199,10 +1200,16 @@ def plot_study_thresholds(ds, path: Path, title: str = "") -> Path:
                 open_marker = {"facecolors": "none", "edgecolors": "grey"}
                 ax.scatter([], [], marker="o", label="open: restabilisation", **open_marker)
             ax.set_ylabel("critical U*")
-            ax.set_yscale("log")
-            # plain numbers on the log axis (5, 6, 8 rather than 5×10⁰)
-            ax.yaxis.set_major_formatter(matplotlib.ticker.LogFormatter())
-            ax.yaxis.set_minor_formatter(matplotlib.ticker.LogFormatter(minor_thresholds=(2, 0.5)))
+            velocities = ds.threshold_reduced_velocity.values
+            if np.any(np.isfinite(velocities) & (velocities > 0)):
+                ax.set_yscale("log")
+                # plain numbers on the log axis (5, 6, 8 rather than 5×10⁰)
+                ax.yaxis.set_major_formatter(matplotlib.ticker.LogFormatter())
+                ax.yaxis.set_minor_formatter(matplotlib.ticker.LogFormatter(minor_thresholds=(2, 0.5)))
+            else:  # no threshold anywhere in the study's U* range: say so (a log axis needs one)
+                ax.text(0.5, 0.5, NO_THRESHOLD, transform=ax.transAxes, ha="center", va="center")
+                low, high = float(np.min(x)), float(np.max(x))  # nothing drawn sets the abscissa
+                ax.set_xlim(*((low / 1.2, high * 1.2) if x_dim == "reynolds" else (low - 1.0, high + 1.0)))
             # one entry per (flow point, mass ratio): beside the axes, where it hides no marker
             ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
         ax.set_xlabel("α0 [deg]" if x_dim == "alpha0" else "Re")
