@@ -17,6 +17,7 @@ from pathlib import Path
 
 from fsistab.errors import InputError
 
+CLOSING_GAP = 1.5  # a gap between the last and first points beyond this many spacings: an open curve
 MIN_POINTS = 12  # fewer points do not describe a section a spline can follow
 CORNER_ANGLE = math.radians(60.0)  # a turn sharper than this at a point is a corner, not a curve
 SHORT_SIDE = 4.0  # a side shorter than this many wall sizes is meshed with the corner size
@@ -113,9 +114,9 @@ def read_points(path: str | Path):
 
 def closed_outline(points, name: str = "the body curve"):
     """Distinct points of a closed curve: consecutive repeats dropped, the last point dropped if it
-    repeats the first. Refused when the last point is farther from the first than the largest
-    spacing between consecutive points (an open curve); a smaller gap is closed by a straight
-    segment (a blunt trailing edge)."""
+    repeats the first. Refused when the last point is farther from the first than 1.5 times the
+    largest spacing between consecutive points (an open curve); a smaller gap is closed by a straight
+    segment (a blunt trailing edge, or simply the first point not repeated)."""
     import numpy as np
 
     points = np.asarray(points, dtype=float)
@@ -130,10 +131,10 @@ def closed_outline(points, name: str = "the body curve"):
         raise InputError(f"{name} has {len(points)} distinct points: at least {MIN_POINTS} are needed")
     gap = math.dist(points[0], points[-1])
     spacing = float(np.hypot(*np.diff(points, axis=0).T).max())
-    if gap > spacing:
+    if gap > CLOSING_GAP * spacing:
         raise InputError(
-            f"{name} is not closed: its last point is {gap:.4g} from its first, more than the largest "
-            f"spacing between points ({spacing:.4g}); repeat the first point at the end"
+            f"{name} is not closed: its last point is {gap:.4g} from its first, more than 1.5 times the "
+            f"largest spacing between points ({spacing:.4g}); repeat the first point at the end"
         )
     return points
 

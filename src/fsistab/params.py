@@ -224,9 +224,9 @@ MESH_PRESETS = ("coarse", "quick", "medium", "fine")  # the presets of fsistab.m
 
 def preset_message(body: Body, preset: str) -> str:
     """Why ``preset`` is refused for ``body``: the bodies it is fitted to, and the body's presets."""
-    owners = [kind for kind, cls in BODY_TYPES.items() if preset in cls.mesh_presets]
+    owners = [cls.__name__.lower() for cls in BODY_TYPES.values() if preset in cls.mesh_presets]
     return (
-        f"the {preset} mesh preset is defined for the {' and '.join(owners)} only: "
+        f"the {preset} mesh preset is defined for the {', '.join(owners)} only, not the {body.kind}: "
         f"choose {', '.join(body.mesh_presets)}"
     )
 
