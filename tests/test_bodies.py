@@ -202,3 +202,17 @@ def test_a_plate_read_from_points_reproduces_the_built_in_plate(tmp_path):
         results.append((aerodynamic_coefficients(steady).drag, slopes.lift, slopes.moment))
     for built_in, read in zip(*results, strict=True):
         assert read == pytest.approx(built_in, rel=5e-3)
+
+
+def test_shape_options_are_checked_for_every_body(tmp_path):
+    with pytest.raises(InputError, match="closed or open"):
+        make_body("naca0012", trailing_edge="blunt")
+    with pytest.raises(InputError, match="closed or open"):
+        make_body("plate", trailing_edge="blunt")  # refused although the plate does not use it
+    with pytest.raises(InputError, match="--body-file"):
+        make_body("plate", reference_length=2.0)
+    with pytest.raises(InputError, match="--body-file"):
+        make_body("curve")
+    path = write_points(tmp_path / "plate.csv", plate_points())
+    with pytest.raises(InputError, match="reference length"):
+        make_body("curve", body_file=str(path), reference_length=-1.0)
