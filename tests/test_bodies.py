@@ -101,8 +101,11 @@ def test_splined_faces_enclose_the_exact_areas(tmp_path):
     naca = Airfoil().face(0.03, 0.005)
     assert naca.mass == pytest.approx(0.12 * NACA_AREA_PER_THICKNESS, rel=2e-5)
     plate = Curve.read(write_points(tmp_path / "plate.csv", plate_points()))
-    exact = 0.05 - (4 - math.pi) * 0.005**2  # the rounded rectangle
-    assert plate.face(0.03, 0.005).mass == pytest.approx(exact, rel=1e-6)
+    exact = 0.05 - (4 - math.pi) * 0.005**2  # the rounded rectangle: its sides and arcs recognised
+    assert plate.face(0.03, 0.005).mass == pytest.approx(exact, rel=1e-12)
+    assert [edge.mass for edge in plate.face(0.03, 0.005).edges] == pytest.approx(
+        [0.04, math.pi * 0.005 / 2, 0.99, math.pi * 0.005 / 2] * 2, rel=1e-12
+    )
     assert plate.symmetric and Airfoil().symmetric and not Airfoil("naca2412").symmetric
 
 

@@ -296,9 +296,42 @@ def _meets_short_side(face, p, corner_size: float) -> bool:
     return False
 
 
+ARC_TOLERANCE = 1e-8  # points within this of one circle (chords) are an arc of it
+
+
+def circular_arc(points):
+    """The unit tangent at the first point if ``points`` (three or more, turning less than half a
+    turn) lie on one circle within ``ARC_TOLERANCE``, else None."""
+    import numpy as np
+
+    if len(points) < 3:
+        return None
+    a, b, c = points[0], points[len(points) // 2], points[-1]
+    d = 2 * ((a[0] - c[0]) * (b[1] - c[1]) - (b[0] - c[0]) * (a[1] - c[1]))
+    if abs(d) < 1e-300:
+        return None
+    sa, sb, sc = a @ a, b @ b, c @ c
+    centre = np.array(
+        [
+            (sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1])) / d,
+            (sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])) / d,
+        ]
+    )
+    radius = np.hypot(*(a - centre))
+    if np.max(np.abs(np.hypot(*(points - centre).T) - radius)) > ARC_TOLERANCE:
+        return None
+    turns = turning_angles(np.vstack([points, centre]))[1:-1]  # the turns between the arc's chords
+    if abs(float(np.sum(turns))) >= math.pi or not (np.all(turns > 0) or np.all(turns < 0)):
+        return None
+    sense = 1.0 if turns[0] > 0 else -1.0  # counter-clockwise about the centre, or clockwise
+    radial = (a - centre) / radius
+    return sense * np.array([-radial[1], radial[0]])
+
+
 def outline_face(points, wall_size: float, corner_size: float, name: str):
-    """The outline as a netgen.occ face: straight sides as lines, the others as interpolating
-    splines (``WorkPlane.Spline``) tangent to their neighbours where the outline is smooth; every
+    """The outline as a netgen.occ face: straight sides as lines, sides whose points lie on a circle
+    as its arcs, the others as interpolating splines (``WorkPlane.Spline``) tangent to their
+    neighbours where the outline is smooth; every
     edge named ``name`` with ``wall_size``, or ``corner_size`` if shorter than four wall sizes (the
     short sides and corner arcs of a blunt body), the breaks (trailing and leading edges, corners,
     ends of straight sides) with ``corner_size``."""
@@ -310,6 +343,10 @@ def outline_face(points, wall_size: float, corner_size: float, name: str):
     for indices, straight in sides:
         if straight:
             wp.LineTo(*points[indices[-1]])
+            continue
+        arc = circular_arc(points[indices])
+        if arc is not None:  # points on a circle: the arc itself (a plate's rounded corner)
+            wp.ArcTo(*points[indices[-1]], gp_Vec2d(*arc))
             continue
         given = {}
         for position, k in ((0, indices[0]), (len(indices) - 1, indices[-1])):
