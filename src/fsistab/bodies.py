@@ -14,9 +14,11 @@ testing the body's name:
   (curved elements), and the shape queries of the mesh-size estimate (:mod:`fsistab.resources`);
 * figures: the windows of flow and mode plots.
 
-A new section (an airfoil, a shape from a file) is one more class with the same attributes. NumPy
-and NGSolve are imported where a method needs them, so that the command line reads its options
-(and pins BLAS threads) before any numerical package loads.
+The plate, the cylinder, the NACA four-digit airfoils (:class:`Airfoil`) and the closed curves read
+from a file (:class:`Curve`) are such classes; the last two share what a section given by points
+needs (:mod:`fsistab.outlines`, docs/model.md §11). NumPy and NGSolve are imported where a method
+needs them, so that the command line reads its options (and pins BLAS threads) before any numerical
+package loads.
 """
 
 from __future__ import annotations
