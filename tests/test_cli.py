@@ -52,7 +52,7 @@ def test_steady_table_and_mesh_command(tmp_path):
         (["steady", "--aspect-ratio", "1"], "chord/thickness ratio must be > 1"),
         (["steady", "--mesh", "huge"], "unknown mesh preset"),
         (["mesh", "--body", "sphere"], "unknown body"),
-        (["mesh", "--body", "cylinder", "--mesh", "quick"], "defined for the plate only"),
+        (["mesh", "--body", "cylinder", "--mesh", "quick"], "defined for the plate, airfoil, curve only"),
         (["steady", "--alpha0", "60"], "alpha0 must be within"),
         (["onset", "--body", "cylinder", "--parameter", "alpha0", "--guess", "3"], "the cylinder is round"),
         (["onset", "--guess", "2900"], "give --shift for the plate"),

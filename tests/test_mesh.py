@@ -320,7 +320,7 @@ def test_the_quick_preset_is_medium_with_coarser_wake_elements():
     assert spec.sponge == medium.sponge and spec.sponge.far_sigma > 0
     keys = {mesh_spec(Plate(), preset, 2900).linear_key() for preset in ("coarse", "quick", "medium")}
     assert len(keys) == 3
-    with pytest.raises(InputError, match="plate only"):
+    with pytest.raises(InputError, match="plate, airfoil, curve only, not the cylinder"):
         mesh_spec(Cylinder(), "quick", 40)
-    with pytest.raises(InputError, match="plate only"):
+    with pytest.raises(InputError, match="plate, airfoil, curve only"):
         Case.create("cylinder", reynolds=40, preset="quick")

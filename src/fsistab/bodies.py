@@ -14,9 +14,11 @@ testing the body's name:
   (curved elements), and the shape queries of the mesh-size estimate (:mod:`fsistab.resources`);
 * figures: the windows of flow and mode plots.
 
-A new section (an airfoil, a shape from a file) is one more class with the same attributes. NumPy
-and NGSolve are imported where a method needs them, so that the command line reads its options
-(and pins BLAS threads) before any numerical package loads.
+The plate, the cylinder, the NACA four-digit airfoils (:class:`Airfoil`) and the closed curves read
+from a file (:class:`Curve`) are such classes; the last two share what a section given by points
+needs (:mod:`fsistab.outlines`, docs/model.md §11). NumPy and NGSolve are imported where a method
+needs them, so that the command line reads its options (and pins BLAS threads) before any numerical
+package loads.
 """
 
 from __future__ import annotations
@@ -99,6 +101,7 @@ class Plate:
     velocity_scale: ClassVar[float] = 1.0  # the body's U* over the generic one (docs/model.md §2)
     mass_scale: ClassVar[float] = 1.0  # the generic m over the body's own (docs/model.md §2)
     axisymmetric: ClassVar[bool] = False  # α0 changes the flow around it
+    symmetric: ClassVar[bool] = True  # meshed as a half mirrored about Y = 0 (fsistab.mesh)
     allowed_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
     default_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
     default_mass_ratio: ClassVar[float] = 1000.0  # docs/model.md §2
@@ -271,6 +274,7 @@ class Cylinder:
     velocity_scale: ClassVar[float] = 2 * math.pi  # U* = U∞/(f_n D) against the generic U∞/(ω D)
     mass_scale: ClassVar[float] = math.pi / 2  # m_g = π m / 2 (docs/model.md §10)
     axisymmetric: ClassVar[bool] = True  # α0 only turns the free stream: no eigenvalue depends on it
+    symmetric: ClassVar[bool] = True
     allowed_dofs: ClassVar[tuple[str, ...]] = ("heave",)
     default_dofs: ClassVar[tuple[str, ...]] = ("heave",)
     default_mass_ratio: ClassVar[float] = 20.0  # docs/model.md §10
@@ -366,22 +370,250 @@ class Cylinder:
         return math.pi / wall_size
 
 
-Body = Plate | Cylinder
-BODY_TYPES: dict[str, type[Plate] | type[Cylinder]] = {"plate": Plate, "cylinder": Cylinder}
-BODIES = tuple(BODY_TYPES)
+class _Outline:
+    """What the sections given by an outline (:mod:`fsistab.outlines`) share: chord-based units and
+    the plate's conventions (docs/model.md §11), the presets' sizes with the leading and trailing
+    edges refined, a mesh of the whole domain (an outline need not be symmetric), and the wall
+    curved on netgen's own geometry (:meth:`wall_projection` is None)."""
+
+    length_unit: ClassVar[str] = "chord"
+    conventions: ClassVar[str] = Plate.conventions
+    velocity_scale: ClassVar[float] = 1.0
+    mass_scale: ClassVar[float] = 1.0
+    axisymmetric: ClassVar[bool] = False
+    allowed_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
+    default_dofs: ClassVar[tuple[str, ...]] = ("heave", "pitch")
+    default_mass_ratio: ClassVar[float] = Plate.default_mass_ratio
+    default_reduced_velocity: ClassVar[float] = Plate.default_reduced_velocity
+    spectrum_shifts: ClassVar[tuple[complex, ...]] = Plate.spectrum_shifts
+    wake_shifts: ClassVar[tuple[complex, ...]] = ()
+    flow_window: ClassVar[Window] = Plate.flow_window
+    mode_window: ClassVar[Window] = Plate.mode_window
+    sensitivity_window: ClassVar[Window] = Plate.sensitivity_window
+    # the plate's sizes; `corner` is the size at the leading and trailing edges (and at corners)
+    mesh_presets: ClassVar[dict[str, PresetRow]] = {
+        "coarse": (0.03, 1.0, 0.005, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
+        "quick": (0.015, 0.5, 0.003, 0.025, 0.1, 2.0, 0.25, 20.0, 1.0),
+        "medium": (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
+    }
+    middle_presets: ClassVar[dict[str, MiddleRow]] = {
+        k: v for k, v in Plate.middle_presets.items() if k != "fine"
+    }
+    domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = Plate.domain_presets
+    sponge_presets: ClassVar[dict[str, dict[str, float]]] = Plate.sponge_presets
+
+    @property
+    def outline(self):
+        """The ``(n, 2)`` outline in the body frame (:mod:`fsistab.outlines`)."""
+        raise NotImplementedError
+
+    @property
+    def rear(self) -> float:
+        return float(self.outline[:, 0].max())
+
+    @property
+    def half_height(self) -> float:
+        return float(abs(self.outline[:, 1]).max())
+
+    @property
+    def half_area(self) -> float:
+        from fsistab.outlines import signed_area
+
+        return signed_area(self.outline) / 2
+
+    def corner_size(self, corner: float, wall: float) -> float:
+        """The table's size at the edges, at most the wall size, at least an eighth of it."""
+        return max(min(corner, wall), wall / 8)
+
+    @classmethod
+    def generic_solid(cls, solid):
+        return solid
+
+    @classmethod
+    def own_mass_ratio(cls, solid) -> float:
+        return solid.mass_ratio
+
+    def face(self, wall_size: float, corner_size: float):
+        """The outline splined by netgen.occ (:func:`fsistab.outlines.outline_face`)."""
+        from fsistab.outlines import outline_face
+
+        return outline_face(self.outline, wall_size, corner_size, WALL)
+
+    @property
+    def symmetric(self) -> bool:
+        """Whether the outline is its own mirror image about ``Y = 0``: then meshed as a mirrored
+        half like the plate (exactly symmetric), else whole."""
+        from fsistab.outlines import is_mirror_symmetric
+
+        return is_mirror_symmetric(self.outline)
+
+    def wall_projection(self):
+        """Closest point on the splined wall, as a CoefficientFunction of ``(x, y)``: for a
+        symmetric outline, the projection on its upper half tabulated on a fine grid
+        (:func:`fsistab.outlines.upper_projection`) and mirrored; None otherwise (the mesh is whole
+        and curved on its netgen.occ geometry, :func:`fsistab.mesh.curve_wall`)."""
+        if not self.symmetric:
+            return None
+        from ngsolve import CF, IfPos, VoxelCoefficient, x, y
+
+        from fsistab.outlines import upper_projection
+
+        start, end, px, py = upper_projection(self.face(1.0, 1.0))
+        above = IfPos(y, 1.0, -1.0)
+        mirrored = CF((x, above * y))  # the tables are read at (x, |y|): they cover the upper half
+        table_x = VoxelCoefficient(start, end, px, linear=True, trafocf=mirrored)
+        table_y = VoxelCoefficient(start, end, py, linear=True, trafocf=mirrored)
+        return CF((table_x, above * table_y))
+
+    def distance(self, x, y):
+        """Distance to the outline's bounding box (0 inside)."""
+        p = self.outline
+        return rectangle_distance(x, y, p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max())
+
+    def corner_distance(self, x, y):
+        """Distance to the breaks of the outline, which carry the corner size."""
+        import numpy as np
+
+        from fsistab.outlines import outline_breaks
+
+        p = self.outline
+        return np.min([np.hypot(x - p[k, 0], y - p[k, 1]) for k in outline_breaks(p)], axis=0)
+
+    def solid_area(self, x0, x1, y0, y1):
+        """Area of the bounding box ``[X min, X max] × [-h, h]`` in each cell (an upper bound)."""
+        p, h = self.outline, self.half_height
+        return interval_overlap(x0, x1, p[:, 0].min(), p[:, 0].max()) * interval_overlap(y0, y1, -h, h)
+
+    def wall_edges(self, wall_size: float, corner_size: float) -> float:
+        import numpy as np
+
+        from fsistab.outlines import outline_breaks
+
+        p = self.outline
+        perimeter = float(np.sum(np.hypot(*(np.roll(p, -1, axis=0) - p).T)))
+        return perimeter / wall_size + 2 * len(outline_breaks(p)) * math.log2(
+            max(wall_size / corner_size, 1.0)
+        )
 
 
-def body_type(kind: str) -> type[Plate] | type[Cylinder]:
-    """The class of the body named ``kind`` (``plate``, ``cylinder``)."""
+@dataclass(frozen=True)
+class Airfoil(_Outline):
+    """A NACA four-digit section named ``naca<m><p><tt>`` (docs/model.md §11), chord 1 from
+    ``X = -1/2`` (leading edge) to ``1/2``, pitching about mid-chord; ``trailing_edge`` ``closed``
+    (the thickness coefficient -0.1036) or ``open`` (-0.1015, a blunt trailing edge)."""
+
+    kind: str = "naca0012"
+    trailing_edge: Literal["closed", "open"] = "closed"
+
+    def __post_init__(self):
+        from fsistab.outlines import NACA_LAST, naca_digits
+
+        naca_digits(self.kind)
+        if self.trailing_edge not in NACA_LAST:
+            raise InputError(f"trailing edge must be closed or open, got {self.trailing_edge!r}")
+
+    @property
+    def outline(self):
+        from fsistab.outlines import naca_outline
+
+        return naca_outline(self.kind, self.trailing_edge)
+
+
+@dataclass(frozen=True)
+class Curve(_Outline):
+    """A closed curve given by points (docs/model.md §11), normalised by
+    :func:`fsistab.outlines.normalised_outline`: counter-clockwise from its trailing edge, lengths
+    in chords (or in the reference length given when it was read), centred on mid-chord."""
+
+    points: tuple[tuple[float, float], ...] = ()
+    kind: Literal["curve"] = "curve"
+
+    def __post_init__(self):
+        import numpy as np
+
+        from fsistab.outlines import MIN_POINTS, self_intersection, signed_area
+
+        p = np.asarray(self.points, dtype=float).reshape(-1, 2)
+        if len(p) < MIN_POINTS or not np.all(np.isfinite(p)):
+            raise InputError(f"a curve needs at least {MIN_POINTS} finite points, got {len(p)}")
+        if signed_area(p) <= 0 or self_intersection(p) is not None:
+            raise InputError(
+                "a curve's points must be counter-clockwise and not cross (read it with Curve.read)"
+            )
+        object.__setattr__(self, "points", tuple((float(x), float(y)) for x, y in p))
+
+    @classmethod
+    def from_points(
+        cls, points, reference_length: float | None = None, name: str = "the body curve"
+    ) -> Curve:
+        """The curve through ``points`` (any orientation, the first point repeated or not), checked
+        and normalised (:func:`fsistab.outlines.normalised_outline`); coordinates rounded to 12
+        digits so that the same file always gives the same cache keys."""
+        import numpy as np
+
+        from fsistab.outlines import normalised_outline
+
+        outline = np.round(normalised_outline(points, reference_length, name), 12)
+        return cls(points=tuple(map(tuple, outline.tolist())))
+
+    @classmethod
+    def read(cls, path, reference_length: float | None = None) -> Curve:
+        """The curve of a points file (rows ``x,y``; :func:`fsistab.outlines.read_points`)."""
+        from fsistab.outlines import read_points
+
+        return cls.from_points(read_points(path), reference_length, f"the curve of {path}")
+
+    @property
+    def outline(self):
+        import numpy as np
+
+        return np.array(self.points, dtype=float)
+
+
+Body = Plate | Cylinder | Airfoil | Curve
+BODY_TYPES: dict[str, type[Body]] = {"plate": Plate, "cylinder": Cylinder, "naca": Airfoil, "curve": Curve}
+BODIES = ("plate", "cylinder", "nacaMPTT", "curve")
+
+
+def body_type(kind: str) -> type[Body]:
+    """The class of the body named ``kind`` (``plate``, ``cylinder``, ``naca0012``..., ``curve``)."""
+    if kind.startswith("naca"):
+        from fsistab.outlines import naca_digits
+
+        naca_digits(kind)
+        return Airfoil
     try:
         return BODY_TYPES[kind]
     except KeyError:
-        raise InputError(f"unknown body {kind!r}: choose {' or '.join(repr(k) for k in BODIES)}") from None
+        raise InputError(
+            f"unknown body {kind!r}: choose plate, cylinder, a NACA four-digit section (e.g. naca0012) "
+            "or a curve from a file (--body-file)"
+        ) from None
 
 
-def make_body(kind: str, **kwargs) -> Body:
-    """Body from its name and shape parameters."""
+def make_body(
+    kind: str,
+    aspect_ratio: float = 20.0,
+    corner_radius: float = 0.1,
+    trailing_edge: str = "closed",
+    body_file: str | None = None,
+    reference_length: float | None = None,
+) -> Body:
+    """Body from its name and shape options; every option is checked, also those this body does not
+    use (a value that makes no sense is refused even where it is ignored). With ``body_file`` the
+    body is the curve it describes, whatever ``kind``."""
+    plate = Plate(aspect_ratio=aspect_ratio, corner_radius=corner_radius)
+    if trailing_edge not in ("closed", "open"):
+        raise InputError(f"trailing edge must be closed or open, got {trailing_edge!r}")
+    if reference_length is not None and body_file is None:
+        raise InputError("a reference length is for a body read from a file (--body-file)")
+    if body_file is not None:
+        if kind not in ("plate", "curve"):
+            raise InputError(f"give either --body {kind} or --body-file, not both")
+        return Curve.read(body_file, reference_length)
     cls = body_type(kind)
-    if kwargs and cls is Cylinder:
-        raise InputError(f"the cylinder takes no shape parameters, got {sorted(kwargs)}")
-    return cls(**kwargs)
+    if cls is Curve:
+        raise InputError("a curve is read from a file: give --body-file shape.csv")
+    if cls is Airfoil:
+        return Airfoil(kind=kind, trailing_edge=trailing_edge)
+    return plate if cls is Plate else cls()

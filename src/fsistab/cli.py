@@ -107,12 +107,18 @@ def _option(kind, flag: str, help_text: str, default=None) -> tuple:
 Pair = tuple[float, float]
 # fmt: off
 CASE_OPTIONS = {
-    "body": _option(str, "--body", "plate (chord-based units) or cylinder (diameter-based)", "plate"),
+    "body": _option(str, "--body", "plate, naca0012 (any NACA four-digit section; chord-based units) or "
+                    "cylinder (diameter-based)", "plate"),
     "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
     "alpha0": _option(float, "--alpha0", "steady angle of attack, degrees, nose-up +", 0.0),
     "preset": _option(str, "--mesh", "mesh preset: coarse, quick (plate), medium or fine", "medium"),
     "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
     "corner_radius": _option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
+    "trailing_edge": _option(str, "--trailing-edge", "NACA trailing edge: closed or open (blunt)", "closed"),
+    "body_file": _option(str | None, "--body-file", "a closed curve of points (rows x,y; a header line "
+                         "allowed) as the body, splined; scaled to unit chord or --reference-length"),
+    "reference_length": _option(float | None, "--reference-length",
+                                "length unit of --body-file, in the file's units (default: its chord)"),
     "domain": _option(tuple[float, float, float] | None, "--domain",
                       "upstream, downstream and lateral extents in body lengths"),
     "sponge": _option(str, "--sponge", "outlet sponge of the linear operators: preset (the mesh preset's, "
@@ -159,7 +165,9 @@ class Options(SimpleNamespace):
     def case(self, body: str | None = None, reynolds: float | None = None) -> params.Case:
         body, reynolds = self.body if body is None else body, self.reynolds if reynolds is None else reynolds
         shape = (self.aspect_ratio, self.corner_radius, self.domain, self.sponge)
-        return params.Case.create(body, reynolds, self.alpha0, self.preset, *shape)
+        outline = {name: getattr(self, name, None) for name in ("body_file", "reference_length")}
+        outline["trailing_edge"] = getattr(self, "trailing_edge", "closed")
+        return params.Case.create(body, reynolds, self.alpha0, self.preset, *shape, **outline)
 
     def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:
         mass = getattr(self, "mass_ratio", None) if mass_ratio is None else mass_ratio
@@ -349,7 +357,12 @@ def spectrum(opts):
     _finish("spectrum", ds, opts.as_json, reports.spectrum)
 
 
-_SLOPES_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", "reynolds")}
+_OUTLINE = (
+    "trailing_edge",
+    "body_file",
+    "reference_length",
+)  # shape options of the bodies other than the plate
+_SLOPES_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", "reynolds", *_OUTLINE)}
 
 
 @command(_SLOPES_CASE, *FILES)
@@ -517,7 +530,7 @@ THEODORSEN_OPTIONS = {
                                 "x_θ: elastic axis → centre of mass, chords, aft +", 0.0),
 }
 # fmt: on
-_THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k != "body"}
+_THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", *_OUTLINE)}
 
 
 @command(THEODORSEN_OPTIONS, _THEODORSEN_CASE, *FILES)

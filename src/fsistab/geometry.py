@@ -23,9 +23,9 @@ def body_face(body: Body, wall_size: float, corner_size: float):
     return body.face(wall_size, corner_size)
 
 
-def _box(x0: float, x1: float, height: float):
-    """Upper half of a refinement box ``[x0, x1] × [0, height]``."""
-    face = MoveTo(x0, 0).Rectangle(x1 - x0, height).Face()
+def _box(x0: float, x1: float, height: float, whole: bool = False):
+    """Upper half of a refinement box ``[x0, x1] × [0, height]`` (``whole``: ``[-height, height]``)."""
+    face = MoveTo(x0, -height if whole else 0).Rectangle(x1 - x0, 2 * height if whole else height).Face()
     face.edges.name = "interface"
     return face
 
@@ -57,26 +57,31 @@ def far_wake_extent(domain: Domain, sizes) -> tuple[float, float, float]:
 
 
 def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
-    """Upper half (``Y ≥ 0``) of the fluid domain, with a near-body box, a wake box, if
-    ``sizes.far_wake`` is set a far-wake box continuing it, and if ``sizes.middle`` is set a middle
-    box grading the far field.
+    """Upper half (``Y ≥ 0``) of the fluid domain, or the whole domain for a body that is not
+    meshed as a mirrored half (``body.symmetric`` False: an asymmetric outline, docs/model.md §11),
+    with a near-body box, a wake box, if ``sizes.far_wake`` is set a far-wake box continuing it, and
+    if ``sizes.middle`` is set a middle box grading the far field.
 
     The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
     :func:`fsistab.mesh.build_mesh`), so that it is exactly symmetric: a symmetric flow then has
     zero lift and moment to solver precision. ``sizes`` is a :class:`fsistab.mesh.MeshSizes`.
     """
-    outer = MoveTo(-domain.upstream, 0).Rectangle(domain.upstream + domain.downstream, domain.lateral).Face()
+    whole = not body.symmetric
+    outer = _box(-domain.upstream, domain.downstream, domain.lateral, whole)
     outer.edges.Min(X).name = "inlet"
     outer.edges.Max(X).name = "outlet"
     outer.edges.Max(Y).name = "lateral"
-    outer.edges.Min(Y).name = SYMMETRY
+    outer.edges.Min(Y).name = "lateral" if whole else SYMMETRY
 
     margin = sizes.near_margin
     half_height = body.half_height
-    near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral))
+    near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral), whole)
     wake_end = min(sizes.wake_length, domain.downstream - 1.0)
     wake = _box(
-        -0.5 - 2 * margin, max(wake_end, 0.5 + 3 * margin), min(sizes.wake_half_width, 0.9 * domain.lateral)
+        -0.5 - 2 * margin,
+        max(wake_end, 0.5 + 3 * margin),
+        min(sizes.wake_half_width, 0.9 * domain.lateral),
+        whole,
     )
 
     body_shape = body_face(body, sizes.wall, sizes.corner)
@@ -88,17 +93,17 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     inner = wake
     if sizes.far_wake is not None:  # the wake box continued to far_wake's end with larger elements
         start, end, half_width = far_wake_extent(domain, sizes)
-        far_wake = _box(start, end, half_width)
+        far_wake = _box(start, end, half_width, whole)
         far_wake_region = far_wake - wake
         far_wake_region.maxh = sizes.far_wake[0]
         regions.insert(0, far_wake_region)
         inner = wake + far_wake
     if sizes.middle is not None:
         up, down, lateral = middle_box_extent(domain, sizes)
-        middle = _box(-up, down, lateral)
+        middle = _box(-up, down, lateral, whole)
         if sizes.middle_band is not None:  # the wake's band of middle-sized elements, to the outlet
             end, half_width = middle_band_extent(domain, sizes)
-            middle = middle + _box(0.0, end, half_width)
+            middle = middle + _box(0.0, end, half_width, whole)
         middle_region = middle - inner
         middle_region.maxh = sizes.middle
         regions.insert(0, middle_region)

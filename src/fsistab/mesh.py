@@ -236,24 +236,33 @@ def spec_for(case) -> MeshSpec:
 
 
 def _generate(spec: MeshSpec):
-    """Mesh the upper half of the domain and mirror it about ``Y = 0`` (exactly symmetric)."""
+    """Mesh the upper half of the domain and mirror it about ``Y = 0`` (exactly symmetric); a body
+    that is not ``symmetric`` (an outline, docs/model.md §11) is meshed whole."""
     import netgen.meshing
 
     geometry = fluid_half_geometry(spec.body, spec.domain, spec.sizes)
     half = geometry.GenerateMesh(maxh=spec.sizes.far, grading=spec.sizes.grading)
+    if not spec.body.symmetric:
+        return half
     return half.Mirror(netgen.meshing.Pnt(0, 0, 0), netgen.meshing.Vec(0, 1, 0))
 
 
-def curve_wall(mesh, body: Body, order: int) -> None:
+def curve_wall(mesh, body: Body, order: int, projection=None) -> None:
     """Curve the elements at the wall: a P``order`` deformation moving wall points onto the exact
-    boundary (:func:`fsistab.geometry.wall_projection`), zero at every dof off the wall."""
+    boundary (``projection``, :func:`fsistab.geometry.wall_projection` when not given), zero at
+    every dof off the wall; for a body without a projection (an asymmetric outline, whose exact wall
+    is its netgen.occ geometry) netgen's own curving on the geometry the mesh carries."""
     from ngsolve import CF, GridFunction, VectorH1, x, y
 
     if order < 2:
         return
+    projection = wall_projection(body) if projection is None else projection
+    if projection is None:  # the mesh carries its netgen.occ geometry (build_mesh)
+        mesh.Curve(order)
+        return
     space = VectorH1(mesh, order=order)
     deformation = GridFunction(space)
-    deformation.Set(wall_projection(body) - CF((x, y)), definedon=mesh.Boundaries(WALL))
+    deformation.Set(projection - CF((x, y)), definedon=mesh.Boundaries(WALL))
     mesh.SetDeformation(deformation)
 
 
@@ -300,11 +309,14 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
         raise CacheError(f"cannot read cached mesh {path}: {exc}; delete it to rebuild") from None
     if len(ngmesh.Elements2D()) == 0:
         raise CacheError(f"cached mesh {path} is empty (corrupt); delete it to rebuild")
+    projection = wall_projection(spec.body)
+    if projection is None:  # curved on the geometry itself (an asymmetric outline's splines)
+        ngmesh.SetGeometry(fluid_half_geometry(spec.body, spec.domain, spec.sizes))
     mesh = ngsolve.Mesh(ngmesh)
     missing = {"inlet", "outlet", "lateral", WALL} - set(mesh.GetBoundaries())
     if missing:
         raise CacheError(f"mesh {path} lacks boundaries {sorted(missing)}; delete it to rebuild")
-    curve_wall(mesh, spec.body, spec.sizes.curve_order)
+    curve_wall(mesh, spec.body, spec.sizes.curve_order, projection)
     return mesh
 
 

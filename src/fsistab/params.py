@@ -17,7 +17,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Literal
 
-from fsistab.bodies import BODY_TYPES, Body, Plate, body_type
+from fsistab.bodies import BODY_TYPES, Body, body_type, make_body
 from fsistab.errors import InputError
 from fsistab.validate import finite as _finite
 from fsistab.validate import non_negative as _non_negative
@@ -224,9 +224,9 @@ MESH_PRESETS = ("coarse", "quick", "medium", "fine")  # the presets of fsistab.m
 
 def preset_message(body: Body, preset: str) -> str:
     """Why ``preset`` is refused for ``body``: the bodies it is fitted to, and the body's presets."""
-    owners = [kind for kind, cls in BODY_TYPES.items() if preset in cls.mesh_presets]
+    owners = [cls.__name__.lower() for cls in BODY_TYPES.values() if preset in cls.mesh_presets]
     return (
-        f"the {preset} mesh preset is defined for the {' and '.join(owners)} only: "
+        f"the {preset} mesh preset is defined for the {', '.join(owners)} only, not the {body.kind}: "
         f"choose {', '.join(body.mesh_presets)}"
     )
 
@@ -323,13 +323,15 @@ class Case:
         corner_radius: float = 0.1,
         domain: tuple[float, float, float] | None = None,
         sponge: str = "preset",
+        trailing_edge: str = "closed",
+        body_file: str | None = None,
+        reference_length: float | None = None,
     ) -> Case:
-        """From the command-line options. The plate's shape is checked for every body: a value
-        that makes no sense is refused even where it is not used."""
-        cls_body = body_type(body)
-        plate = Plate(aspect_ratio=aspect_ratio, corner_radius=corner_radius)
+        """From the command-line options (:func:`fsistab.bodies.make_body`). Every shape option is
+        checked for every body: a value that makes no sense is refused even where it is not used."""
+        shape = make_body(body, aspect_ratio, corner_radius, trailing_edge, body_file, reference_length)
         return cls(
-            body=plate if cls_body is Plate else cls_body(),
+            body=shape,
             flow=Flow(reynolds, alpha0_deg),
             preset=preset,
             domain=Domain(*domain) if domain is not None else None,

@@ -269,13 +269,14 @@ class StudySettings:
         """What depends on the body, before any work: the plate's modes need ``shifts`` (its wake
         frequency varies with Re and α0; the cylinder's default is its wake mode ``0.75i``); the
         map is the plate's; thresholds need a solid dof (and the cylinder has no pitch)."""
-        if self.modes and not self.shifts and kind != "cylinder":
+        body = body_type(kind)
+        if self.modes and not self.shifts and not body.wake_shifts:
             raise InputError(
-                "give --shift for the plate's modes: a guess of the leading eigenvalue, e.g. 0+11j "
-                "for its wake at Re 2900 (fsistab spectrum finds it)"
+                f"give --shift for the {kind}'s modes: a guess of the leading eigenvalue, e.g. 0+11j "
+                "for the plate's wake at Re 2900 (fsistab spectrum finds it)"
             )
-        if self.map and kind != "plate":
-            raise InputError("the (m, U*) map (--map) is implemented for the plate (heave and pitch)")
+        if self.map and "pitch" not in body.allowed_dofs:
+            raise InputError("the (m, U*) map (--map) needs heave and pitch (the plate, an airfoil, a curve)")
         if self.thresholds:
             solid = self.solid(kind, self.thresholds[0], self.velocity_range[0])
             if not solid.dofs:
