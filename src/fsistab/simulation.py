@@ -1,0 +1,245 @@
+"""Time march of the nonlinear coupled fluid–solid system (docs/model.md §5, §11).
+
+``M q̇ + R(q) = 0`` with ``R`` the project's nonlinear residual (:class:`fsistab.coupled.CoupledResidual`
+over :class:`fsistab.operators.FluidResidual`, the one every block of the Jacobian is checked
+against) and ``M`` the mass of the operators' terms (``TERMS``) applied to the whole dof vector,
+wall dofs included: the wall velocity follows the solid state through the nonlinear lifting, so
+``M`` acts on the rate of the full velocity field and the loads carry the inertia of the discrete
+wall lifting, exactly as in the linear mass ``M`` of docs/model.md §7.
+
+Time discretisation: BDF2 (the first step from a state without history is BDF1),
+
+    (c₀ qⁿ⁺¹ + c₁ qⁿ + c₂ qⁿ⁻¹)/Δt  in place of  q̇,   BDF2: (3/2, -2, 1/2),  BDF1: (1, -1, 0),
+
+fully implicit in the fluid, the solid and their coupling (monolithic, hence free of the added-mass
+instability of partitioned schemes at any mass ratio). Each step solves ``F(qⁿ⁺¹) = 0`` by a chord
+(simplified Newton) iteration whose matrix is ``J + (c₀/Δt) M`` at the steady state: the shifted
+coupled matrix of the eigenvalue solver, factorised once per ``(c₀, Δt)``
+(:class:`fsistab.linalg.ShiftedSolver`, the solid unknowns bordered). Near the steady state it is
+the exact Jacobian; far from it, the mass term ``c₀/Δt`` dominates the change of convection for
+small enough steps, and the iteration converges linearly. A step stops when the update's largest
+entry is below the tolerance, and fails (ConvergenceError, with the advice to reduce the step)
+when it does not within the iterations allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import time as clock
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from fsistab.coupled import CoupledResidual, CoupledSystem
+from fsistab.errors import ConvergenceError
+from fsistab.linalg import FactorCounter, ShiftedSolver
+from fsistab.operators import FluidResidual, mass_integrand, residual_integrand, steady_fields
+
+BDF_COEFFICIENTS = {1: (1.0, -1.0, 0.0), 2: (1.5, -2.0, 0.5)}
+
+
+def full_mass_matrix(steady) -> sp.csr_matrix:
+    """The mass of the operators' terms (:func:`fsistab.operators.mass_integrand`) on every dof of
+    the space, wall dofs included (SciPy CSR): the ``M`` of ``M q̇`` before the wall dofs are
+    eliminated (docs/model.md §5)."""
+    from ngsolve import BilinearForm, dx
+
+    space = steady.space
+    (u, p), (v, q) = space.TnT()
+    form = BilinearForm(space)
+    form += mass_integrand(steady_fields(steady), (u, p), (v, q)) * dx
+    form.Assemble()
+    values, columns, starts = form.mat.CSR()
+    arrays = np.array(values), np.array(columns), np.array(starts, dtype=np.int64)
+    return sp.csr_matrix(arrays, shape=(space.ndof, space.ndof))
+
+
+class InertialFluidResidual(FluidResidual):
+    """:class:`fsistab.operators.FluidResidual` plus the fluid's inertia ``M_all U̇`` (docs/model.md
+    §5), called alike (free-dof rows, body-axis loads), so that
+    :class:`fsistab.coupled.CoupledResidual` built on it is the residual of the time-discrete
+    system. ``U̇ = (c₀/Δt) U(q_s, q_f) + history`` on the full dof vector, ``history`` the discrete
+    rate's part from the previous steps (:meth:`set_rate`). The loads are the reaction loads with
+    inertia, ``-ℓᵀ(M U̇ + R)``; the last ones computed are kept in ``loads``. The residual's form is
+    the same sum of terms, compiled (the march evaluates it a few times per step)."""
+
+    def __init__(self, steady):
+        from ngsolve import BilinearForm, dx
+
+        super().__init__(steady)
+        (u, p), (v, q) = steady.space.TnT()
+        form = BilinearForm(steady.space)
+        form += residual_integrand(steady_fields(steady), self.motion, (u, p), (v, q)).Compile() * dx
+        self.form = form
+        self.mass = full_mass_matrix(steady)
+        self.scale = 0.0
+        self.history = np.zeros(self.mass.shape[0])
+        self.loads = np.zeros(3)
+
+    def set_rate(self, scale: float, history: np.ndarray) -> None:
+        """``U̇ = scale·U + history`` for the next calls."""
+        self.scale, self.history = float(scale), history
+
+    def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r_fluid, loads = super().__call__(q_solid, q_fluid)
+        inertia = self.mass @ (self.scale * self.full_state(q_solid, q_fluid) + self.history)
+        self.loads = loads - self.lifting.T @ inertia
+        return r_fluid + inertia[self.index], self.loads
+
+
+def load_coefficients(theta: float, loads: np.ndarray) -> tuple[float, float, float]:
+    """``(C_L, C_D, C_M)`` of body-axis loads ``(F_x, F_y, M)`` at pitch ``θ`` (docs/model.md §4):
+    ``C_L = 2{R(θ)F}·e_y``, ``C_D = 2{R(θ)F}·e_x``, ``C_M = 2M``."""
+    c, s = math.cos(theta), math.sin(theta)
+    fx, fy, moment = loads
+    return 2 * (s * fx + c * fy), 2 * (c * fx - s * fy), 2 * moment
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One time of the march: the solid state ``(h, θ, ḣ, θ')`` (steady values for inactive
+    states), the load coefficients, and the step's chord iterations and last update (largest
+    entry)."""
+
+    time: float
+    solid: np.ndarray
+    lift: float
+    drag: float
+    moment: float
+    iterations: int
+    update: float
+
+
+@dataclass
+class MarchState:
+    """Where a march is: ``time``, ``step``, the coupled vectors ``current`` (``qⁿ``) and
+    ``previous`` (``qⁿ⁻¹``, None before the first step: the next step is then BDF1)."""
+
+    time: float
+    step: int
+    current: np.ndarray
+    previous: np.ndarray | None = None
+
+
+@dataclass
+class TimeStepper:
+    """BDF2 steps of ``M q̇ + R(q) = 0`` for ``system`` (module docstring), ``time_step`` Δt in the
+    body's time unit. ``tolerance``: largest entry of the last chord update; ``max_iterations`` per
+    step. ``counter`` counts the factorisations (one per BDF order used)."""
+
+    system: CoupledSystem
+    time_step: float
+    tolerance: float = 1e-9
+    max_iterations: int = 30
+    counter: FactorCounter = field(default_factory=FactorCounter)
+
+    def __post_init__(self):
+        self.fluid = InertialFluidResidual(self.system.fluid.steady)
+        self.residual = CoupledResidual(self.system, self.fluid)
+        self._solvers: dict[int, ShiftedSolver] = {}
+
+    def steady_point(self) -> np.ndarray:
+        """The steady state as a coupled vector."""
+        return self.residual.point()
+
+    def solid_state(self, q: np.ndarray) -> np.ndarray:
+        """``(h, θ, ḣ, θ')`` of a coupled vector, inactive states at their steady values."""
+        q_solid = self.residual.q_solid0.copy()
+        q_solid[self.system.active] = q[: self.system.n_solid]
+        return q_solid
+
+    def _full(self, q: np.ndarray) -> np.ndarray:
+        return self.fluid.full_state(self.solid_state(q), q[self.system.n_solid :])
+
+    def _solver(self, order: int) -> ShiftedSolver:
+        if order not in self._solvers:
+            shift = BDF_COEFFICIENTS[order][0] / self.time_step
+            self._solvers[order] = ShiftedSolver(self.system, shift, counter=self.counter)
+        return self._solvers[order]
+
+    def _equations(self, order: int, current: np.ndarray, previous: np.ndarray | None):
+        """``F(q)``: the residual of the time-discrete system (rates set in the fluid's inertia)."""
+        c0, c1, c2 = BDF_COEFFICIENTS[order]
+        dt, ns = self.time_step, self.system.n_solid
+        history = c1 * current + (c2 * previous if c2 else 0.0)
+        full_history = c1 * self._full(current) + (c2 * self._full(previous) if c2 else 0.0)
+        self.fluid.set_rate(c0 / dt, full_history / dt)
+
+        def equations(q: np.ndarray) -> np.ndarray:
+            r = self.residual(q)
+            r[:ns] += (c0 * q[:ns] + history[:ns]) / dt  # M_s = I on the solid rows
+            return r
+
+        return equations
+
+    def step(self, state: MarchState) -> tuple[MarchState, Sample]:
+        """One step from ``state``: BDF2, or BDF1 without a previous state."""
+        order = 1 if state.previous is None else 2
+        equations = self._equations(order, state.current, state.previous)
+        solver = self._solver(order)
+        q = state.current.copy() if order == 1 else 2 * state.current - state.previous
+        for iteration in range(1, self.max_iterations + 1):
+            # unrefined solves: the chord iteration corrects their error with the others'
+            update = solver.solve(-equations(q), refine=False)
+            q += update
+            change = float(np.max(np.abs(update)))
+            if change <= self.tolerance:
+                break
+        else:
+            raise ConvergenceError(
+                f"the time step at t = {state.time:.6g} did not converge in {self.max_iterations} "
+                f"iterations (last update {change:.3g}); reduce --time-step"
+            )
+        # the loads are those of the last evaluation, at most the tolerance away from q
+        new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
+        return new, self.sample(new.time, q, self.fluid.loads, iteration, change)
+
+    def sample(self, time: float, q: np.ndarray, loads: np.ndarray, iterations: int = 0, update=0.0):
+        q_solid = self.solid_state(q)
+        lift, drag, moment = load_coefficients(q_solid[1], loads)
+        return Sample(time, q_solid, lift, drag, moment, iterations, update)
+
+    def initial_sample(self, state: MarchState) -> Sample:
+        """The sample at the start: loads with the inertia of the start's rate, taken as zero (a
+        perturbed steady state starts from rest in the mode's phase: its rate is not part of the
+        initial data)."""
+        self.fluid.set_rate(0.0, np.zeros(self.fluid.mass.shape[0]))
+        self.residual(state.current)
+        return self.sample(state.time, state.current, self.fluid.loads)
+
+
+def perturbed_state(stepper: TimeStepper, mode: np.ndarray, amplitude: float) -> np.ndarray:
+    """``q⁰ + ε Re(q̂)``: the steady state plus ``amplitude`` times the real part of the (coupled)
+    eigenvector ``mode``, scaled so that its largest entry has modulus one and is real."""
+    mode = np.asarray(mode, dtype=complex)
+    peak = mode[np.argmax(np.abs(mode))]
+    return stepper.steady_point() + amplitude * (mode / peak).real
+
+
+def march(
+    stepper: TimeStepper,
+    state: MarchState,
+    end_time: float,
+    on_step: Callable[[MarchState, Sample], None] | None = None,
+) -> Iterator[tuple[MarchState, Sample]]:
+    """Steps from ``state`` until ``end_time`` (to within a thousandth of a step), yielding each
+    new state and its sample; ``on_step`` is called with them first."""
+    while state.time < end_time - 1e-3 * stepper.time_step:
+        state, sample = stepper.step(state)
+        if on_step is not None:
+            on_step(state, sample)
+        yield state, sample
+
+
+@dataclass
+class Rate:
+    """Steps per second of wall-clock time since the start (a progress figure)."""
+
+    start: float = field(default_factory=clock.perf_counter)
+    steps: int = 0
+
+    def add(self) -> float:
+        self.steps += 1
+        return self.steps / max(clock.perf_counter() - self.start, 1e-9)
