@@ -180,21 +180,20 @@ class TimeStepper:
         equations = self._equations(order, state.current, state.previous)
         solver = self._solver(order)
         q = state.current.copy() if order == 1 else 2 * state.current - state.previous
-        for iteration in range(1, self.max_iterations + 1):
+        iterations, change = 0, math.inf
+        while change > self.tolerance:
+            if iterations == self.max_iterations:
+                raise ConvergenceError(
+                    f"the time step at t = {state.time:.6g} did not converge in {self.max_iterations} "
+                    f"iterations (last update {change:.3g}); reduce --time-step"
+                )
             # unrefined solves: the chord iteration corrects their error with the others'
             update = solver.solve(-equations(q), refine=False)
             q += update
-            change = float(np.max(np.abs(update)))
-            if change <= self.tolerance:
-                break
-        else:
-            raise ConvergenceError(
-                f"the time step at t = {state.time:.6g} did not converge in {self.max_iterations} "
-                f"iterations (last update {change:.3g}); reduce --time-step"
-            )
+            change, iterations = float(np.max(np.abs(update))), iterations + 1
         # the loads are those of the last evaluation, at most the tolerance away from q
         new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
-        return new, self.sample(new.time, q, self.fluid.loads, iteration, change)
+        return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
 
     def sample(self, time: float, q: np.ndarray, loads: np.ndarray, iterations: int = 0, update=0.0):
         q_solid = self.solid_state(q)
@@ -243,3 +242,19 @@ class Rate:
     def add(self) -> float:
         self.steps += 1
         return self.steps / max(clock.perf_counter() - self.start, 1e-9)
+
+
+def damped_oscillation(times: np.ndarray, values: np.ndarray) -> complex:
+    """``σ = λ + iω`` of a signal ``a + Re(b e^{σt})`` sampled at equal steps, by Prony's method:
+    the least-squares three-term recurrence of the samples, whose characteristic roots are ``1``
+    and ``e^{±σΔt}`` (the root with ``ω ≥ 0`` is returned). Exact for such a signal; a
+    perturbation growing from the steady state at an eigenvalue is one (docs/model.md §7, §11)."""
+    times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+    step = np.diff(times)
+    if len(values) < 6 or not np.allclose(step, step[0], rtol=1e-6):
+        raise ValueError("Prony's fit needs at least six samples at equal time steps")
+    columns = np.column_stack([values[2:-1], values[1:-2], values[:-3]])
+    coefficients, *_ = np.linalg.lstsq(columns, values[3:], rcond=None)
+    roots = np.roots([1.0, *(-coefficients)])
+    root = roots[np.argmax(roots.imag)]
+    return complex(np.log(root) / step[0])

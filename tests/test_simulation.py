@@ -1,0 +1,122 @@
+"""The nonlinear time march (fsistab.simulation, docs/model.md §11) against the linear spectrum.
+
+A small multiple of an eigenmode added to the steady state grows like ``e^{σt}``: the growth rate
+and frequency fitted to the marched lift (or heave) must be the eigenvalue ``σ`` that shift-invert
+Arnoldi finds on the same mesh — the two paths share the discrete operators only (the march
+evaluates the nonlinear residual, the spectrum factorises its Jacobian). For the time-discrete
+march the fitted value is BDF2's image of ``σ`` (the root ``g`` of
+``(3/2 − σΔt) g² − 2g + 1/2 = 0``, ``σ_Δt = log(g)/Δt``), which it must match to the
+nonlinearity's and the chord tolerance's size, and ``σ`` to the scheme's second order in Δt.
+"""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fsistab.bodies import Cylinder
+from fsistab.coupled import CoupledSystem
+from fsistab.eigen import eigenpairs_near
+from fsistab.forces import aerodynamic_coefficients
+from fsistab.mesh import mesh_spec
+from fsistab.operators import fluid_operators
+from fsistab.params import Case, Flow, SimulationSettings, solid_for
+from fsistab.simulation import MarchState, TimeStepper, damped_oscillation, march, perturbed_state
+from fsistab.steady import solve_steady
+
+SHIFT = 0.05 + 0.75j  # near the cylinder's wake mode at Re 60 (ω ≈ 0.75 in U/D)
+
+
+@pytest.fixture(scope="module")
+def cylinder_60():
+    """The fluid operators of the cylinder at Re 60 on the coarse mesh."""
+    return fluid_operators(solve_steady(mesh_spec(Cylinder(), "coarse", 60), Flow(60)))
+
+
+def _bdf2_image(sigma: complex, dt: float) -> complex:
+    """``σ_Δt``: the growth per step of BDF2 applied to ``q' = σ q`` (its principal root)."""
+    roots = np.roots([1.5 - sigma * dt, -2.0, 0.5])
+    return complex(np.log(roots[np.argmax(np.abs(roots))]) / dt)
+
+
+def _fitted(system, pair, dt: float, steps: int, signal) -> complex:
+    """March ``steps`` steps from the steady state plus 1e-4 of ``pair``'s mode; fit ``signal``."""
+    stepper = TimeStepper(system, dt)
+    state = MarchState(0.0, 0, perturbed_state(stepper, pair.vector, 1e-4))
+    samples = [sample for _, sample in march(stepper, state, steps * dt)]
+    assert all(s.iterations <= 3 for s in samples)
+    # from the third step: the BDF1 start's parasitic root has decayed (|g| = 1/3 per step)
+    kept = samples[2:]
+    return damped_oscillation([s.time for s in kept], [signal(s) for s in kept])
+
+
+def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", dofs=()))
+    pair = min(eigenpairs_near(system, [SHIFT], 4), key=lambda p: abs(p.value - SHIFT))
+    sigma = pair.value
+    assert sigma.real > 0  # the wake is unstable at Re 60
+    errors = []
+    for dt, steps in ((0.1, 16), (0.05, 32)):
+        fit = _fitted(system, pair, dt, steps, lambda s: s.lift)
+        assert abs(fit - _bdf2_image(sigma, dt)) < 1e-5 * abs(sigma)
+        errors.append(abs(fit.real - sigma.real) / sigma.real)
+        assert abs(fit.imag - sigma.imag) < 0.01 * sigma.imag
+    assert errors[1] < 0.01  # growth rate within 1 % at Δt = 0.05
+    assert 3.0 < errors[0] / errors[1] < 5.0  # second order in Δt
+
+
+def test_spring_mounted_cylinder_at_mass_ratio_one_follows_its_coupled_mode(cylinder_60):
+    """Monolithic coupling: at m = 1 (added mass comparable with the body's) the heave follows the
+    coupled eigenvalue, the solid rows and the loads' inertia included."""
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", 1.0, 5.0, dofs=("heave",)))
+    pair = max(eigenpairs_near(system, [SHIFT], 4), key=lambda p: p.growth_rate)
+    assert abs(pair.solid[0]) > 0  # the mode moves the body
+    dt = 0.05
+    fit = _fitted(system, pair, dt, 24, lambda s: s.solid[0])
+    assert abs(fit - _bdf2_image(pair.value, dt)) < 1e-5 * abs(pair.value)
+    assert abs(fit.real - pair.value.real) < 0.01 * abs(pair.value.real)
+
+
+def test_the_steady_state_stays_steady_with_its_drag(cylinder_60):
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", 20.0, 5.0, dofs=("heave",)))
+    stepper = TimeStepper(system, 0.1)
+    state = MarchState(0.0, 0, stepper.steady_point())
+    samples = [stepper.initial_sample(state)] + [s for _, s in march(stepper, state, 0.3)]
+    steady = aerodynamic_coefficients(cylinder_60.steady)
+    for sample in samples:
+        assert sample.drag == pytest.approx(steady.drag, abs=1e-7)
+        assert abs(sample.lift - steady.lift) < 1e-7 and abs(sample.solid[0]) < 1e-8
+
+
+def test_damped_oscillation_refuses_uneven_samples():
+    with pytest.raises(ValueError, match="equal time steps"):
+        damped_oscillation([0, 1, 2, 4, 5, 6, 7], np.zeros(7))
+
+
+@pytest.mark.slow
+def test_an_interrupted_march_resumes_where_it_stopped(tmp_path, cache_dir):
+    """Interrupted after its third step (the snapshot callback raises), the march saves its state;
+    rerun, it resumes from there, and its time series equals an uninterrupted run's."""
+    from fsistab.store import read_dataset
+    from fsistab.workflows import simulate
+
+    case = Case.create("cylinder", 60, preset="coarse")
+    solid = solid_for("cylinder", dofs=())
+    settings = SimulationSettings(0.5, 0.1, 1e-4, SHIFT, checkpoint_every=100, snapshot_interval=0.1)
+
+    def interrupt(index, time, steady, state):
+        if index == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate(case, solid, settings, cache_dir, tmp_path / "a", snapshot=interrupt)
+    resumed = simulate(case, solid, settings, cache_dir, tmp_path / "a").dataset
+    assert resumed.attrs["steps_this_run"] == 2 and resumed.attrs["steps"] == 5
+    Path(resumed.attrs["checkpoint"]).unlink()  # the same march again, from its start
+    whole = simulate(case, solid, settings, cache_dir, tmp_path / "b").dataset
+    assert whole.attrs["steps_this_run"] == 5
+    np.testing.assert_allclose(resumed.lift_coefficient, whole.lift_coefficient, rtol=0, atol=1e-12)
+    written = read_dataset(resumed.attrs["netcdf"])
+    assert written.time.size == 6 and written.lift_coefficient.attrs["units"] == "1"
+    assert math.isclose(written.attrs["start_frequency"], whole.attrs["start_frequency"])
