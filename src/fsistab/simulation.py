@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import time as clock
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,7 +35,13 @@ import scipy.sparse as sp
 from fsistab.coupled import CoupledResidual, CoupledSystem
 from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter, ShiftedSolver
-from fsistab.operators import FluidResidual, mass_integrand, residual_integrand, steady_fields
+from fsistab.operators import (
+    FluidResidual,
+    fluid_operators,
+    mass_integrand,
+    residual_integrand,
+    steady_fields,
+)
 
 BDF_COEFFICIENTS = {1: (1.0, -1.0, 0.0), 2: (1.5, -2.0, 0.5)}
 
@@ -127,18 +133,25 @@ class MarchState:
 class TimeStepper:
     """BDF2 steps of ``M q̇ + R(q) = 0`` for ``system`` (module docstring), ``time_step`` Δt in the
     body's time unit. ``tolerance``: largest entry of the last chord update; ``max_iterations`` per
-    step. ``counter`` counts the factorisations (one per BDF order used)."""
+    step. ``counter`` counts the factorisations (one per BDF order used); ``depth``: the previous
+    iterates of the step's Anderson mixing (0: the plain chord iteration). A step that needed more
+    than ``refresh_after`` iterations rebuilds the iteration matrix at its new state
+    (:meth:`refresh`); 0 keeps the steady state's."""
 
     system: CoupledSystem
     time_step: float
     tolerance: float = 1e-9
     max_iterations: int = 30
     counter: FactorCounter = field(default_factory=FactorCounter)
+    depth: int = 4
+    refresh_after: int = 5
 
     def __post_init__(self):
         self.fluid = InertialFluidResidual(self.system.fluid.steady)
         self.residual = CoupledResidual(self.system, self.fluid)
         self._solvers: dict[int, ShiftedSolver] = {}
+        self._linearised = self.system  # the system whose J + (c₀/Δt) M is factorised
+        self.refreshes = 0
 
     def steady_point(self) -> np.ndarray:
         """The steady state as a coupled vector."""
@@ -156,7 +169,7 @@ class TimeStepper:
     def _solver(self, order: int) -> ShiftedSolver:
         if order not in self._solvers:
             shift = BDF_COEFFICIENTS[order][0] / self.time_step
-            self._solvers[order] = ShiftedSolver(self.system, shift, counter=self.counter)
+            self._solvers[order] = ShiftedSolver(self._linearised, shift, counter=self.counter)
         return self._solvers[order]
 
     def _equations(self, order: int, current: np.ndarray, previous: np.ndarray | None):
@@ -180,7 +193,7 @@ class TimeStepper:
         equations = self._equations(order, state.current, state.previous)
         solver = self._solver(order)
         q = state.current.copy() if order == 1 else 2 * state.current - state.previous
-        iterations, change = 0, math.inf
+        iterations, change, mixing = 0, math.inf, AndersonMixing(self.depth)
         while change > self.tolerance:
             if iterations == self.max_iterations:
                 raise ConvergenceError(
@@ -189,11 +202,31 @@ class TimeStepper:
                 )
             # unrefined solves: the chord iteration corrects their error with the others'
             update = solver.solve(-equations(q), refine=False)
-            q += update
             change, iterations = float(np.max(np.abs(update))), iterations + 1
+            q = mixing.next(q, update)
         # the loads are those of the last evaluation, at most the tolerance away from q
         new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
+        if 0 < self.refresh_after < iterations:
+            loads = self.fluid.loads.copy()
+            self.refresh(q)
+            self.fluid.loads = loads
         return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
+
+    def refresh(self, q: np.ndarray) -> None:
+        """Linearise at the fluid state of ``q`` instead of the steady state: the operators of
+        :func:`fsistab.operators.fluid_operators` about that velocity field (the solid's
+        linearisation stays at the steady pitch), factorised anew at the next step. Only the
+        iteration matrix changes, never the residual: a step converges to the same state."""
+        from ngsolve import GridFunction
+
+        steady = self.system.fluid.steady
+        velocity = GridFunction(steady.space)
+        velocity.vec.FV().NumPy()[:] = self._full(q)
+        fluid = fluid_operators(replace(steady, state=velocity))
+        fluid.analyses.update(self._linearised.fluid.analyses)  # same pattern: same analysis
+        self._linearised = CoupledSystem(fluid, self.system.solid)
+        self._solvers.clear()
+        self.refreshes += 1
 
     def sample(self, time: float, q: np.ndarray, loads: np.ndarray, iterations: int = 0, update=0.0):
         q_solid = self.solid_state(q)
@@ -207,6 +240,31 @@ class TimeStepper:
         self.fluid.set_rate(0.0, np.zeros(self.fluid.mass.shape[0]))
         self.residual(state.current)
         return self.sample(state.time, state.current, self.fluid.loads)
+
+
+class AndersonMixing:
+    """Anderson acceleration of a fixed-point iteration ``q ← q + g(q)`` (here ``g`` the chord
+    update ``-(J + (c₀/Δt)M)⁻¹ F(q)``): the next iterate combines the last ``depth + 1`` iterates so
+    that the combined update is smallest in the least-squares sense (Walker & Ni, SIAM J. Numer.
+    Anal. 49, 2011). Near the steady state the chord update is already the Newton update and the
+    mixing changes nothing; in a saturated wake, where the steady Jacobian is a poorer model, it
+    cuts the iterations."""
+
+    def __init__(self, depth: int):
+        self.depth = depth
+        self.iterates: list[np.ndarray] = []
+        self.updates: list[np.ndarray] = []
+
+    def next(self, q: np.ndarray, update: np.ndarray) -> np.ndarray:
+        self.iterates.append(q.copy())
+        self.updates.append(update)
+        if self.depth == 0 or len(self.updates) < 2:
+            return q + update
+        self.iterates, self.updates = self.iterates[-self.depth - 1 :], self.updates[-self.depth - 1 :]
+        d_updates = np.diff(np.array(self.updates), axis=0).T
+        d_iterates = np.diff(np.array(self.iterates), axis=0).T
+        gamma, *_ = np.linalg.lstsq(d_updates, update, rcond=None)
+        return q + update - (d_iterates + d_updates) @ gamma
 
 
 def perturbed_state(stepper: TimeStepper, mode: np.ndarray, amplitude: float) -> np.ndarray:
