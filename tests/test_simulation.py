@@ -22,7 +22,15 @@ from fsistab.forces import aerodynamic_coefficients
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
 from fsistab.params import Case, Flow, SimulationSettings, solid_for
-from fsistab.simulation import MarchState, TimeStepper, damped_oscillation, march, perturbed_state
+from fsistab.simulation import (
+    MarchState,
+    TimeStepper,
+    damped_oscillation,
+    last_cycles,
+    march,
+    mean_over,
+    perturbed_state,
+)
 from fsistab.steady import solve_steady
 
 SHIFT = 0.05 + 0.75j  # near the cylinder's wake mode at Re 60 (ω ≈ 0.75 in U/D)
@@ -120,3 +128,15 @@ def test_an_interrupted_march_resumes_where_it_stopped(tmp_path, cache_dir):
     written = read_dataset(resumed.attrs["netcdf"])
     assert written.time.size == 6 and written.lift_coefficient.attrs["units"] == "1"
     assert math.isclose(written.attrs["start_frequency"], whole.attrs["start_frequency"])
+
+
+def test_last_cycles_of_a_growing_then_saturated_sinusoid():
+    t = np.arange(0.0, 200.0, 0.05)
+    omega, amplitude = 1.03, 0.33
+    envelope = amplitude * np.tanh(np.exp(0.1 * (t - 60.0)))  # grows, then saturates
+    cycle = last_cycles(t, 0.2 + envelope * np.sin(omega * t), periods=8)
+    assert cycle.periods == 8
+    assert cycle.frequency == pytest.approx(omega, rel=1e-4)
+    assert cycle.mean == pytest.approx(0.2, abs=1e-3)
+    assert cycle.amplitude == pytest.approx(amplitude, rel=1e-3)
+    assert mean_over(t, np.cos(omega * t) ** 2, cycle.start, cycle.end) == pytest.approx(0.5, rel=1e-3)

@@ -316,3 +316,50 @@ def damped_oscillation(times: np.ndarray, values: np.ndarray) -> complex:
     roots = np.roots([1.0, *(-coefficients)])
     root = roots[np.argmax(roots.imag)]
     return complex(np.log(root) / step[0])
+
+
+@dataclass(frozen=True)
+class Cycle:
+    """A saturated oscillation over its last whole periods, from ``start`` to ``end``: angular
+    ``frequency`` (time unit ``L/U∞``), ``mean`` and ``amplitude`` (half the peak-to-peak range)
+    of the signal, and the number of ``periods``."""
+
+    frequency: float
+    mean: float
+    amplitude: float
+    periods: int
+    start: float
+    end: float
+
+
+def mean_over(times: np.ndarray, values: np.ndarray, start: float, end: float) -> float:
+    """The time average of a sampled signal over ``[start, end]`` (trapezoids on the samples
+    inside and the values interpolated at the ends; e.g. the drag over the lift's whole periods)."""
+    times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+    inside = (times > start) & (times < end)
+    t = np.concatenate([[start], times[inside], [end]])
+    v = np.interp(t, times, values)
+    return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def last_cycles(times: np.ndarray, values: np.ndarray, periods: int = 10) -> Cycle:
+    """The :class:`Cycle` of the last ``periods`` whole periods of an oscillating signal (fewer if
+    the signal holds fewer), between upward crossings of the mid-range of its second half (where
+    it is taken to be saturated), located by linear interpolation between samples. ValueError
+    with fewer than two crossings."""
+    times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+    late = values[len(values) // 2 :]
+    centred = values - 0.5 * (late.max() + late.min())
+    up = np.nonzero((centred[:-1] < 0) & (centred[1:] >= 0))[0]
+    up = up[up >= len(values) // 2]
+    if len(up) < 2:
+        raise ValueError("the signal crosses its mean upwards fewer than twice: no whole period")
+    up = up[-min(periods, len(up) - 1) - 1 :]
+    weight = -centred[up] / (centred[up + 1] - centred[up])
+    crossings = times[up] + weight * (times[up + 1] - times[up])
+    start, end = float(crossings[0]), float(crossings[-1])
+    count = len(crossings) - 1
+    piece = values[(times >= start) & (times <= end)]
+    amplitude = 0.5 * float(piece.max() - piece.min())
+    mean = mean_over(times, values, start, end)
+    return Cycle(2 * math.pi * count / (end - start), mean, amplitude, count, start, end)
