@@ -48,15 +48,24 @@ def _bdf2_image(sigma: complex, dt: float) -> complex:
     return complex(np.log(roots[np.argmax(np.abs(roots))]) / dt)
 
 
-def _fitted(system, pair, dt: float, steps: int, signal) -> complex:
-    """March ``steps`` steps from the steady state plus 1e-4 of ``pair``'s mode; fit ``signal``."""
+def _march(system, pair, dt: float, steps: int) -> list:
+    """``steps`` steps from the steady state plus 1e-4 of ``pair``'s mode: the samples."""
     stepper = TimeStepper(system, dt)
     state = MarchState(0.0, 0, perturbed_state(stepper, pair.vector, 1e-4))
     samples = [sample for _, sample in march(stepper, state, steps * dt)]
     assert all(s.iterations <= 3 for s in samples)
-    # from the third step: the BDF1 start's parasitic root has decayed (|g| = 1/3 per step)
+    return samples
+
+
+def _fit(samples, signal) -> complex:
+    """``σ`` of ``signal`` from the third step on: the BDF1 start's parasitic root has decayed
+    (``|g| = 1/3`` per step)."""
     kept = samples[2:]
     return damped_oscillation([s.time for s in kept], [signal(s) for s in kept])
+
+
+def _fitted(system, pair, dt: float, steps: int, signal) -> complex:
+    return _fit(_march(system, pair, dt, steps), signal)
 
 
 def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):
@@ -140,3 +149,19 @@ def test_last_cycles_of_a_growing_then_saturated_sinusoid():
     assert cycle.mean == pytest.approx(0.2, abs=1e-3)
     assert cycle.amplitude == pytest.approx(amplitude, rel=1e-3)
     assert mean_over(t, np.cos(omega * t) ** 2, cycle.start, cycle.end) == pytest.approx(0.5, rel=1e-3)
+
+
+def test_plate_flutter_mode_grows_at_its_eigenvalue(plate_operators):
+    """The plate at Re 2900, m = 1000, U* = 5 (just past flutter on the coarse mesh): heave and pitch
+    follow the flutter mode's small growth rate, the pitch's rotation terms and lifting included."""
+    from fsistab.params import Solid
+
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.0))
+    pair = max(eigenpairs_near(system, [0.01 + 0.17j], 4), key=lambda p: p.solid_energy_fraction)
+    assert pair.label != "fluid" and pair.growth_rate > 0  # the flutter mode, unstable
+    dt = 0.1
+    samples = _march(system, pair, dt, 20)
+    for signal in (lambda s: s.solid[1], lambda s: s.solid[0]):  # pitch, heave
+        fit = _fit(samples, signal)
+        assert abs(fit - _bdf2_image(pair.value, dt)) < 1e-5 * abs(pair.value)
+        assert abs(fit.real - pair.growth_rate) < 0.01 * pair.growth_rate
