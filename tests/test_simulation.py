@@ -9,6 +9,7 @@ march the fitted value is BDF2's image of ``σ`` (the root ``g`` of
 nonlinearity's and the chord tolerance's size, and ``σ`` to the scheme's second order in Δt.
 """
 
+import json
 import math
 from pathlib import Path
 
@@ -165,3 +166,28 @@ def test_plate_flutter_mode_grows_at_its_eigenvalue(plate_operators):
         fit = _fit(samples, signal)
         assert abs(fit - _bdf2_image(pair.value, dt)) < 1e-5 * abs(pair.value)
         assert abs(fit.real - pair.growth_rate) < 0.01 * pair.growth_rate
+
+
+def test_simulate_command_json_and_bad_input(tmp_path):
+    """The command's one JSON object names the time series, whose variables carry units; a bad
+    option is one line before any work."""
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+    from fsistab.store import read_dataset
+
+    runner = CliRunner()
+    where = ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")]
+    result = runner.invoke(app, ["simulate", "--time-step", "0", *where])
+    assert result.exit_code == 2 and "--time-step must be positive" in result.output
+    args = ["simulate", "--body", "cylinder", "--Re", "40", "--mesh", "coarse", "--mass-ratio", "5"]
+    args += ["--duration", "0.2", "--time-step", "0.1", "--perturbation", "0", "--json", *where]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert payload["steps"] == 2 and payload["start_eigenvalue"] is None and payload["factorisations"] == 2
+    ds = read_dataset(payload["data"])
+    for name in ("heave", "pitch", "heave_rate", "pitch_rate", "lift_coefficient", "drag_coefficient"):
+        assert ds[name].sizes["time"] == 3 and "units" in ds[name].attrs
+    assert ds.heave.attrs["units"] == "1" and ds.pitch.attrs["units"] == "rad"
+    assert abs(payload["last"]["heave"]) < 1e-8  # the steady state stays

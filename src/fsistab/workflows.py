@@ -1041,8 +1041,9 @@ def _saved_state(path: str, identity: dict, size: int) -> np.ndarray:
 
 
 def _start(table, stepper, system, settings, case, identity, say):
-    """``(MarchState, attrs)`` to march from: the checkpoint's last state, else the start (a saved
-    state or the perturbed steady state), recorded as the table's first row."""
+    """The :class:`fsistab.simulation.MarchState` to march from: the checkpoint's last state, else
+    the start (a saved state, the steady state plus the perturbation times the mode nearest the
+    shift, or without perturbation the steady state itself), recorded as the table's first row."""
     from fsistab.simulation import MarchState, perturbed_state
 
     records, state = table.records, table.state
@@ -1054,6 +1055,8 @@ def _start(table, stepper, system, settings, case, identity, say):
     states = {}
     if settings.start is not None:
         q0 = _saved_state(settings.start, identity, system.size)
+    elif settings.perturbation == 0:
+        q0 = stepper.steady_point()  # no mode to add: no eigenvalue solve
     else:
         pair = _start_mode(system, settings, case, say)
         q0 = perturbed_state(stepper, pair.vector, settings.perturbation)
