@@ -131,6 +131,11 @@ def test_an_interrupted_march_resumes_where_it_stopped(tmp_path, cache_dir):
         simulate(case, solid, settings, cache_dir, tmp_path / "a", snapshot=interrupt)
     resumed = simulate(case, solid, settings, cache_dir, tmp_path / "a").dataset
     assert resumed.attrs["steps_this_run"] == 2 and resumed.attrs["steps"] == 5
+    # a new march from the saved state starts where the first one stopped
+    again = SimulationSettings(0.1, 0.1, start=resumed.attrs["checkpoint"])
+    restarted = simulate(case, solid, again, cache_dir, tmp_path / "c").dataset
+    saved = read_dataset(resumed.attrs["checkpoint"])["current_state"].values
+    assert np.array_equal(read_dataset(restarted.attrs["checkpoint"])["previous_state"].values, saved)
     Path(resumed.attrs["checkpoint"]).unlink()  # the same march again, from its start
     whole = simulate(case, solid, settings, cache_dir, tmp_path / "b").dataset
     assert whole.attrs["steps_this_run"] == 5
