@@ -37,10 +37,10 @@ from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
-    fluid_operators,
     mass_integrand,
     residual_integrand,
     steady_fields,
+    stiffness_integrand,
 )
 
 BDF_COEFFICIENTS = {1: (1.0, -1.0, 0.0), 2: (1.5, -2.0, 0.5)}
@@ -57,9 +57,14 @@ def full_mass_matrix(steady) -> sp.csr_matrix:
     form = BilinearForm(space)
     form += mass_integrand(steady_fields(steady), (u, p), (v, q)) * dx
     form.Assemble()
-    values, columns, starts = form.mat.CSR()
+    return _scipy_matrix(form.mat, space.ndof)
+
+
+def _scipy_matrix(matrix, n: int) -> sp.csr_matrix:
+    """An assembled NGSolve matrix as SciPy CSR, from its own CSR arrays (copied)."""
+    values, columns, starts = matrix.CSR()
     arrays = np.array(values), np.array(columns), np.array(starts, dtype=np.int64)
-    return sp.csr_matrix(arrays, shape=(space.ndof, space.ndof))
+    return sp.csr_matrix(arrays, shape=(n, n))
 
 
 class InertialFluidResidual(FluidResidual):
@@ -136,7 +141,7 @@ class TimeStepper:
     step. ``counter`` counts the factorisations (one per BDF order used); ``depth``: the previous
     iterates of the step's Anderson mixing (0: the plain chord iteration). A step that needed more
     than ``refresh_after`` iterations rebuilds the iteration matrix at its new state
-    (:meth:`refresh`); 0 keeps the steady state's."""
+    (:meth:`refresh`), at most once every ``refresh_every`` steps; 0 keeps the steady state's."""
 
     system: CoupledSystem
     time_step: float
@@ -144,14 +149,15 @@ class TimeStepper:
     max_iterations: int = 30
     counter: FactorCounter = field(default_factory=FactorCounter)
     depth: int = 4
-    refresh_after: int = 5
+    refresh_after: int = 6
+    refresh_every: int = 10
 
     def __post_init__(self):
         self.fluid = InertialFluidResidual(self.system.fluid.steady)
         self.residual = CoupledResidual(self.system, self.fluid)
         self._solvers: dict[int, ShiftedSolver] = {}
         self._linearised = self.system  # the system whose J + (c₀/Δt) M is factorised
-        self.refreshes = 0
+        self.refreshes, self.steps, self._last_refresh = 0, 0, 0
 
     def steady_point(self) -> np.ndarray:
         """The steady state as a coupled vector."""
@@ -206,27 +212,35 @@ class TimeStepper:
             q = mixing.next(q, update)
         # the loads are those of the last evaluation, at most the tolerance away from q
         new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
-        if 0 < self.refresh_after < iterations:
-            loads = self.fluid.loads.copy()
+        self.steps += 1
+        if 0 < self.refresh_after < iterations and self.steps - self._last_refresh >= self.refresh_every:
             self.refresh(q)
-            self.fluid.loads = loads
         return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
 
     def refresh(self, q: np.ndarray) -> None:
-        """Linearise at the fluid state of ``q`` instead of the steady state: the operators of
-        :func:`fsistab.operators.fluid_operators` about that velocity field (the solid's
-        linearisation stays at the steady pitch), factorised anew at the next step. Only the
-        iteration matrix changes, never the residual: a step converges to the same state."""
-        from ngsolve import GridFunction
+        """Linearise the fluid block at the fluid state of ``q`` instead of the steady state:
+        ``J_ff`` of the operators' terms (:func:`fsistab.operators.stiffness_integrand`) about
+        that velocity field, the other blocks kept, factorised anew at the next step (the same
+        symbolic analysis). Only the iteration matrix changes, never the residual: a step
+        converges to the same state."""
+        from ngsolve import BilinearForm, GridFunction, dx
 
-        steady = self.system.fluid.steady
+        fluid = self.system.fluid
+        steady = fluid.steady
         velocity = GridFunction(steady.space)
         velocity.vec.FV().NumPy()[:] = self._full(q)
-        fluid = fluid_operators(replace(steady, state=velocity))
-        fluid.analyses.update(self._linearised.fluid.analyses)  # same pattern: same analysis
-        self._linearised = CoupledSystem(fluid, self.system.solid)
+        fields = steady_fields(replace(steady, state=velocity))
+        (u, p), (v, w) = steady.space.TnT()
+        form = BilinearForm(steady.space)
+        form += stiffness_integrand(fields, (u, p), (v, w)).Compile() * dx
+        form.Assemble()
+        index = fluid.free_dofs
+        jff = _scipy_matrix(form.mat, steady.space.ndof)[index][:, index].tocsr()
+        linearised = replace(fluid, jff=jff, analyses=dict(self._linearised.fluid.analyses))
+        self._linearised = CoupledSystem(linearised, self.system.solid)
         self._solvers.clear()
         self.refreshes += 1
+        self._last_refresh = self.steps
 
     def sample(self, time: float, q: np.ndarray, loads: np.ndarray, iterations: int = 0, update=0.0):
         q_solid = self.solid_state(q)
