@@ -150,7 +150,7 @@ class TimeStepper:
     counter: FactorCounter = field(default_factory=FactorCounter)
     depth: int = 4
     refresh_after: int = 6
-    refresh_every: int = 10
+    refresh_every: int = 4
 
     def __post_init__(self):
         self.fluid = InertialFluidResidual(self.system.fluid.steady)
