@@ -11,7 +11,7 @@ march) from the steady state plus ``--perturbation`` times the leading wake mode
 * the cost: unknowns, steps, seconds per step, factorisations.
 
 Usage: python validation/cylinder_shedding.py [--reynolds 100] [--preset coarse] [--time-step 0.1]
-       [--duration 250] [--start CHECKPOINT]
+       [--duration 150] [--start CHECKPOINT]
 """
 
 import argparse
@@ -72,12 +72,12 @@ def main() -> None:
     parser.add_argument("--reynolds", type=float, default=100.0)
     parser.add_argument("--preset", default="coarse")
     parser.add_argument("--time-step", type=float, default=0.1)
-    parser.add_argument("--duration", type=float, default=250.0)
+    parser.add_argument("--duration", type=float, default=150.0)
     parser.add_argument("--perturbation", type=float, default=1e-3)
     parser.add_argument("--shift", type=complex, default=0.1 + 0.75j)
     parser.add_argument("--start", default=None, help="a checkpoint to start from (no growth phase)")
     parser.add_argument("--periods", type=int, default=10)
-    parser.add_argument("--linear-limit", type=float, default=1e-2)
+    parser.add_argument("--linear-limit", type=float, default=3e-4)
     parser.add_argument("--cache", default=None)
     parser.add_argument("--out", default="fsistab-out")
     args = parser.parse_args()
