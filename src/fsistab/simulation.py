@@ -157,7 +157,8 @@ class TimeStepper:
         self.residual = CoupledResidual(self.system, self.fluid)
         self._solvers: dict[int, ShiftedSolver] = {}
         self._linearised = self.system  # the system whose J + (c₀/Δt) M is factorised
-        self.refreshes, self.steps, self._last_refresh = 0, 0, 0
+        # the first rebuild may come at once (a start far from the steady state)
+        self.refreshes, self.steps, self._last_refresh = 0, 0, -self.refresh_every
 
     def steady_point(self) -> np.ndarray:
         """The steady state as a coupled vector."""
