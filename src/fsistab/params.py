@@ -733,7 +733,12 @@ class SimulationSettings:
             raise InputError(f"at most {MAX_STEPS:g} steps, got --duration/--time-step {duration / step:.3g}")
         object.__setattr__(self, "duration", duration)
         object.__setattr__(self, "time_step", step)
-        object.__setattr__(self, "perturbation", _non_negative("--perturbation", self.perturbation))
+        perturbation = _non_negative("--perturbation", self.perturbation)
+        if perturbation > 1:
+            raise InputError(
+                f"--perturbation must be at most 1 (the mode's largest entry), got {perturbation:g}"
+            )
+        object.__setattr__(self, "perturbation", perturbation)
         if self.shift is not None:
             shift = complex(self.shift)
             if not (math.isfinite(shift.real) and math.isfinite(shift.imag)):
@@ -745,8 +750,11 @@ class SimulationSettings:
         object.__setattr__(self, "checkpoint_every", every)
         if self.snapshot_interval is not None:
             interval = _positive("--snapshot-interval", self.snapshot_interval)
-            if interval < step:
-                raise InputError(f"--snapshot-interval ({interval:g}) must be at least the step ({step:g})")
+            if not step <= interval <= duration:
+                raise InputError(
+                    f"--snapshot-interval ({interval:g}) must be between the step ({step:g}) and the "
+                    f"duration ({duration:g})"
+                )
             object.__setattr__(self, "snapshot_interval", interval)
         object.__setattr__(self, "tolerance", _positive("the step tolerance", self.tolerance))
         iterations = _count("the step iterations", self.max_iterations, 1, 1000)
