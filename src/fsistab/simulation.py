@@ -16,8 +16,9 @@ instability of partitioned schemes at any mass ratio). Each step solves ``F(qⁿ
 (simplified Newton) iteration whose matrix is ``J + (c₀/Δt) M`` at the steady state: the shifted
 coupled matrix of the eigenvalue solver, factorised once per ``(c₀, Δt)``
 (:class:`fsistab.linalg.ShiftedSolver`, the solid unknowns bordered). Near the steady state it is
-the exact Jacobian; far from it, the mass term ``c₀/Δt`` dominates the change of convection for
-small enough steps, and the iteration converges linearly. A step stops when the update's largest
+the exact Jacobian; far from it (a saturated wake) the iteration converges linearly, accelerated
+by Anderson mixing, and the fluid block of its matrix is rebuilt about the current field when a
+step needs many iterations (:meth:`TimeStepper.refresh`). A step stops when the update's largest
 entry is below the tolerance, and fails (ConvergenceError, with the advice to reduce the step)
 when it does not within the iterations allowed.
 """
