@@ -34,6 +34,7 @@ BASE = {
     "theodorsen-given": ["theodorsen", "--slopes", "given", "--lift-slope-alpha", "5.98"]
     + ["--moment-slope-alpha", "1.562"],
     "transfer": ["transfer", "--mesh", "coarse"],
+    "simulate": ["simulate", "--mesh", "coarse", "--duration", "1"],
 }
 
 CASE = {"--Re": "positive", "--alpha0": "angle", "--aspect-ratio": "aspect", "--corner-radius": "corner"}
@@ -105,6 +106,19 @@ OPTIONS = {
     "theodorsen": THEODORSEN,
     "theodorsen-given": {"--lift-slope-alpha": "lift-slope", "--moment-slope-alpha": "moment-slope"},
     "transfer": CASE | {"--reduced-frequency-range": "range", "--points": ("count", 2, 2000)},
+    "simulate": CASE
+    | SOLID
+    | {
+        "--mass-ratio": "positive",
+        "--reduced-velocity": "positive",
+        "--dofs": "dofs",
+        "--duration": "positive",
+        "--time-step": "positive",
+        "--perturbation": "damping",
+        "--shift": "complex",
+        "--checkpoint-every": ("count", 1, 10_000_000),
+        "--snapshot-interval": "positive",
+    },
 }
 
 non_finite = st.sampled_from(["nan", "inf", "-inf", "NaN", "-Infinity"])

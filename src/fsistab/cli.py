@@ -686,6 +686,48 @@ def sensitivity(opts):
     _finish("sensitivity", ds, opts.as_json, reports.sensitivity)
 
 
+# fmt: off
+SIMULATE_OPTIONS = {
+    "duration": _option(float, "--duration", "simulated time, in the body's time unit L/U", 100.0),
+    "time_step": _option(float, "--time-step", "time step of the BDF2 march, in L/U", 0.05),
+    "perturbation": _option(float, "--perturbation", "amplitude of the eigenmode added to the steady state "
+                            "(its largest entry)", 1e-3),
+    "shift": _option(str | None, "--shift", "start from the eigenmode nearest this complex shift "
+                     "(default: the body's spectrum shift)"),
+    "start": _option(str | None, "--start", "start from the last state of this simulation checkpoint "
+                     "(same mesh, flow and dofs; e.g. a saturated state at another U*) instead"),
+    "checkpoint_every": _option(int, "--checkpoint-every", "steps between checkpoints (a rerun resumes "
+                                "from the last one)", 100),
+    "snapshot_interval": _option(float | None, "--snapshot-interval", "write the velocity and pressure as "
+                                 "VTK every this much simulated time"),
+}
+# fmt: on
+
+
+@command(CASE_OPTIONS, OUTPUT_OPTIONS, MASS_OPTION, VELOCITY_OPTION, *SPRINGS, SIMULATE_OPTIONS)
+def simulate(opts):
+    """March the nonlinear Navier–Stokes equations in the body frame coupled with heave and pitch
+    (docs/model.md §12): BDF2, monolithic, from the steady state plus --perturbation times the
+    eigenmode nearest --shift (or from --start). Writes the time series of h, θ, their rates and the
+    load coefficients (NetCDF); checkpoints so that rerunning the same command resumes (also with a
+    longer --duration)."""
+    case = opts.case()
+    solid = opts.solid(case.kind)
+    shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
+    names = ("duration", "time_step", "perturbation", "start", "checkpoint_every", "snapshot_interval")
+    settings = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
+    if settings.start is not None and not Path(settings.start).is_file():
+        raise InputError(f"--start: no such file {settings.start}")
+    out, cache = _prepare(opts, [case])
+    from fsistab import reports, vtk, workflows
+
+    write, paths = vtk.snapshot_writer(out / f"simulate_{case.tag}_vtk", f"simulate_{case.tag}")
+    with _running() as progress:
+        result = workflows.simulate(case, solid, settings, cache, out, progress, snapshot=write)
+    ds = result.dataset.assign_attrs(snapshots=json.dumps(paths))
+    _finish("simulate", ds, opts.as_json, reports.simulate)
+
+
 def single_threaded_blas(environ: MutableMapping[str, str]) -> MutableMapping[str, str]:
     """``environ`` with BLAS on one thread unless the user set one of the BLAS_THREADS variables
     (then all are left as they are: OpenBLAS reads its own variable before ``OMP_NUM_THREADS``).

@@ -702,3 +702,74 @@ class TransferSettings:
             ),
         )
         object.__setattr__(self, "points", _count("--points", self.points, 2, 2000))
+
+
+MAX_STEPS = 10_000_000  # steps of one simulation
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """``fsistab simulate`` (docs/model.md §11): march for ``duration`` with steps ``time_step`` (the
+    body's time unit ``L/U∞``) from the steady state plus ``perturbation`` times the eigenmode
+    nearest ``shift`` (the body's spectrum shift when None), or from the state saved in ``start``
+    (a simulation checkpoint); a checkpoint every ``checkpoint_every`` steps; VTK snapshots every
+    ``snapshot_interval`` of simulated time (None: none); each step's chord iteration stopped at an
+    update below ``tolerance`` (largest entry) or failed after ``max_iterations``."""
+
+    duration: float
+    time_step: float = 0.05
+    perturbation: float = 1e-3
+    shift: complex | None = None
+    start: str | None = None
+    checkpoint_every: int = 100
+    snapshot_interval: float | None = None
+    tolerance: float = 1e-9
+    max_iterations: int = 30
+
+    def __post_init__(self):
+        duration = _positive("--duration", self.duration)
+        step = _positive("--time-step", self.time_step)
+        if step > duration:
+            raise InputError(f"--time-step ({step:g}) must not exceed --duration ({duration:g})")
+        if duration / step > MAX_STEPS:
+            raise InputError(f"at most {MAX_STEPS:g} steps, got --duration/--time-step {duration / step:.3g}")
+        object.__setattr__(self, "duration", duration)
+        object.__setattr__(self, "time_step", step)
+        perturbation = _non_negative("--perturbation", self.perturbation)
+        if perturbation > 1:
+            raise InputError(
+                f"--perturbation must be at most 1 (the mode's largest entry), got {perturbation:g}"
+            )
+        object.__setattr__(self, "perturbation", perturbation)
+        if self.shift is not None:
+            shift = complex(self.shift)
+            if not (math.isfinite(shift.real) and math.isfinite(shift.imag)):
+                raise InputError("the shift must be finite")
+            object.__setattr__(self, "shift", shift)
+        if self.start is not None and not str(self.start).strip():
+            raise InputError("--start must name a simulation checkpoint file")
+        every = _count("--checkpoint-every", self.checkpoint_every, 1, MAX_STEPS)
+        object.__setattr__(self, "checkpoint_every", every)
+        if self.snapshot_interval is not None:
+            interval = _positive("--snapshot-interval", self.snapshot_interval)
+            if not step <= interval <= duration:
+                raise InputError(
+                    f"--snapshot-interval ({interval:g}) must be between the step ({step:g}) and the "
+                    f"duration ({duration:g})"
+                )
+            object.__setattr__(self, "snapshot_interval", interval)
+        object.__setattr__(self, "tolerance", _positive("the step tolerance", self.tolerance))
+        iterations = _count("the step iterations", self.max_iterations, 1, 1000)
+        object.__setattr__(self, "max_iterations", iterations)
+
+    def identity(self) -> dict:
+        """What the march's states depend on (a rerun with another duration resumes the same
+        march; snapshots and checkpoints do not change it)."""
+        shift = "none" if self.shift is None else f"{self.shift.real!r},{self.shift.imag!r}"
+        return {
+            "time_step": self.time_step,
+            "perturbation": self.perturbation,
+            "shift": shift,
+            "start": "none" if self.start is None else str(self.start),
+            "tolerance": self.tolerance,
+        }

@@ -386,6 +386,30 @@ def _sensitivity_payload(ds):
     }
 
 
+def _simulate_payload(ds):
+    a = ds.attrs
+    last = {name: float(ds[name].values[-1]) for name in ("heave", "pitch", "heave_rate", "pitch_rate")}
+    for name in ("lift_coefficient", "drag_coefficient", "moment_coefficient"):
+        last[name] = float(ds[name].values[-1])
+    start = None
+    if "start_growth_rate" in a:
+        start = {"growth_rate": float(a["start_growth_rate"]), "frequency": float(a["start_frequency"])}
+    return {
+        "data": a["netcdf"],
+        "time": float(ds.time.values[-1]),
+        "time_step": float(a["time_step"]),
+        "steps": int(a["steps"]),
+        "steps_this_run": int(a["steps_this_run"]),
+        "seconds_per_step": _finite_or_none([a["seconds_per_step"]])[0],
+        "ndof": int(a["ndof"]),
+        "factorisations": int(a["factorisations"]),
+        "start_eigenvalue": start,
+        "last": last,
+        "checkpoint": a["checkpoint"],
+        "vtk": json.loads(a.get("snapshots", "[]")),
+    }
+
+
 _PAYLOADS = {
     "mesh": _mesh_payload,
     "steady": _steady_payload,
@@ -400,4 +424,5 @@ _PAYLOADS = {
     "onset": _onset_payload,
     "study": _study_payload,
     "sensitivity": _sensitivity_payload,
+    "simulate": _simulate_payload,
 }

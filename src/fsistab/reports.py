@@ -376,3 +376,32 @@ def sensitivity(ds: xr.Dataset, p: dict) -> list:
         lines.append(f"{target}: a control cylinder helps most at {where} ({gain})")
     lines.append(f"{p['factorisations']} factorisations; data {p['data']}; maps {p['maps']}")
     return lines
+
+
+def simulate(ds: xr.Dataset, p: dict) -> list:
+    a = ds.attrs
+    last = p["last"]
+    rows = [
+        (label, f"{last[key]:.6g}")
+        for label, key in (
+            ("heave h", "heave"),
+            ("pitch θ (rad)", "pitch"),
+            ("lift coefficient C_L", "lift_coefficient"),
+            ("drag coefficient C_D", "drag_coefficient"),
+            ("moment coefficient C_M", "moment_coefficient"),
+        )
+    ]
+    title = (
+        f"simulation: {a['body']}, Re = {a['reynolds']:g}, dofs {a['dofs']}, "
+        f"t = {p['time']:.6g} (dt = {p['time_step']:g}, {p['steps']} steps)"
+    )
+    lines = [table(title, ("at the last step", "value"), rows)]
+    if p["start_eigenvalue"] is not None:
+        e = p["start_eigenvalue"]
+        lines.append(f"started from the eigenmode λ = {e['growth_rate']:+.6f}, ω = {e['frequency']:.6f}")
+    cost = p["seconds_per_step"]
+    speed = "" if cost is None else f", {cost:.3g} s per step this run"
+    lines.append(f"{p['ndof']} unknowns, {p['factorisations']} factorisations{speed}; data {p['data']}")
+    if p["vtk"]:
+        lines.append(f"{_plural(len(p['vtk']), 'snapshot')}: {p['vtk'][0]} ...")
+    return lines

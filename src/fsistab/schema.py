@@ -258,6 +258,16 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "eigenvalue": Field("eigenvalue sigma = lambda + i omega (time unit L/U) of the target"),
         "slope": Field("derivative dsigma/dU* of the target's eigenvalue"),
         "wall_distance": Field("distance of the vertex to the body's wall (in L)"),
+        # --- nonlinear time march (fsistab simulate, docs/model.md §11)
+        "time": Field("simulated time (in L/U)"),
+        "heave": Field("heave displacement h, upwards positive (in L)"),
+        "pitch": Field("pitch angle theta, counter-clockwise positive (alpha = -theta)", "rad"),
+        "heave_rate": Field("heave velocity dh/dt (in U)"),
+        "pitch_rate": Field("pitch rate dtheta/dt (in U/L)", "rad"),
+        "chord_iterations": Field("chord (simplified Newton) iterations of the time step"),
+        "current_state": Field("coupled state of the last step: active solid states, then fluid dofs"),
+        "previous_state": Field("coupled state of the step before the last (the BDF2 history)"),
+        "start_eigenvalue": Field("growth rate and frequency of the eigenmode the march started from"),
         # --- parameter studies (fsistab.study)
         "point_factorisations": Field("factorisations of the study point (-1: not computed)"),
         "point_seconds": Field("wall-clock time of the study point", "s"),

@@ -64,3 +64,26 @@ def map_fields(maps: Sequence) -> dict[str, object]:
 def write_maps_vtk(maps: Sequence, mesh, path: Path) -> Path:
     """The sensitivity maps (:func:`map_fields`) on ``mesh`` as one VTK file."""
     return write_vtk(mesh, map_fields(maps), path)
+
+
+def write_state_vtk(steady, state: np.ndarray, path: Path) -> Path:
+    """One state of a time march (every dof of ``steady``'s space, wall dofs included) as a VTK
+    file: the velocity (body axes) and the pressure."""
+    from ngsolve import GridFunction
+
+    field = GridFunction(steady.space)
+    field.vec.FV().NumPy()[:] = state
+    fields = {"velocity": field.components[0], "pressure": field.components[1]}
+    return write_vtk(steady.mesh, fields, path)
+
+
+def snapshot_writer(directory: Path, stem: str):
+    """``(write, paths)``: ``write(index, time, steady, state)`` saves a march's state as
+    ``{stem}_{index:05d}.vtu`` in ``directory`` (:func:`write_state_vtk`) and adds its path to the
+    list ``paths`` (the snapshot callback of :func:`fsistab.workflows.simulate`)."""
+    paths: list[str] = []
+
+    def write(index: int, time: float, steady, state: np.ndarray) -> None:
+        paths.append(str(write_state_vtk(steady, state, Path(directory) / f"{stem}_{index:05d}")))
+
+    return write, paths

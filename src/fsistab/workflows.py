@@ -20,6 +20,7 @@ import functools
 import inspect
 import json
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -960,3 +961,204 @@ def _best_control(maps_ds: xr.Dataset, restabilising: set[str] = frozenset()) ->
             amount = float(growth[i])
         best[str(target)] = {"x": float(maps_ds.x.values[i]), "y": float(maps_ds.y.values[i]), value: amount}
     return best
+
+
+# --- nonlinear time march ---------------------------------------------------------------------------
+
+SIMULATION_FIELDS = (
+    "time",
+    "heave",
+    "pitch",
+    "heave_rate",
+    "pitch_rate",
+    "lift_coefficient",
+    "drag_coefficient",
+    "moment_coefficient",
+    "chord_iterations",
+)
+PROGRESS_EVERY, PROGRESS_WINDOW = 50, 200  # steps between progress lines; steps of the amplitude
+SIMULATION_STATE = ("current_state", "previous_state", "start_eigenvalue")
+
+
+class SimulationResult(NamedTuple):
+    """The time series (``dataset``, its NetCDF path in attribute ``netcdf``) and the steady state
+    the march started from (its mesh, for figures)."""
+
+    dataset: xr.Dataset
+    steady: object
+
+
+def _sample_record(sample) -> dict:
+    h, theta, hdot, thetadot = sample.solid
+    values = (sample.time, h, theta, hdot, thetadot, sample.lift, sample.drag, sample.moment)
+    return {**dict(zip(SIMULATION_FIELDS, values, strict=False)), "chord_iterations": sample.iterations}
+
+
+def _simulation_identity(case: Case, solid: Solid, settings) -> dict:
+    """What a march's states depend on: the case, the solid, the step and the start."""
+    return {
+        "body": case.kind,
+        **_solid_attrs(case, solid),
+        "mass_ratio": solid.mass_ratio,
+        "reduced_velocity": solid.reduced_velocity,
+        "dofs": ",".join(solid.dofs) or "none",
+        **settings.identity(),
+    }
+
+
+def _start_mode(system, settings, case: Case, say):
+    """The eigenpair nearest the shift (the body's spectrum shift by default, docs/model.md §7)."""
+    from fsistab.eigen import eigenpairs_near
+
+    shift = case.body.spectrum_shifts[0] if settings.shift is None else settings.shift
+    say(f"eigenmode nearest {shift:.4g} (shift-invert Arnoldi)")
+    pairs = eigenpairs_near(system, [shift], 6)
+    return min(pairs, key=lambda p: abs(p.value - shift))
+
+
+def _saved_state(path: str, identity: dict, size: int) -> np.ndarray:
+    """The last state of the simulation checkpoint ``path``: same mesh, flow and degrees of freedom."""
+    from fsistab.errors import InputError
+    from fsistab.store import read_dataset
+
+    keys = ("body", "reynolds", "alpha0_deg", "mesh_key", "sponge", "dofs")
+    ds = read_dataset(Path(path), {k: identity[k] for k in keys})
+    if "current_state" not in ds or ds["current_state"].size != size:
+        raise InputError(f"{path} holds no state of {size} unknowns (a simulation checkpoint of this case)")
+    return ds["current_state"].values.astype(float)
+
+
+def _start(table, stepper, system, settings, case, identity, say):
+    """The :class:`fsistab.simulation.MarchState` to march from: the checkpoint's last state, else
+    the start (a saved state, the steady state plus the perturbation times the mode nearest the
+    shift, or without perturbation the steady state itself), recorded as the table's first row."""
+    from fsistab.simulation import MarchState, perturbed_state
+
+    records, state = table.records, table.state
+    if records and "current_state" in state:
+        last = records[-1]
+        say(f"resuming at t = {float(last['time']):.6g} (step {len(records) - 1})")
+        previous = state.get("previous_state")
+        return MarchState(float(last["time"]), len(records) - 1, state["current_state"], previous)
+    states = {}
+    if settings.start is not None:
+        q0 = _saved_state(settings.start, identity, system.size)
+    elif settings.perturbation == 0:
+        q0 = stepper.steady_point()  # no mode to add: no eigenvalue solve
+    else:
+        pair = _start_mode(system, settings, case, say)
+        q0 = perturbed_state(stepper, pair.vector, settings.perturbation)
+        states["start_eigenvalue"] = np.array([pair.growth_rate, pair.frequency])
+    start = MarchState(0.0, 0, q0)
+    table.append(_sample_record(stepper.initial_sample(start)), state={"current_state": q0, **states})
+    return start
+
+
+def _amplitude(samples, reference, active: list[int]) -> float:
+    """The largest deviation from the steady ``reference`` sample, over ``samples``, of the pitch
+    (else the heave, else the lift coefficient for a fixed body): the progress display's amplitude."""
+    if 1 in active:
+        deviations = [s.solid[1] - reference.solid[1] for s in samples]
+    elif 0 in active:
+        deviations = [s.solid[0] - reference.solid[0] for s in samples]
+    else:
+        deviations = [s.lift - reference.lift for s in samples]
+    return float(np.max(np.abs(deviations))) if deviations else 0.0
+
+
+def _time_series(table, attrs: dict) -> xr.Dataset:
+    """The checkpoint's records as the result: variables along the coordinate ``time``."""
+    records = table.records
+    columns = {name: np.array([float(r[name]) for r in records]) for name in SIMULATION_FIELDS}
+    time = columns.pop("time")
+    data = {name: ("time", values) for name, values in columns.items()}
+    data["chord_iterations"] = ("time", columns["chord_iterations"].astype(int))
+    return xr.Dataset(data, coords={"time": time}, attrs=attrs)
+
+
+@_workflow
+def simulate(
+    case: Case,
+    solid: Solid,
+    settings,
+    cache_dir: Path,
+    out: Path,
+    progress: Progress = None,
+    snapshot: Callable | None = None,
+) -> SimulationResult:
+    """March the nonlinear coupled equations in time (docs/model.md §12, :mod:`fsistab.simulation`)
+    to ``settings.duration``, saved as ``simulate_{tag}.nc`` in ``out`` (the time series, coordinate
+    ``time``). The march is checkpointed in the cache (a rerun resumes it, also with a longer
+    duration). ``snapshot(index, time, steady, full_state)`` is called at every multiple of the
+    snapshot interval (the VTK files of the outputs layer)."""
+    import time as clock
+
+    from fsistab.coupled import CoupledSystem
+    from fsistab.simulation import TimeStepper, march
+    from fsistab.store import ResumableTable, cache_key, write_dataset
+
+    say = progress
+    steady, fluid = _fluid(case, cache_dir, say)
+    system = CoupledSystem(fluid, solid)
+    identity = _simulation_identity(case, solid, settings)
+    path = Path(cache_dir) / "simulations" / f"simulate_{case.tag}_{cache_key('simulation', identity)}.nc"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = ResumableTable(path, identity, {"sample": SIMULATION_FIELDS}, SIMULATION_STATE)
+    stepper = TimeStepper(system, settings.time_step, settings.tolerance, settings.max_iterations)
+    state = _start(table, stepper, system, settings, case, identity, say)
+    say(f"BDF2 march to t = {settings.duration:g}, dt = {settings.time_step:g}, {system.size} unknowns")
+    reference = stepper.sample(0.0, stepper.steady_point(), fluid.loads0)
+    started, first_step, recent = clock.perf_counter(), state.step, deque(maxlen=PROGRESS_WINDOW)
+    try:
+        for reached, sample in march(stepper, state, settings.duration):
+            state = reached
+            checkpoint = state.step % settings.checkpoint_every == 0
+            states = {"current_state": state.current, "previous_state": state.previous}
+            table.append(_sample_record(sample), state=states, save=checkpoint)
+            recent.append(sample)
+            _snapshot(snapshot, settings, state, stepper, steady)
+            if checkpoint or (state.step - first_step) % PROGRESS_EVERY == 0:
+                rate = (state.step - first_step) / max(clock.perf_counter() - started, 1e-9)
+                amplitude = _amplitude(recent, reference, system.active)
+                say(
+                    f"t = {state.time:.4g} of {settings.duration:g}: {rate:.3g} steps/s, "
+                    f"amplitude {amplitude:.3g}"
+                )
+    except BaseException:
+        table.save()  # the last state reached, when interrupted
+        raise
+    seconds = clock.perf_counter() - started
+    steps = state.step - first_step
+    eigenvalue = table.state.get("start_eigenvalue")
+    attrs = {
+        **table.identity,
+        **(
+            {} if eigenvalue is None else dict(start_growth_rate=eigenvalue[0], start_frequency=eigenvalue[1])
+        ),
+        "ndof": system.size,
+        "duration": float(state.time),
+        "steps": state.step,
+        "steps_this_run": steps,
+        "seconds_per_step": seconds / steps if steps else float("nan"),
+        "factorisations": stepper.counter.count,
+        "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M at the steady state",
+        "conventions": "time in L/U; heave in L, pitch in rad (counter-clockwise +); coefficients "
+        "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about G",
+        "checkpoint": str(path),
+    }
+    table.finish({"stop": "duration"})
+    ds = _time_series(table, attrs)
+    netcdf = write_dataset(ds, Path(out) / f"simulate_{case.tag}.nc")
+    return SimulationResult(ds.assign_attrs(netcdf=str(netcdf)), steady)
+
+
+def _snapshot(snapshot, settings, state, stepper, steady) -> None:
+    """Call ``snapshot`` when the step crossed a multiple of the snapshot interval."""
+    interval = settings.snapshot_interval
+    if snapshot is None or interval is None:
+        return
+    index = math.floor(state.time / interval + 1e-6)
+    if index > math.floor((state.time - settings.time_step) / interval + 1e-6):
+        q = state.current
+        full = stepper.fluid.full_state(stepper.solid_state(q), q[stepper.system.n_solid :])
+        snapshot(index, state.time, steady, full)

@@ -1,0 +1,213 @@
+"""The nonlinear time march (fsistab.simulation, docs/model.md §12) against the linear spectrum.
+
+A small multiple of an eigenmode added to the steady state grows like ``e^{σt}``: the growth rate
+and frequency fitted to the marched lift (or heave) must be the eigenvalue ``σ`` that shift-invert
+Arnoldi finds on the same mesh — the two paths share the discrete operators only (the march
+evaluates the nonlinear residual, the spectrum factorises its Jacobian). For the time-discrete
+march the fitted value is BDF2's image of ``σ`` (the root ``g`` of
+``(3/2 − σΔt) g² − 2g + 1/2 = 0``, ``σ_Δt = log(g)/Δt``), which it must match to the
+nonlinearity's and the chord tolerance's size, and ``σ`` to the scheme's second order in Δt.
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fsistab.bodies import Cylinder
+from fsistab.coupled import CoupledSystem
+from fsistab.eigen import eigenpairs_near
+from fsistab.forces import aerodynamic_coefficients
+from fsistab.mesh import mesh_spec
+from fsistab.operators import fluid_operators
+from fsistab.params import Case, Flow, SimulationSettings, solid_for
+from fsistab.simulation import (
+    MarchState,
+    TimeStepper,
+    damped_oscillation,
+    last_cycles,
+    march,
+    mean_over,
+    perturbed_state,
+)
+from fsistab.steady import solve_steady
+
+SHIFT = 0.05 + 0.75j  # near the cylinder's wake mode at Re 60 (ω ≈ 0.75 in U/D)
+
+
+@pytest.fixture(scope="module")
+def cylinder_60():
+    """The fluid operators of the cylinder at Re 60 on the coarse mesh."""
+    return fluid_operators(solve_steady(mesh_spec(Cylinder(), "coarse", 60), Flow(60)))
+
+
+def _bdf2_image(sigma: complex, dt: float) -> complex:
+    """``σ_Δt``: the growth per step of BDF2 applied to ``q' = σ q`` (its principal root)."""
+    roots = np.roots([1.5 - sigma * dt, -2.0, 0.5])
+    return complex(np.log(roots[np.argmax(np.abs(roots))]) / dt)
+
+
+def _march(system, pair, dt: float, steps: int) -> list:
+    """``steps`` steps from the steady state plus 1e-4 of ``pair``'s mode: the samples."""
+    stepper = TimeStepper(system, dt)
+    state = MarchState(0.0, 0, perturbed_state(stepper, pair.vector, 1e-4))
+    samples = [sample for _, sample in march(stepper, state, steps * dt)]
+    assert all(s.iterations <= 3 for s in samples)
+    return samples
+
+
+def _fit(samples, signal) -> complex:
+    """``σ`` of ``signal`` from the third step on: the BDF1 start's parasitic root has decayed
+    (``|g| = 1/3`` per step)."""
+    kept = samples[2:]
+    return damped_oscillation([s.time for s in kept], [signal(s) for s in kept])
+
+
+def _fitted(system, pair, dt: float, steps: int, signal) -> complex:
+    return _fit(_march(system, pair, dt, steps), signal)
+
+
+def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", dofs=()))
+    pair = min(eigenpairs_near(system, [SHIFT], 4), key=lambda p: abs(p.value - SHIFT))
+    sigma = pair.value
+    assert sigma.real > 0  # the wake is unstable at Re 60
+    errors = []
+    for dt, steps in ((0.1, 16), (0.05, 32)):
+        fit = _fitted(system, pair, dt, steps, lambda s: s.lift)
+        assert abs(fit - _bdf2_image(sigma, dt)) < 1e-5 * abs(sigma)
+        errors.append(abs(fit.real - sigma.real) / sigma.real)
+        assert abs(fit.imag - sigma.imag) < 0.01 * sigma.imag
+    assert errors[1] < 0.01  # growth rate within 1 % at Δt = 0.05
+    assert 3.0 < errors[0] / errors[1] < 5.0  # second order in Δt
+
+
+def test_spring_mounted_cylinder_at_mass_ratio_one_follows_its_coupled_mode(cylinder_60):
+    """Monolithic coupling: at m = 1 (added mass comparable with the body's) the heave follows the
+    coupled eigenvalue, the solid rows and the loads' inertia included."""
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", 1.0, 5.0, dofs=("heave",)))
+    pair = max(eigenpairs_near(system, [SHIFT], 4), key=lambda p: p.growth_rate)
+    assert abs(pair.solid[0]) > 0  # the mode moves the body
+    dt = 0.05
+    fit = _fitted(system, pair, dt, 24, lambda s: s.solid[0])
+    assert abs(fit - _bdf2_image(pair.value, dt)) < 1e-5 * abs(pair.value)
+    assert abs(fit.real - pair.value.real) < 0.01 * abs(pair.value.real)
+
+
+def test_the_steady_state_stays_steady_with_its_drag(cylinder_60):
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", 20.0, 5.0, dofs=("heave",)))
+    stepper = TimeStepper(system, 0.1)
+    state = MarchState(0.0, 0, stepper.steady_point())
+    samples = [stepper.initial_sample(state)] + [s for _, s in march(stepper, state, 0.3)]
+    steady = aerodynamic_coefficients(cylinder_60.steady)
+    for sample in samples:
+        assert sample.drag == pytest.approx(steady.drag, abs=1e-7)
+        assert abs(sample.lift - steady.lift) < 1e-7 and abs(sample.solid[0]) < 1e-8
+
+
+def test_damped_oscillation_refuses_uneven_samples():
+    with pytest.raises(ValueError, match="equal time steps"):
+        damped_oscillation([0, 1, 2, 4, 5, 6, 7], np.zeros(7))
+
+
+@pytest.mark.slow
+def test_an_interrupted_march_resumes_where_it_stopped(tmp_path, cache_dir):
+    """Interrupted after its third step (the snapshot callback raises), the march saves its state;
+    rerun, it resumes from there, and its time series equals an uninterrupted run's."""
+    from fsistab.store import read_dataset
+    from fsistab.workflows import simulate
+
+    case = Case.create("cylinder", 60, preset="coarse")
+    solid = solid_for("cylinder", dofs=())
+    settings = SimulationSettings(0.5, 0.1, 1e-4, SHIFT, checkpoint_every=100, snapshot_interval=0.1)
+
+    def interrupt(index, time, steady, state):
+        if index == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate(case, solid, settings, cache_dir, tmp_path / "a", snapshot=interrupt)
+    resumed = simulate(case, solid, settings, cache_dir, tmp_path / "a").dataset
+    assert resumed.attrs["steps_this_run"] == 2 and resumed.attrs["steps"] == 5
+    # a new march from the saved state starts where the first one stopped
+    again = SimulationSettings(0.1, 0.1, start=resumed.attrs["checkpoint"])
+    restarted = simulate(case, solid, again, cache_dir, tmp_path / "c").dataset
+    saved = read_dataset(resumed.attrs["checkpoint"])["current_state"].values
+    assert np.array_equal(read_dataset(restarted.attrs["checkpoint"])["previous_state"].values, saved)
+    Path(resumed.attrs["checkpoint"]).unlink()  # the same march again, from its start
+    whole = simulate(case, solid, settings, cache_dir, tmp_path / "b").dataset
+    assert whole.attrs["steps_this_run"] == 5
+    np.testing.assert_allclose(resumed.lift_coefficient, whole.lift_coefficient, rtol=0, atol=1e-12)
+    written = read_dataset(resumed.attrs["netcdf"])
+    assert written.time.size == 6 and written.lift_coefficient.attrs["units"] == "1"
+    assert math.isclose(written.attrs["start_frequency"], whole.attrs["start_frequency"])
+
+
+def test_last_cycles_of_a_growing_then_saturated_sinusoid():
+    t = np.arange(0.0, 200.0, 0.05)
+    omega, amplitude = 1.03, 0.33
+    envelope = amplitude * np.tanh(np.exp(0.1 * (t - 60.0)))  # grows, then saturates
+    cycle = last_cycles(t, 0.2 + envelope * np.sin(omega * t), periods=8)
+    assert cycle.periods == 8
+    assert cycle.frequency == pytest.approx(omega, rel=1e-4)
+    assert cycle.mean == pytest.approx(0.2, abs=1e-3)
+    assert cycle.amplitude == pytest.approx(amplitude, rel=1e-3)
+    assert mean_over(t, np.cos(omega * t) ** 2, cycle.start, cycle.end) == pytest.approx(0.5, rel=1e-3)
+
+
+def test_plate_flutter_mode_grows_at_its_eigenvalue(plate_operators):
+    """The plate at Re 2900, m = 1000, U* = 5 (just past flutter on the coarse mesh): heave and pitch
+    follow the flutter mode's small growth rate, the pitch's rotation terms and lifting included."""
+    from fsistab.params import Solid
+
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.0))
+    pair = max(eigenpairs_near(system, [0.01 + 0.17j], 4), key=lambda p: p.solid_energy_fraction)
+    assert pair.label != "fluid" and pair.growth_rate > 0  # the flutter mode, unstable
+    dt = 0.1
+    samples = _march(system, pair, dt, 20)
+    for signal in (lambda s: s.solid[1], lambda s: s.solid[0]):  # pitch, heave
+        fit = _fit(samples, signal)
+        assert abs(fit - _bdf2_image(pair.value, dt)) < 1e-5 * abs(pair.value)
+        assert abs(fit.real - pair.growth_rate) < 0.01 * pair.growth_rate
+
+
+def test_simulate_command_json_and_bad_input(tmp_path):
+    """The command's one JSON object names the time series, whose variables carry units; a bad
+    option is one line before any work."""
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+    from fsistab.store import read_dataset
+
+    runner = CliRunner()
+    where = ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")]
+    result = runner.invoke(app, ["simulate", "--time-step", "0", *where])
+    assert result.exit_code == 2 and "--time-step must be positive" in result.output
+    args = ["simulate", "--body", "cylinder", "--Re", "40", "--mesh", "coarse", "--mass-ratio", "5"]
+    args += ["--duration", "0.2", "--time-step", "0.1", "--perturbation", "0", "--json", *where]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert payload["steps"] == 2 and payload["start_eigenvalue"] is None and payload["factorisations"] == 2
+    ds = read_dataset(payload["data"])
+    for name in ("heave", "pitch", "heave_rate", "pitch_rate", "lift_coefficient", "drag_coefficient"):
+        assert ds[name].sizes["time"] == 3 and "units" in ds[name].attrs
+    assert ds.heave.attrs["units"] == "1" and ds.pitch.attrs["units"] == "rad"
+    assert abs(payload["last"]["heave"]) < 1e-8  # the steady state stays
+
+
+def test_rebuilding_the_iteration_matrix_changes_iterations_not_states(cylinder_60):
+    """Relinearised about the current field after every step, the march reaches the same states:
+    only the chord iteration's matrix changes, never the equations."""
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", 1.0, 5.0, dofs=("heave",)))
+    start = TimeStepper(system, 0.1).steady_point()
+    start[0] = 0.05  # a heave displaced far from the steady state: a nonlinear start
+    results = []
+    for refresh_after in (0, 1):
+        stepper = TimeStepper(system, 0.1, refresh_after=refresh_after, refresh_every=1)
+        samples = [s for _, s in march(stepper, MarchState(0.0, 0, start.copy()), 0.3)]
+        results.append(np.array([[s.solid[0], s.lift, s.drag] for s in samples]))
+        assert stepper.refreshes == (0 if refresh_after == 0 else 3)
+    np.testing.assert_allclose(results[1], results[0], rtol=0, atol=1e-8)
