@@ -10,6 +10,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import numpy.polynomial.polynomial as npoly
 import pytest
 from damage import damage
 
@@ -356,6 +357,31 @@ def test_the_two_branches_of_a_fold_in_frequency_are_joined():
     assert crossing[0] == pytest.approx(1.0, abs=1e-12) and crossing[2] > 0
     separate = _assemble(roots, {w: np.ones((2, 2)) for w in grid}, (0.5, 2.0))
     assert len(separate) == 2 and not separate[0].crossings_at(1.0)  # no birth seen: no join
+
+
+def test_crossings_at_any_mass_are_those_of_a_dense_scan_of_the_curve():
+    """A curve that turns in m several times (log m = ω + 2 sin 3ω, log U* = 0.3 ω): the crossings
+    found at a mass ratio, solving only the cubics whose range of log m reaches it, are the sign
+    changes of ``log m(τ) − log m`` on a dense grid of every segment, at the same U*."""
+    from fsistab.transfer_map import NeutralRoot, TransferCurve
+
+    def root(w):
+        return NeutralRoot(
+            w, math.exp(w + 2 * math.sin(3 * w)), math.exp(0.3 * w), 1 + 6 * math.cos(3 * w), 0.3, 1.0
+        )
+
+    curve = TransferCurve("flutter", tuple(root(w) for w in np.geomspace(0.5, 3.0, 14)))
+    tau = np.linspace(0.0, 1.0, 200001)
+    for log_m in np.random.default_rng(3).uniform(-1.0, 4.0, 40):
+        found = sorted(u for u, _, _ in curve.crossings_at(math.exp(log_m)))
+        scanned = []
+        for _, _, coef, _, _ in curve._segments():
+            x = npoly.polyval(tau, coef[:, 0]) - log_m
+            for k in np.flatnonzero(np.sign(x[1:]) != np.sign(x[:-1])):
+                t = tau[k] - x[k] * (tau[k + 1] - tau[k]) / (x[k + 1] - x[k])
+                scanned.append(math.exp(npoly.polyval(t, coef[:, 1])))
+        assert len(found) == len(scanned) and found == pytest.approx(sorted(scanned), rel=1e-9)
+    assert len(curve.crossings_at(math.exp(2.5))) == 3  # it turns twice in m
 
 
 def test_a_power_law_branch_is_matched_and_interpolated_exactly_in_log_frequency():

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
+from functools import cached_property, partial
 from pathlib import Path
 
 import numpy as np
@@ -169,7 +169,27 @@ class TransferCurve:
     def _segments(self):
         """Per interval: the roots, the cubic Hermite of ``(log m, log U*)`` in ``τ ∈ [0, 1]``
         (values and exact tangents), ``ω(τ)`` along it (geometric, ``log ω`` linear in ``τ``;
-        constant across a fold) and ``rate/(d log m/dτ)`` at both ends."""
+        constant across a fold) and ``rate/(d log m/dτ)`` at both ends (made once per curve,
+        :attr:`_segment_table`)."""
+        return iter(segment for segment, _ in self._segment_table)
+
+    @cached_property
+    def _segment_table(self) -> tuple:
+        """``(segment, (low, high))`` per interval: :meth:`_segments`' tuple and the range of
+        ``log m`` over ``τ ∈ [0, 1]`` (ends and interior extrema of the cubic), so that a query at
+        one m solves only the cubics that reach it (a map's shading grid asks hundreds of m)."""
+        table = []
+        for segment in self._hermite_segments():
+            coef = segment[2][:, 0]
+            slope = npoly.polyder(coef)
+            taus = [0.0, 1.0]
+            if np.any(slope[1:]):
+                taus += [t.real for t in npoly.polyroots(npoly.polytrim(slope, tol=0.0)) if 0 < t.real < 1]
+            values = npoly.polyval(np.array(taus), coef)
+            table.append((segment, (float(values.min()), float(values.max()))))
+        return tuple(table)
+
+    def _hermite_segments(self):
         folds = dict(self.folds)
         for k, (r0, r1) in enumerate(zip(self.roots[:-1], self.roots[1:], strict=True)):
             if k in folds:
@@ -198,8 +218,11 @@ class TransferCurve:
         is interpolated linearly and multiplied by the interpolant's ``d log m/dω`` (in the chord
         parameter across a fold)."""
         target = math.log(mass_ratio)
+        margin = 1e-6 * (1.0 + abs(target))  # far wider than the roots' acceptance below
         found = []
-        for _, _, coef, omega, (q0, q1) in self._segments():
+        for (_, _, coef, omega, (q0, q1)), (low, high) in self._segment_table:
+            if not low - margin <= target <= high + margin:
+                continue  # no real root in [0, 1]: the cubic does not reach log m there
             poly = coef[:, 0].copy()
             poly[0] -= target
             for tau in npoly.polyroots(npoly.polytrim(poly, tol=0.0)) if np.any(poly[1:]) else []:
@@ -300,6 +323,12 @@ def unstable_counts(
     crossings (``+1`` onset, ``-1`` restabilisation) below each U*, of the curves of ``kinds``."""
     crossings = [(u, rate) for u, rate, kind in tmap.crossings_at(mass_ratio) if kind in kinds]
     return np.array([base + sum(1 if rate > 0 else -1 for u, rate in crossings if u < v) for v in velocities])
+
+
+def _signed_count(crossings, velocities: np.ndarray, kind: str) -> np.ndarray:
+    """:func:`unstable_counts` (``base`` 0) of one family from the crossings at one mass ratio."""
+    signs = [(u, 1 if rate > 0 else -1) for u, rate, k in crossings if k == kind]
+    return np.array([sum(sign for u, sign in signs if u < v) for v in velocities], dtype=int)
 
 
 def transfer_neutral_map(
@@ -640,8 +669,10 @@ def unstable_grid(
     column and the column is flagged in ``incomplete[kind]``."""
     total = np.zeros((len(velocities), len(masses)), dtype=int)
     incomplete = {}
+    velocities = np.asarray(velocities, dtype=float)
+    crossings = [tmap.crossings_at(m) for m in masses]  # once per mass, for the three families
     for kind in ("divergence", "flutter", "viv"):
-        counts = np.column_stack([unstable_counts(tmap, m, velocities, kinds=(kind,)) for m in masses])
+        counts = np.column_stack([_signed_count(at, velocities, kind) for at in crossings])
         incomplete[kind] = counts.min(axis=0) < 0
         total += np.where(incomplete[kind][None, :], 0, counts)
     return total, incomplete
