@@ -4,8 +4,9 @@ factorised on the workers instead of this process's threads. The map engine, its
 samples are those of the serial map (:mod:`fsistab.map_engine`); only where the factorisations run
 changes.
 
-What is sent, once per map and worker: the fluid operators (:class:`fsistab.operators.FluidOperators`,
-without their symbolic analyses) and the fill-reducing ordering of this process's analysis
+What is sent, once per map and worker: the sparse blocks of the fluid operators
+(:class:`fsistab.operators.FluidOperators` without the steady state, the near-body mass and the
+symbolic analyses) and the fill-reducing ordering of this process's analysis
 (:func:`fsistab.linalg.analysis_ordering`), scattered to every worker at the first batch. A worker
 keeps them in its memory under the scatter's key for every sample of the map, and makes its symbolic
 analysis once, on that ordering (:func:`working_operators`): it factorises
@@ -28,6 +29,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from fsistab import umfpack
+from fsistab.errors import InputError
 from fsistab.linalg import FactorCounter, analysis_ordering, shared_analysis
 from fsistab.map_roots import AxisSample
 from fsistab.map_sources import SAMPLE_REFINE, ExactSource
@@ -86,6 +89,8 @@ class DistributedExactSource(ExactSource):
         client,
         say: Callable[[str], None] | None = None,
     ):
+        if not umfpack.available():  # the NGSolve backend needs the steady state, not sent
+            raise InputError("maps on dask workers need UMFPACK's symbols in NGSolve's wheel")
         super().__init__(fluid, counter)
         self.client, self.say = client, say or (lambda message: None)
         self._shipped = None  # futures of the operators and ordering on the workers
@@ -96,9 +101,9 @@ class DistributedExactSource(ExactSource):
         """The futures of the operators and of the ordering, scattered to every worker at first need."""
         if self._shipped is None:
             ordering = analysis_ordering(self.fluid)
-            # the SciPy blocks only: UMFPACK's analyses stay in this process, and the steady state
-            # (NGSolve's mesh and fields) is not needed by a factorisation
-            bare = replace(self.fluid, steady=None, analyses={})
+            # the blocks a sample needs: UMFPACK's analyses stay in this process, and neither the
+            # steady state (NGSolve's mesh and fields) nor the near-body mass (mode labels) is sent
+            bare = replace(self.fluid, steady=None, mff_near=None, analyses={})
             self._shipped = self.client.scatter([bare, ordering], broadcast=True, hash=False)
             self.say(f"fluid operators sent to {worker_count(self.client)} dask workers")
         return self._shipped
