@@ -21,6 +21,7 @@ dask computes again on another worker.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import time
 import uuid
@@ -140,6 +141,8 @@ class DistributedExactSource(ExactSource):
     def release(self) -> None:
         """Free the operators on the workers (the map is done)."""
         if self._shipped is not None:
-            self.client.cancel(self._shipped)
-            self._shipped = None
-            self.client.run(forget_operators, self._token)
+            shipped, self._shipped = self._shipped, None
+            # a cleanup that fails (a worker lost, the scheduler gone) must not hide the map's end
+            with contextlib.suppress(Exception):
+                self.client.cancel(shipped)
+                self.client.run(forget_operators, self._token)
