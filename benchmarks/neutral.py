@@ -14,6 +14,12 @@ Prints unknowns, factorisations, wall time and peak memory of each, their ratios
 relative difference in U* between every continuation point and the transfer map at the same m.
 Results are saved in --out (a rerun resumes: delete it for a fresh measurement). With
 ``--curve-only`` the continuation stops after the flutter curve from m = 1000.
+
+``--workers 0 2`` (transfer only): the same map from empty samples in this process (0) and on a
+dask LocalCluster of 2 single-threaded workers, one after the other in this session; for each,
+the wall time of the sampling phase (the batches of exact samples) and of the map, the CPU time of
+this process and of the workers, the factorisations, the peak memory of this process and of each
+worker, and the ratios to the in-process run.
 Usage: python benchmarks/neutral.py [coarse|medium|fine] [--method both|transfer|continuation]
 """
 
@@ -40,6 +46,77 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _worker_usage() -> tuple[float, float]:
+    """CPU seconds and peak memory [MB] of this (worker) process: VmHWM, since ``ru_maxrss`` keeps
+    the peak of the process the worker was forked from."""
+    with open("/proc/self/status") as status:
+        peak = next(int(line.split()[1]) for line in status if line.startswith("VmHWM")) / 1024
+    return _cpu_seconds(), peak
+
+
+def on_workers(fluid, template, args, out: Path, workers: int, wake: float) -> dict:
+    """The exact-sample map from empty samples in this process (``workers`` 0) or on a new
+    LocalCluster of ``workers`` single-threaded processes: its figures (module docstring)."""
+    import shutil
+
+    from distributed import Client, LocalCluster
+
+    from fsistab.study import _without_malloc_trim
+
+    where = out / f"workers{workers}"
+    shutil.rmtree(where, ignore_errors=True)
+    cluster = None
+    if workers:
+        with _without_malloc_trim():  # as `fsistab neutral --workers N` starts them
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)
+    client = Client(cluster) if cluster else None
+    try:
+        before = client.run(_worker_usage) if client else {}
+        counter, cpu0, t0 = FactorCounter(), _cpu_seconds(), time.perf_counter()
+        tmap = transfer_neutral_map(
+            fluid, template, mass_range=(args.mass_low, args.mass_high), wake_frequency=wake,
+            tolerance=args.tolerance, samples_path=where / "transfer_samples.nc", counter=counter,
+            client=client,
+        )  # fmt: skip
+        wall, cpu = time.perf_counter() - t0, _cpu_seconds() - cpu0
+        after = client.run(_worker_usage) if client else {}
+    finally:
+        if client:
+            client.close()
+            cluster.close()
+    worker_cpu = sum(after[w][0] - before[w][0] for w in after)
+    return {
+        "workers": workers,
+        "sampling": tmap.sampling_seconds,
+        "wall": wall,
+        "cpu": cpu,
+        "worker_cpu": worker_cpu,
+        "factorisations": counter.count,
+        "frequencies": len(tmap.frequencies),
+        "onsets": [round(u, 6) for u, rate, _ in tmap.crossings_at(1000.0) if rate > 0],
+        "peak": _peak_mb(),
+        "worker_peaks": sorted(round(a[1]) for a in after.values()),
+    }
+
+
+def print_workers(results: list[dict]) -> None:
+    base = results[0]
+    for r in results:
+        name = f"workers {r['workers']}" if r["workers"] else "in-process"
+        ratio = base["sampling"] / r["sampling"]
+        print(f"{name}: sampling phase [s]        {r['sampling']:.1f} (ratio {ratio:.2f})")
+        print(f"{name}: map wall time [s]         {r['wall']:.1f} (ratio {base['wall'] / r['wall']:.2f})")
+        print(f"{name}: CPU [s]                   {r['cpu']:.1f} here + {r['worker_cpu']:.1f} on workers")
+        print(f"{name}: factorisations            {r['factorisations']} ({r['frequencies']} frequencies)")
+        print(f"{name}: onsets at m = 1000        {r['onsets']}")
+        print(f"{name}: peak memory [MB]          {r['peak']:.0f} here, workers {r['worker_peaks']}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("preset", nargs="?", default="medium")
@@ -59,6 +136,13 @@ def main() -> None:
     )
     parser.add_argument("--curve-only", action="store_true", help="continuation: first flutter curve only")
     parser.add_argument("--wake-frequency", type=float, default=11.0, help="guess, refined by Arnoldi")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        nargs="+",
+        default=None,
+        help="exact-sample maps on N dask workers (0: in process)",
+    )
     args = parser.parse_args()
     SetNumThreads(args.threads)
     out = Path(args.out) / (args.preset + (f"_far{args.far:g}" if args.far else ""))
@@ -80,6 +164,9 @@ def main() -> None:
         f"({wake_counter.count} factorisations, {t_wake:.1f} s)",
     )
     results = {}
+    if args.workers:
+        print_workers([on_workers(fluid, template, args, out, n, wake.frequency) for n in args.workers])
+        return
 
     if args.method in ("both", "transfer"):
         samples = out / "transfer_samples.nc"

@@ -413,6 +413,11 @@ def critical(opts):
 
 
 # fmt: off
+# where a command's independent tasks run (fsistab.study.study_client): in this process by default
+EXECUTION_OPTIONS = {
+    "workers": _option(int | None, "--workers", "run on a new dask LocalCluster of N worker processes"),
+    "scheduler": _option(str | None, "--scheduler", "run on the dask scheduler at ADDRESS (tcp://host:8786)"),
+}
 MAP_OPTIONS = {
     "mass_range": _option(Pair, "--mass-ratio-range", "m range", (1.0, 1e4)),
     "start_mass": _option(float, "--start-mass-ratio", "m of the initial sweep", 1000.0),
@@ -445,7 +450,7 @@ MAP_OPTIONS = {
 # fmt: on
 
 
-@command(CASE_OPTIONS, *FILES, SOLID_OPTIONS, MAP_OPTIONS)
+@command(CASE_OPTIONS, *FILES, SOLID_OPTIONS, MAP_OPTIONS, EXECUTION_OPTIONS)
 def neutral(opts):
     """Stability map in the (m, U*) plane (docs/model.md §8): flutter and VIV neutral curves, the
     divergence curve, turning points and codimension-two crossings.
@@ -465,18 +470,27 @@ def neutral(opts):
     m around the coincidence of the solid frequencies with the wake mode's; every threshold found is
     continued by pseudo-arclength. Each curve is saved (NetCDF) after every point.
 
+    --workers N (a dask LocalCluster) or --scheduler ADDRESS (a running dask scheduler): the exact
+    samples of each refinement round are factorised on the workers, the same samples and the same
+    map as in this process (--method transfer; docs/how-to/cluster.md).
+
     Rerunning the same command resumes."""
+    from fsistab.study import check_execution, study_client
+
     case = opts.case()
     case.require_plate("neutral maps")
     names = [name for name in MAP_OPTIONS if name != "seed_masses"]
     seeds = None if opts.seed_masses is None else tuple(opts.seed_masses)
     settings = params.MapSettings(seed_masses=seeds, **{name: getattr(opts, name) for name in names})
     template = opts.solid("plate", settings.template_mass, settings.velocity_range[0], ("heave", "pitch"))
+    check_execution(opts.workers, opts.scheduler)
+    if settings.method != "transfer" and (opts.workers is not None or opts.scheduler is not None):
+        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports, workflows
 
-    with _running() as progress:
-        ds = workflows.stability_map(case, template, settings, cache, out, progress)
+    with _running() as progress, study_client(opts.workers, opts.scheduler) as client:
+        ds = workflows.stability_map(case, template, settings, cache, out, progress, client=client)
     ds = figures.stability_map(ds, case, out)
     _finish("neutral", ds, opts.as_json, reports.stability_map, settings.mass_range, out)
 
@@ -627,8 +641,7 @@ STUDY_OPTIONS = {
     "wake_shift": _option(str | None, "--wake-shift", "shift near the wake mode: samples near its frequency, "
                           "which the classification also tests (rule 2); VIV is recognised without it"),
     "with_map": _option(bool, "--map", "the whole (m, U*) map at each point (plate)", False),
-    "workers": _option(int | None, "--workers", "run on a new dask LocalCluster of N worker processes"),
-    "scheduler": _option(str | None, "--scheduler", "run on the dask scheduler at ADDRESS (tcp://host:8786)"),
+    **EXECUTION_OPTIONS,
 }
 # fmt: on
 

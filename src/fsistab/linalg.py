@@ -53,19 +53,33 @@ def _shifted(fluid: FluidOperators, shift: complex):
     return fluid.jff + (shift if shift.imag != 0 else shift.real) * fluid.mff
 
 
-def shared_analysis(fluid: FluidOperators, shift: complex, matrix=None) -> umfpack.Analysis:
+def shared_analysis(
+    fluid: FluidOperators, shift: complex, matrix=None, ordering: np.ndarray | None = None
+) -> umfpack.Analysis:
     """The UMFPACK symbolic analysis of ``J_ff + s M_f`` in ``s``'s arithmetic, made once per
     operators and arithmetic (kept in ``fluid.analyses``) and shared by every shift: the symmetric
     strategy (the Taylor–Hood pattern is symmetric; its factors are cheaper and its unrefined solves
     more accurate, docs/performance.md, "The steady Newton") on a nested-dissection
-    ordering, one for both arithmetics (``J_ff`` and ``J_ff + s M_f`` share their pattern)."""
+    ordering, one for both arithmetics (``J_ff`` and ``J_ff + s M_f`` share their pattern).
+    ``ordering``: the one to use when ``fluid`` has no analysis yet (:func:`analysis_ordering` of
+    the same operators in another process, e.g. on a dask worker: factorised as there, bit for bit,
+    without a new METIS run)."""
     shift = complex(shift)
     dtype = complex if shift.imag != 0 else float
     if dtype not in fluid.analyses:
         known = [a.ordering for a in fluid.analyses.values() if a.ordering is not None]
         matrix = _shifted(fluid, shift) if matrix is None else matrix
-        fluid.analyses[dtype] = umfpack.symmetric_analysis(matrix, known[0] if known else None)
+        fluid.analyses[dtype] = umfpack.symmetric_analysis(matrix, known[0] if known else ordering)
     return fluid.analyses[dtype]
+
+
+def analysis_ordering(fluid: FluidOperators) -> np.ndarray | None:
+    """The fill-reducing ordering of ``fluid``'s symbolic analyses (:func:`shared_analysis`), made
+    now in complex arithmetic if there is none yet; None without UMFPACK's symbols."""
+    if not umfpack.available():
+        return None
+    known = [a.ordering for a in fluid.analyses.values() if a.ordering is not None]
+    return known[0] if known else shared_analysis(fluid, 1j).ordering
 
 
 class FluidFactor:

@@ -17,6 +17,7 @@ The map engine (:mod:`fsistab.map_engine`) asks them in that order of cost: the 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Protocol
 
@@ -56,10 +57,12 @@ class SampleSource(Protocol):
 
 class ExactSource:
     """Exact samples of ``fluid``: one factorisation each, counted by ``counter``; batches
-    factorised ``threads`` at a time."""
+    factorised ``threads`` at a time (:class:`fsistab.map_distributed.DistributedExactSource`: on
+    dask workers). ``seconds``: the wall time of the batches so far (the phase workers share)."""
 
     def __init__(self, fluid: FluidOperators, counter: FactorCounter, threads: int | None = None):
         self.fluid, self.counter, self.threads = fluid, counter, threads
+        self.seconds = 0.0
 
     def sample(self, omega: float) -> AxisSample:
         s = 1j * omega if omega > 0 else 0.0
@@ -71,11 +74,18 @@ class ExactSource:
         (:func:`fsistab.transfer.iter_transfer_samples`): an interruption loses those under way only."""
         frequency = {complex(1j * w): w for w in frequencies}
         shifts = list(frequency)
+        start = time.perf_counter()
         found = iter_transfer_samples(
             self.fluid, shifts, self.counter, refine=SAMPLE_REFINE, threads=self.threads
         )
-        for sample in found:
-            yield AxisSample(frequency[sample.s], sample.value, sample.rate)
+        try:
+            for sample in found:
+                yield AxisSample(frequency[sample.s], sample.value, sample.rate)
+        finally:
+            self.seconds += time.perf_counter() - start
+
+    def release(self) -> None:
+        """Free what the batches hold beyond the map (nothing in this process)."""
 
 
 class ReducedSource:

@@ -1025,8 +1025,9 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
 def study_client(workers: int | None = None, scheduler: str | None = None):
     """A ``dask.distributed`` client on a new ``LocalCluster`` of ``workers`` single-threaded
     worker processes, or on the running scheduler at ``scheduler``; None (in-process) when both
-    are None. A clear error when dask.distributed is not installed (``pip install
-    'fsistab[cluster]'``)."""
+    are None. The points of a study (:func:`run_study`) or the exact samples of a map
+    (:func:`fsistab.workflows.stability_map`) run on it. A clear error when dask.distributed is
+    not installed (``pip install 'fsistab[cluster]'``)."""
     if workers is None and scheduler is None:
         yield None
         return
@@ -1046,12 +1047,26 @@ def study_client(workers: int | None = None, scheduler: str | None = None):
             yield client
         return
     with (
+        _without_malloc_trim(),
         LocalCluster(
             n_workers=workers, processes=True, threads_per_worker=1, dashboard_address=None
         ) as cluster,
         Client(cluster) as client,
     ):
         yield client
+
+
+def _without_malloc_trim():
+    """dask's configuration with the environment of the worker processes a nanny spawns without
+    ``MALLOC_TRIM_THRESHOLD_`` (set by dask's defaults): setting it fixes glibc's threshold for
+    serving large blocks by ``mmap``, so that the memory of every sparse factorisation is mapped,
+    faulted in and unmapped again, at a cost in CPU per factorisation (docs/performance.md, "Maps
+    on dask"); the other variables (BLAS on one thread) are kept."""
+    import dask
+
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {})
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return dask.config.set({"distributed.nanny.pre-spawn-environ": environ})
 
 
 def check_execution(workers: int | None, scheduler: str | None) -> None:

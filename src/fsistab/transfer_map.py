@@ -47,6 +47,7 @@ import numpy.polynomial.polynomial as npoly
 
 from fsistab.errors import InputError
 from fsistab.linalg import FactorCounter
+from fsistab.map_distributed import DistributedExactSource
 from fsistab.map_engine import MapEngine, MapSources
 from fsistab.map_refinement import (  # noqa: F401 (the map's rules, public here too)
     FIT_FIRST_SPAN,
@@ -295,6 +296,8 @@ class TransferMap:
     # the factorisations behind the map over every run that built it: this run's (``factorisations``)
     # and those of the saved samples and models it reused (one per exact sample, one per model)
     factorisations_total: int = 0
+    # wall time of the batches of exact samples (in threads or on dask workers), seconds
+    sampling_seconds: float = 0.0
 
     def divergence_velocities(self, mass_ratio: float) -> np.ndarray:
         # λ is the static load slope per unit inertia r_θ² (docs/model.md §8): U*_D = √(m · 1 / λ)
@@ -350,6 +353,7 @@ def transfer_neutral_map(
     threads: int | None = None,
     fit_first: bool = True,
     resonance_blocks: int = RESONANCE_BLOCKS,
+    client=None,
 ) -> TransferMap:
     """Every neutral curve of the ``(m, U*)`` plane with ``m`` in ``mass_range`` and frequency in
     ``omega_range`` (module docstring), for the solid parameters of ``template`` other than ``m``
@@ -378,6 +382,10 @@ def transfer_neutral_map(
 
     The result's ``factorisations`` are this run's (counted by ``counter``), its
     ``factorisations_total`` those of every run that built the samples and models it reuses.
+
+    ``client``: a ``dask.distributed`` client whose workers factorise the batches of exact samples
+    (:class:`fsistab.map_distributed.DistributedExactSource`; the same samples, bit for bit, hence
+    the same map); None: ``threads`` in this process.
     """
     exact = reduced is None
     policy = _refinement_policy(
@@ -401,17 +409,25 @@ def transfer_neutral_map(
     for models in (reduced, resonances):
         if models is not None:
             models.restore()  # those lost from a damaged file, rebuilt where they were
+    exact_source = (
+        ExactSource(fluid, counter, threads)
+        if client is None
+        else DistributedExactSource(fluid, counter, client, say)
+    )
     sources = MapSources(
-        ExactSource(fluid, counter, threads),
+        exact_source,
         ResonanceSource(resonances),
         RationalFitSource(store, FIT_MARGINS),
         ReducedSource(reduced, store, say) if reduced is not None else None,
     )
     sources.resonances.charge(counter)
     tracker = RootTracker(template, policy.wide, fluid.theta0, fluid.loads0)
-    run = MapEngine(policy, sources, store, tracker, counter, say).run(
-        initial_frequencies(policy.omega_range, initial, wake_frequency)
-    )
+    try:
+        run = MapEngine(policy, sources, store, tracker, counter, say).run(
+            initial_frequencies(policy.omega_range, initial, wake_frequency)
+        )
+    finally:
+        exact_source.release()
     spent = counter.count - start
     return _transfer_map(run, sources, policy, template, fluid, (spent, spent + reused))
 
@@ -434,6 +450,7 @@ def _transfer_map(run, sources: MapSources, policy, template: Solid, fluid, fact
         run.interpolated,
         len(sources.resonances.covers),
         factorisations_total=factorisations[1],
+        sampling_seconds=sources.exact.seconds,
     )
 
 

@@ -29,6 +29,7 @@ from typing import NamedTuple
 import numpy as np
 import xarray as xr
 
+from fsistab.errors import InputError
 from fsistab.params import (
     Case,
     FlowNeutralSettings,
@@ -334,8 +335,9 @@ def _solid_attrs(case: Case, solid: Solid) -> dict:
     }
 
 
-def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say):
-    """The map by the chosen method; ``(NeutralMap, TransferMap or None)``."""
+def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say, client=None):
+    """The map by the chosen method; ``(NeutralMap, TransferMap or None)``; the transfer map's
+    exact samples on the workers of ``client`` if given."""
     from fsistab.neutral import map_seeds, trace_neutral_map
     from fsistab.transfer_map import as_neutral_map, transfer_neutral_map
 
@@ -377,6 +379,7 @@ def _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, sa
         reduced=reduced,
         counter=counter,
         progress=say,
+        client=client,
     )
     return as_neutral_map(tmap, template), tmap
 
@@ -389,6 +392,7 @@ def stability_map(
     cache_dir: Path,
     out: Path,
     progress: Progress = None,
+    client=None,
 ) -> xr.Dataset:
     """The stability map of the plate in ``(m, U*)`` (docs/model.md §8): flutter and VIV neutral curves,
     the divergence curve ``U*_D = √(m r_θ²/(dC_M/dθ))``, turning points and codimension-two
@@ -399,6 +403,9 @@ def stability_map(
     and curves saved on the way make a rerun resume. The returned map dataset also has each
     curve's seed mass and stops, the frequency at each turning point, the divergence law's
     coefficient ``U*_D/√m`` and (transfer) the count of unstable eigenvalues on a grid.
+
+    ``client``: a ``dask.distributed`` client (:func:`fsistab.study.study_client`) whose workers
+    factorise the transfer map's exact samples (:mod:`fsistab.map_distributed`): the same map.
     """
     from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
@@ -406,6 +413,8 @@ def stability_map(
     from fsistab.reduced_model import ReducedModels
     from fsistab.store import write_dataset
 
+    if client is not None and settings.method != "transfer":
+        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
     say = progress
     out = Path(out)
     template = replace(
@@ -432,7 +441,7 @@ def stability_map(
             progress=say,
         )
     attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
-    result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say)
+    result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say, client)
     map_attrs = {**attrs, "method": settings.method}
     # the reduced models of the map, or with exact samples those built at sharp resonances and s = 0
     models = len(reduced.models) if reduced else tmap.resonance_models if tmap is not None else 0
