@@ -297,7 +297,7 @@ class Case:
     changes the linear operators only, not the mesh or the steady state. ``mesh_reynolds`` is the
     Reynolds number the preset's sizes are fitted to (:func:`fsistab.mesh.preset_sizes`), None the
     flow's own: held fixed, one mesh serves flows at several Re, so that a study in Re is not
-    crossed by changes of mesh (docs/discretisation.md, "One mesh for a range of Re")."""
+    crossed by changes of mesh (docs/how-to/studies.md, "One mesh for a range of Re")."""
 
     body: Body
     flow: Flow
