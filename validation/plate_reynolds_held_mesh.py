@@ -122,7 +122,7 @@ def main() -> None:
         for h, values in row["second_differences"].items():
             print(f"  second differences at step {h} (held mesh): {np.array(values)}")
         print(f"  second difference (fitted meshes): {row['fitted_second_difference']}")
-        print(f"  quartic through the held points: largest residual {row['quartic_largest_residual']:.2e}, ")
+        print(f"  quartic through the held points: largest residual {row['quartic_largest_residual']:.2e},")
         print(f"  slope at {args.held:g} {row['quartic_slope']:.10e} (adjoint {row['adjoint']:.10e})")
     path = args.out / "data" / "plate_reynolds_held_mesh.json"
     path.parent.mkdir(parents=True, exist_ok=True)
