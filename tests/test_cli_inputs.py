@@ -38,7 +38,7 @@ BASE = {
 }
 
 CASE = {"--Re": "positive", "--alpha0": "angle", "--aspect-ratio": "aspect", "--corner-radius": "corner"}
-CASE |= {"--domain": "domain", "--mesh": "preset", "--body": "body"}
+CASE |= {"--domain": "domain", "--mesh": "preset", "--body": "body", "--mesh-reynolds": "positive"}
 SOLID = {
     "--freq-ratio": "positive",
     "--zeta-h": "damping",

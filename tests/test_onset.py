@@ -212,7 +212,9 @@ def test_cylinder_critical_reynolds_coarse(coarse_onset):
         "factorisations",
         "data",
         "figure",
+        "mesh_reynolds",
     }
+    assert payload["mesh_reynolds"] == 47.0  # the mesh of every iterate is fitted to the guess
     assert payload["parameter"] == "reynolds"
     assert Path(payload["figure"]).is_file() and Path(payload["figure"]).suffix == ".png"
     assert 46.6 <= payload["critical_value"] <= 46.8

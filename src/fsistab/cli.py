@@ -112,6 +112,8 @@ CASE_OPTIONS = {
     "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
     "alpha0": _option(float, "--alpha0", "steady angle of attack, degrees, nose-up +", 0.0),
     "preset": _option(str, "--mesh", "mesh preset: coarse, quick (plate), medium or fine", "medium"),
+    "mesh_reynolds": _option(float | None, "--mesh-reynolds", "fit the mesh preset to this Re instead of "
+                             "the flow's (one mesh for a range of Re: study, flow-neutral, onset)"),
     "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
     "corner_radius": _option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
     "trailing_edge": _option(str, "--trailing-edge", "NACA trailing edge: closed or open (blunt)", "closed"),
@@ -167,7 +169,10 @@ class Options(SimpleNamespace):
         shape = (self.aspect_ratio, self.corner_radius, self.domain, self.sponge)
         outline = {name: getattr(self, name, None) for name in ("body_file", "reference_length")}
         outline["trailing_edge"] = getattr(self, "trailing_edge", "closed")
-        return params.Case.create(body, reynolds, self.alpha0, self.preset, *shape, **outline)
+        mesh_reynolds = getattr(self, "mesh_reynolds", None)
+        return params.Case.create(
+            body, reynolds, self.alpha0, self.preset, *shape, **outline, mesh_reynolds=mesh_reynolds
+        )
 
     def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:
         mass = getattr(self, "mass_ratio", None) if mass_ratio is None else mass_ratio
@@ -508,7 +513,8 @@ FLOW_NEUTRAL_OPTIONS = {
 def flow_neutral(opts):
     """Neutral curves in the (Re, U*) or (alpha0, U*) plane at one mass ratio, by pseudo-arclength
     continuation through turning points (docs/model.md §8), from the flutter thresholds of a sweep
-    in U* at --Re/--alpha0. One mesh (fitted to --Re) for the whole curve; steady states are cached."""
+    in U* at --Re/--alpha0. One mesh (fitted to --Re, or to --mesh-reynolds) for the whole curve;
+    steady states are cached."""
     case = opts.case()
     case.require_plate("flow-parameter neutral curves")
     start = opts.reynolds if opts.parameter == "reynolds" else opts.alpha0
@@ -610,8 +616,9 @@ def onset(opts):
     """Critical Reynolds number (at --alpha0) or critical alpha0 (at --Re) of the FIXED body: the
     value where its leading global mode's growth rate vanishes, by the secant method on the growth
     rate, the steady state continued and the eigenvalue followed from iterate to iterate
-    (fsistab.onset). One mesh for every iterate: fitted to --guess for the critical Re (--Re is then
-    unused), to --Re for the critical alpha0. Steady states are cached: a rerun reuses them."""
+    (fsistab.onset). One mesh for every iterate: fitted to --mesh-reynolds if given, else to --guess
+    for the critical Re (--Re is then unused) and to --Re for the critical alpha0. Steady states are
+    cached: a rerun reuses them."""
     from fsistab.onset import check_onset, fitted_case
 
     case, parameter = opts.case(), opts.parameter
@@ -652,9 +659,11 @@ def study(opts, ctx: typer.Context):
     0), and at each point --slopes, --modes, --thresholds M1 M2 ... (every threshold along U* at
     each mass ratio, classified: coupled-mode, pitch or heave single-mode flutter, divergence, VIV)
     and/or --map. Each point is one task: in this process by default, on a dask LocalCluster with
-    --workers N, or on a running dask scheduler with --scheduler ADDRESS. Finished points are saved
-    in OUT/points as they come: a rerun computes only what is missing. Exit status 1 when a point
-    failed (the others are kept)."""
+    --workers N, or on a running dask scheduler with --scheduler ADDRESS. Each Re gets a mesh fitted
+    to it, unless --mesh-reynolds RE holds one mesh (fitted to RE) for every point: then the results
+    vary smoothly with Re (no change of mesh between points). Finished points are saved in OUT/points
+    as they come: a rerun computes only what is missing. Exit status 1 when a point failed (the
+    others are kept)."""
     from fsistab.study import StudySettings, check_execution, study_client, study_lists
 
     lists = study_lists(list(ctx.args))
@@ -663,7 +672,7 @@ def study(opts, ctx: typer.Context):
     opts.alpha0 = 0.0
     opts.reynolds = lists["reynolds"][0] if lists["reynolds"] else 1.0
     settings = StudySettings.from_options(lists, vars(opts))
-    cases = [opts.case(reynolds=re) for re in settings.reynolds]  # one mesh per Re
+    cases = [opts.case(reynolds=re) for re in settings.reynolds]  # one mesh per Re, or --mesh-reynolds
     settings.check_body(cases[0].kind)
     check_execution(opts.workers, opts.scheduler)
     out, cache = _prepare(opts, cases)

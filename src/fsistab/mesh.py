@@ -230,9 +230,9 @@ def mesh_spec(
 
 
 def spec_for(case) -> MeshSpec:
-    """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its Re, its
-    body, domain and sponge."""
-    return mesh_spec(case.body, case.preset, case.flow.reynolds, case.domain, case.sponge)
+    """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its
+    ``fitted_reynolds`` (its ``mesh_reynolds``, or its flow's Re), its body, domain and sponge."""
+    return mesh_spec(case.body, case.preset, case.fitted_reynolds, case.domain, case.sponge)
 
 
 def _generate(spec: MeshSpec):

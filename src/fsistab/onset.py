@@ -173,9 +173,10 @@ def _check_guess(parameter: str, guess: float) -> None:
 
 
 def fitted_case(case, parameter: str, guess: float):
-    """The case whose mesh serves every iterate: for the critical Re the mesh is fitted to the
-    guess (the preset's wall size follows ``Re^-1/2``, and the onset lies near the guess; the case's
-    own Re is the unknown, not a flow to resolve), for the critical α0 to the case's Re."""
+    """The case whose mesh serves every iterate: its ``mesh_reynolds`` when given; else for the
+    critical Re the mesh is fitted to the guess (the preset's wall size follows ``Re^-1/2``, and the
+    onset lies near the guess; the case's own Re is the unknown, not a flow to resolve), for the
+    critical α0 to the case's Re."""
     from dataclasses import replace
 
     if check_parameter(parameter) == "reynolds":

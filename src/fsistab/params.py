@@ -294,15 +294,22 @@ class Case:
     """One body in one steady flow on one mesh preset: what a steady state (and everything
     linearised about it) depends on. ``domain`` None is the preset's default (:func:`default_domain`);
     ``sponge`` ``"preset"`` is the preset's outlet layer (:func:`default_sponge`), None none: it
-    changes the linear operators only, not the mesh or the steady state."""
+    changes the linear operators only, not the mesh or the steady state. ``mesh_reynolds`` is the
+    Reynolds number the preset's sizes are fitted to (:func:`fsistab.mesh.preset_sizes`), None the
+    flow's own: held fixed, one mesh serves flows at several Re, so that a study in Re is not
+    crossed by changes of mesh (docs/how-to/studies.md, "One mesh for a range of Re")."""
 
     body: Body
     flow: Flow
     preset: str = "medium"
     domain: Domain | None = None
     sponge: Sponge | None | Literal["preset"] = "preset"
+    mesh_reynolds: float | None = None
 
     def __post_init__(self):
+        if self.mesh_reynolds is not None:
+            value = _bounded("mesh Reynolds number (--mesh-reynolds)", self.mesh_reynolds, MAX_REYNOLDS)
+            object.__setattr__(self, "mesh_reynolds", value)
         if not (self.sponge is None or self.sponge == "preset" or isinstance(self.sponge, Sponge)):
             raise InputError(f"sponge must be a Sponge, None or 'preset', got {self.sponge!r}")
         if self.preset not in MESH_PRESETS:
@@ -326,6 +333,7 @@ class Case:
         trailing_edge: str = "closed",
         body_file: str | None = None,
         reference_length: float | None = None,
+        mesh_reynolds: float | None = None,
     ) -> Case:
         """From the command-line options (:func:`fsistab.bodies.make_body`). Every shape option is
         checked for every body: a value that makes no sense is refused even where it is not used."""
@@ -336,6 +344,7 @@ class Case:
             preset=preset,
             domain=Domain(*domain) if domain is not None else None,
             sponge=parse_sponge(sponge),
+            mesh_reynolds=mesh_reynolds,
         )
 
     @property
@@ -343,9 +352,19 @@ class Case:
         return self.body.kind
 
     @property
+    def fitted_reynolds(self) -> float:
+        """The Reynolds number the mesh is fitted to: ``mesh_reynolds``, or the flow's."""
+        return self.flow.reynolds if self.mesh_reynolds is None else self.mesh_reynolds
+
+    @property
     def tag(self) -> str:
-        """``plate_Re2900_a0``: the stem of the files a command writes for this case."""
-        return f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
+        """``plate_Re2900_a0``: the stem of the files a command writes for this case, with
+        ``_meshRe2900`` when the mesh is fitted to another Re than the flow's (another mesh; the
+        same Re is the same mesh, whose files keep their names)."""
+        tag = f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
+        if self.fitted_reynolds != self.flow.reynolds:
+            tag += f"_meshRe{self.fitted_reynolds:g}"
+        return tag
 
     def require_plate(self, what: str) -> None:
         if "pitch" not in self.body.allowed_dofs:

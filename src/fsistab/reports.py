@@ -29,13 +29,23 @@ def _plural(count: int, noun: str, plural: str | None = None) -> str:
     return f"{count} {noun if count == 1 else plural or noun + 's'}"
 
 
+def _held_mesh(attrs) -> str:
+    """``, mesh fitted to Re = 2900`` when the mesh is fitted to another Re than the flow's
+    (``--mesh-reynolds``; a study's points each have their own Re), else nothing."""
+    held = attrs.get("mesh_reynolds")
+    if held is None or held == attrs.get("reynolds"):
+        return ""
+    return f", mesh fitted to Re = {held:g}"
+
+
 def mesh(ds: xr.Dataset, p: dict) -> list:
     rows = [
         (name, f"{p[name]:.4g}" if isinstance(p[name], float) else str(p[name]))
         for name in ("triangles", "vertices", "ndof", "h_min", "h_max")
     ]
     a = ds.attrs
-    title = f"mesh: {a['body']}, preset {a['preset']}, fitted to Re = {a['reynolds']:g}"
+    fitted = a.get("mesh_reynolds", a["reynolds"])
+    title = f"mesh: {a['body']}, preset {a['preset']}, fitted to Re = {fitted:g}"
     return [table(title, ("quantity", "value"), rows), f"figure: {p['figure']}"]
 
 
@@ -134,6 +144,7 @@ def critical(ds: xr.Dataset, p: dict) -> list:
     lo, hi = a["velocity_range"]
     title = (
         f"thresholds: {a['body']}, Re = {a['reynolds']:g}, m = {a['mass_ratio']:g}, U* in [{lo:g}, {hi:g}]"
+        + _held_mesh(a)
     )
     columns = ("kind", "boundary", "U*_c", "ω_c", "ω_c U*_c")
     lines = [table(title, columns, rows)]
@@ -221,7 +232,8 @@ def flow_neutral(ds: xr.Dataset, p: dict, out: Path) -> list:
         rows.append((f"{kind} ({side})", str(len(values)), f"{values.min():.4g}–{values.max():.4g}"))
         rows[-1] += (f"{u.min():.4g}–{u.max():.4g}", turning, stop)
     columns = ("curve", "points", f"{parameter} range", "U* range", "turning points", "stop")
-    lines = [table(f"neutral curves in ({parameter}, U*): plate, m = {mass:g}", columns, rows)]
+    title = f"neutral curves in ({parameter}, U*): plate, m = {mass:g}" + _held_mesh(ds.attrs)
+    lines = [table(title, columns, rows)]
     lines.append(f"{p['factorisations']} factorisations; curves saved in {out}; figure {p['figure']}")
     return lines
 
@@ -348,7 +360,8 @@ def study(ds: xr.Dataset, p: dict) -> list:
         columns.append("leading mode σ")
     if "threshold_class" in ds:
         columns.append("thresholds (all mass ratios)")
-    lines = [table(f"study: {ds.attrs['body']}, mesh {ds.attrs['preset']}", columns, rows)]
+    title = f"study: {ds.attrs['body']}, mesh {ds.attrs['preset']}" + _held_mesh(ds.attrs)
+    lines = [table(title, columns, rows)]
     for failure in p["failed"]:
         lines.append(f"FAILED Re {failure['reynolds']:g}, alpha0 {failure['alpha0']:g}: {failure['error']}")
     lines.append(
@@ -368,6 +381,7 @@ def sensitivity(ds: xr.Dataset, p: dict) -> list:
     a = ds.attrs
     title = (
         f"dU*_c/dp: {a['body']}, Re = {a['reynolds']:g}, α0 = {a['alpha0_deg']:g}°, m = {a['mass_ratio']:g}"
+        + _held_mesh(a)
     )
     lines = [table(title, ("kind", "U*_c", *names), rows)]
     for target, best in p["best_control"].items():

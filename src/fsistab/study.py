@@ -79,7 +79,8 @@ Steady states along Re and α0 under parallel execution: every worker shares the
 workers computing the same entry write the same content). A point first looks for its own cached
 steady state; otherwise it continues from the nearest point of the study on the same mesh whose
 steady state is already in the cache (distance ``|Δ log Re| + |Δα0|/10°``: the mesh is fitted to
-Re, so along α0 at fixed Re the neighbours always share it); otherwise it starts from rest
+Re, so along α0 at fixed Re the neighbours always share it, and with the case's ``mesh_reynolds``
+every point shares one mesh); otherwise it starts from rest
 (:func:`fsistab.steady.solve_steady`'s own continuation). The points are submitted in order of
 increasing Re and ``|α0|``, so that with N workers the first N start from rest and later ones
 usually find a finished neighbour. Which neighbour was used depends on timing; the steady state
@@ -577,6 +578,7 @@ def run_point(
         reynolds=case.flow.reynolds,
         alpha0_deg=case.flow.alpha0_deg,
         preset=case.preset,
+        mesh_reynolds=case.fitted_reynolds,
         **spec.linear_identity(),
         steady_start=start,
         ndof=fluid.n_fluid,
@@ -910,7 +912,10 @@ def run_study(
         seconds=time.perf_counter() - t0,
         execution="in-process" if client is None else f"dask.distributed ({_workers(client)} workers)",
     )
-    key = _short_key({"case": _case_identity(base_case), "grid": [settings.reynolds, settings.alpha0]})
+    grid = {"case": _case_identity(base_case), "grid": [settings.reynolds, settings.alpha0]}
+    if base_case.mesh_reynolds is not None:  # one held mesh: another file than the fitted meshes'
+        grid["mesh_reynolds"] = base_case.mesh_reynolds
+    key = _short_key(grid)
     key += _short_key({"settings": settings.point_identity()})[:4]
     path = write_dataset(ds, out / f"study_{base_case.kind}_{base_case.preset}_{key}.nc")
     return ds.assign_attrs(data=str(path))
@@ -1008,6 +1013,8 @@ def assemble(base_case: Case, settings: StudySettings, outcomes: dict) -> xr.Dat
             "body": base_case.kind,
             "preset": base_case.preset,
             "settings": json.dumps(settings.point_identity(), sort_keys=True),
+            # the Re of the one mesh of every point; without it, each point's mesh fits its own Re
+            **({} if base_case.mesh_reynolds is None else {"mesh_reynolds": base_case.mesh_reynolds}),
             "classes": json.dumps(CLASSES),
             "conventions": (
                 "alpha0 in degrees, nose-up +; U* and m in the body's conventions (docs/model.md §2, §10); "

@@ -110,6 +110,7 @@ def mesh_summary(case: Case, cache_dir: Path, progress: Progress = None) -> Mesh
         "body": case.kind,
         "reynolds": case.flow.reynolds,
         "preset": case.preset,
+        "mesh_reynolds": case.fitted_reynolds,
         "mesh_key": spec.key(),
     }
     return MeshResult(xr.Dataset(attrs=attrs), mesh)
@@ -145,6 +146,7 @@ def steady_flow(case: Case, cache_dir: Path, progress: Progress = None) -> Stead
             "body": case.kind,
             "reynolds": result.flow.reynolds,
             "alpha0_deg": result.flow.alpha0_deg,
+            "mesh_reynolds": case.fitted_reynolds,
             "lift_coefficient": coefficients.lift,
             "moment_coefficient": coefficients.moment,
             "drag_coefficient": coefficients.drag,
@@ -201,6 +203,7 @@ def spectrum(
         netcdf=str(data_path),
         dofs=",".join(solid.dofs) or "none",
         unstable=int((ds.growth_rate.values > 0).sum()),
+        mesh_reynolds=case.fitted_reynolds,
     )
     return SpectrumResult(ds, steady, system, pairs)
 
@@ -210,7 +213,8 @@ def static_slopes_study(
     cases: list[Case], cache_dir: Path, out: Path, progress: Progress = None
 ) -> xr.Dataset:
     """Static slopes ``dC_L/dα``, ``d(-C_M)/dα`` (per radian, α = -θ, about mid-chord, docs/model.md §9)
-    of the plate at each case's Re (same α0 and preset), saved as ``slopes_plate_a{α0}_{preset}.nc``."""
+    of the plate at each case's Re (same α0, preset and mesh Re), saved as
+    ``slopes_plate_a{α0}_{preset}.nc`` (``_meshRe{Re}`` added when the cases share a held mesh)."""
     from fsistab.slopes import THIN_AIRFOIL_LIFT_SLOPE, THIN_AIRFOIL_MOMENT_SLOPE, static_slopes
     from fsistab.store import write_dataset
 
@@ -236,8 +240,11 @@ def static_slopes_study(
             "thin_airfoil_moment_slope": THIN_AIRFOIL_MOMENT_SLOPE,
         },
     )
-    name = f"slopes_plate_a{first.flow.alpha0_deg:g}_{first.preset}.nc"
-    return ds.assign_attrs(netcdf=str(write_dataset(ds, Path(out) / name)))
+    name = f"slopes_plate_a{first.flow.alpha0_deg:g}_{first.preset}"
+    if first.mesh_reynolds is not None:  # one mesh for every Re
+        ds.attrs["mesh_reynolds"] = first.mesh_reynolds
+        name += f"_meshRe{first.mesh_reynolds:g}"
+    return ds.assign_attrs(netcdf=str(write_dataset(ds, Path(out) / f"{name}.nc")))
 
 
 # --- thresholds along U* ---------------------------------------------------------------------------
@@ -302,6 +309,7 @@ def critical_points(
             "reynolds": case.flow.reynolds,
             "alpha0_deg": case.flow.alpha0_deg,
             "preset": case.preset,
+            "mesh_reynolds": case.fitted_reynolds,
             "mass_ratio": sweep.mass_ratio,
             "velocity_range": list(sweep.velocity_range),
             "points": sweep.points,
@@ -453,6 +461,7 @@ def stability_map(
         map_attrs["interpolated_frequencies"] = tmap.interpolated
     ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
     ds.attrs["factorisations_this_run"] = counter.count
+    ds.attrs["mesh_reynolds"] = case.fitted_reynolds
     # over every run that built the map's samples and models (a resumed map counts them all)
     earlier = tmap.factorisations_total - tmap.factorisations if tmap is not None else 0
     ds.attrs["factorisations_total"] = earlier + counter.count
@@ -585,7 +594,8 @@ def flow_neutral_curves(
                     counter=counter,
                 )
                 halves.append(record_flow_curve(table, curve))
-    return stack_flow_curves(halves, settings.parameter, {**attrs, "factorisations": counter.count})
+    final = {**attrs, "factorisations": counter.count, "mesh_reynolds": case.fitted_reynolds}
+    return stack_flow_curves(halves, settings.parameter, final)
 
 
 # --- Theodorsen typical section --------------------------------------------------------------------
@@ -721,7 +731,7 @@ def theodorsen_comparison(
     ds["flutter_frequency_ratio"] = ds.reduced_velocity * ds.frequency  # ω_F/ω_θ
     ds.attrs.update(_slope_attrs(section))
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
-    tag = f"plate_Re{case.flow.reynolds:g}_a{case.flow.alpha0_deg:g}"
+    tag = case.tag
     viscous, note = viscous_map_curves(cache_dir, tag, section)
     ds.attrs["viscous_comparison"] = note
     if viscous:
@@ -783,7 +793,7 @@ def transfer_function(
     samples_path = Path(cache_dir) / "transfer" / f"{_mesh_spec(case).linear_key()}_{case.tag}.nc"
     ds = viscous_theodorsen_dataset(fluid, omega, progress=say, samples_path=samples_path)
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
-    ds.attrs.update({"body": case.kind, "preset": case.preset})
+    ds.attrs.update({"body": case.kind, "preset": case.preset, "mesh_reynolds": case.fitted_reynolds})
     path = write_dataset(ds, Path(out) / f"transfer_{case.tag}_{case.preset}.nc")
     return ds.assign_attrs(netcdf=str(path))
 
@@ -818,7 +828,8 @@ def fixed_body_onset(
     guess, shift = check_onset(case.kind, parameter, guess, shift)
     fitted = fitted_case(case, parameter, guess)
     spec = _mesh_spec(fitted)
-    say(f"onset in {parameter}: fixed {case.kind}, mesh {case.preset} fitted to Re {fitted.flow.reynolds:g}")
+    fit = fitted.fitted_reynolds
+    say(f"onset in {parameter}: fixed {case.kind}, mesh {case.preset} fitted to Re {fit:g}")
     result = critical_onset(spec, case.flow, parameter, guess, shift, cache_dir=cache_dir, progress=say)
     flow = case.flow
     fixed = {"reynolds": flow.reynolds} if parameter == "alpha0" else {"alpha0_deg": flow.alpha0_deg}
@@ -831,7 +842,8 @@ def fixed_body_onset(
             "shift_real": shift.real,
             "shift_imag": shift.imag,
             "preset": case.preset,
-            "mesh_fitted_reynolds": fitted.flow.reynolds,
+            "mesh_fitted_reynolds": fitted.fitted_reynolds,
+            "mesh_reynolds": fitted.fitted_reynolds,
             "mesh": json_attr(spec.describe()),
             "mesh_key": spec.key(),
             "ndof": result.iterates[-1].unknowns,
@@ -839,6 +851,8 @@ def fixed_body_onset(
         },
     )
     where = f"a{case.flow.alpha0_deg:g}" if parameter == "reynolds" else f"Re{case.flow.reynolds:g}"
+    if case.mesh_reynolds is not None:  # another mesh than the one fitted to the guess or --Re
+        where += f"_meshRe{case.mesh_reynolds:g}"
     path = write_dataset(ds, Path(out) / f"onset_{case.kind}_{parameter}_{where}_{case.preset}.nc")
     return ds.assign_attrs(data=str(path))
 
@@ -928,6 +942,7 @@ def sensitivity(
         "reynolds": case.flow.reynolds,
         "alpha0_deg": case.flow.alpha0_deg,
         "preset": case.preset,
+        "mesh_reynolds": case.fitted_reynolds,
         "mass_ratio": sweep.mass_ratio,
         "velocity_range": list(sweep.velocity_range),
         "points": sweep.points,
@@ -936,8 +951,7 @@ def sensitivity(
     }
     ds = adjoint.sensitivity_dataset(thresholds, results, adjoint.PARAMETERS, attrs)
     ds = _body_derivatives(ds, case, scale)
-    flow, preset = case.flow, case.preset
-    stem = f"sensitivity_{case.kind}_Re{flow.reynolds:g}_a{flow.alpha0_deg:g}_m{sweep.mass_ratio:g}_{preset}"
+    stem = f"sensitivity_{case.tag}_m{sweep.mass_ratio:g}_{case.preset}"
     maps_path = ""
     if maps:
         say("writing the maps (NetCDF)")
