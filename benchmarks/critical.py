@@ -11,7 +11,11 @@ Prints the fluid operators' assembly time (wall, CPU; once per command, not in t
 times), then per method: unknowns, wall and CPU time, factorisations, samples, peak memory of the
 process, the thresholds (to 10 digits); with both, their largest relative difference. The steady
 state comes from the cache (``FSISTAB_CACHE`` or ``--cache``) or is computed first (not timed).
-Usage: python benchmarks/critical.py [coarse|medium|fine] [--method both|transfer|tracking]
+BLAS runs on one thread unless ``OMP_NUM_THREADS``, ``OPENBLAS_NUM_THREADS`` or ``MKL_NUM_THREADS``
+is set, as in the ``fsistab`` command (:func:`fsistab.progress.blas_threads`).
+Usage: python benchmarks/critical.py [coarse|quick|medium|fine] [--method both|transfer|tracking]
+[--size NAME=VALUE ...] (a preset's mesh sizes overridden, e.g. ``--size far=4 --size
+far_wake=0.1,20,1``: :class:`fsistab.mesh.MeshSizes`)
 """
 
 import argparse
@@ -27,6 +31,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
+from fsistab.progress import blas_threads
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
 
@@ -35,6 +40,14 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def _size(text: str) -> tuple[str, float | tuple[float, ...]]:
+    """``NAME=VALUE`` or ``NAME=V1,V2,...`` as a mesh-size override."""
+    name, _, value = text.partition("=")
+    values = tuple(float(v) for v in value.split(","))
+    return name.strip(), values[0] if len(values) == 1 else values
+
+
+@blas_threads()  # as the command line: BLAS on one thread beside the two factorisation threads
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("preset", nargs="?", default="medium")
@@ -43,9 +56,10 @@ def main() -> None:
     parser.add_argument("--reynolds", type=float, default=2900.0)
     parser.add_argument("--threads", type=int, default=2, help="samples factorised at once (transfer)")
     parser.add_argument("--cache", default=None)
+    parser.add_argument("--size", action="append", type=_size, default=[], help="NAME=VALUE[,VALUE...]")
     args = parser.parse_args()
     SetNumThreads(1)
-    spec = mesh_spec(Plate(), args.preset, args.reynolds)
+    spec = mesh_spec(Plate(), args.preset, args.reynolds, **dict(args.size))
     steady = solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
     wall, cpu = time.perf_counter(), time.process_time()
     fluid = fluid_operators(steady)
