@@ -110,7 +110,7 @@ CASE_OPTIONS = {
     "body": _option(str, "--body", "plate (chord-based units) or cylinder (diameter-based)", "plate"),
     "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
     "alpha0": _option(float, "--alpha0", "steady angle of attack, degrees, nose-up +", 0.0),
-    "preset": _option(str, "--mesh", "mesh preset: coarse, quick (plate), medium or fine", "medium"),
+    "preset": _option(str, "--mesh", "mesh preset: coarse, quick or fast (plate), medium or fine", "medium"),
     "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
     "corner_radius": _option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
     "domain": _option(tuple[float, float, float] | None, "--domain",
