@@ -14,9 +14,9 @@ factorisations, its solves and the METIS ordering; with both, their largest rela
 The steady state comes from the cache (``FSISTAB_CACHE`` or ``--cache``) or is computed first (not timed).
 BLAS runs on one thread unless ``OMP_NUM_THREADS``, ``OPENBLAS_NUM_THREADS`` or ``MKL_NUM_THREADS``
 is set, as in the ``fsistab`` command (:func:`fsistab.progress.blas_threads`).
-Usage: python benchmarks/critical.py [coarse|quick|medium|fine] [--method both|transfer|tracking]
-[--size NAME=VALUE ...] (a preset's mesh sizes overridden, e.g. ``--size far=4 --size
-far_wake=0.1,20,1``: :class:`fsistab.mesh.MeshSizes`)
+Usage: python benchmarks/critical.py [coarse|quick|fast|medium|fine] [--method both|transfer|tracking]
+[--mass-ratio M] [--velocity-range LOW HIGH] [--size NAME=VALUE ...] (a preset's mesh sizes
+overridden, e.g. ``--size far=4 --size far_wake=0.1,20,1``: :class:`fsistab.mesh.MeshSizes`)
 """
 
 import argparse
@@ -92,6 +92,7 @@ def main() -> None:
     parser.add_argument("--method", choices=("both", "transfer", "tracking"), default="transfer")
     parser.add_argument("--mass-ratio", type=float, default=1000.0)
     parser.add_argument("--reynolds", type=float, default=2900.0)
+    parser.add_argument("--velocity-range", type=float, nargs=2, default=[2.0, 10.0], metavar=("LOW", "HIGH"))
     parser.add_argument("--threads", type=int, default=2, help="samples factorised at once (transfer)")
     parser.add_argument("--cache", default=None)
     parser.add_argument("--size", action="append", type=_size, default=[], help="NAME=VALUE[,VALUE...]")
@@ -104,7 +105,7 @@ def main() -> None:
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     breakdown = _Breakdown()  # from here on: the methods' factorisations only
     solid = Solid(mass_ratio=args.mass_ratio, reduced_velocity=2.0)
-    velocities = np.geomspace(2.0, 10.0, 24)
+    velocities = np.geomspace(*args.velocity_range, 24)
     print(f"preset {args.preset}, Re {args.reynolds:g}, m {args.mass_ratio:g}: {fluid.n_fluid + 4} unknowns")
     print(f"fluid operators (assembly, once per command): wall {wall:.1f} s, CPU {cpu:.1f} s")
     found = {}
@@ -114,7 +115,9 @@ def main() -> None:
         if method == "transfer":
             from fsistab.frequency_sweep import sweep_thresholds
 
-            result = sweep_thresholds(fluid, solid, (2.0, 10.0), counter=counter, threads=args.threads)
+            result = sweep_thresholds(
+                fluid, solid, tuple(args.velocity_range), counter=counter, threads=args.threads
+            )
             thresholds = [(t.kind, t.boundary, t.reduced_velocity, t.frequency) for t in result.thresholds]
             extra = f", {len(result.frequencies)} samples, {len(result.unresolved)} unresolved"
         else:
