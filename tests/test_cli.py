@@ -410,7 +410,7 @@ def test_neutral_table_from_a_map(tmp_path, monkeypatch):
     )
     attrs = {"reynolds": 2900.0, "r_theta": 0.289, "wake_frequency": math.nan, "method": "continuation"}
 
-    def fake_map(case, template, settings, cache, out, progress):
+    def fake_map(case, template, settings, cache, out, progress, client=None):
         ds = workflows._map_details(neutral_map_dataset(result, attrs), result, None, MapSettings())
         ds = ds.assign_attrs(divergence_coefficient=workflows.divergence_coefficient(ds))
         return ds.assign_attrs(factorisations_this_run=0, reduced_models=0, data=str(out / "map.nc"))

@@ -302,6 +302,24 @@ def test_converged_presets_take_their_own_domain_and_graded_far_field():
         assert mesh_spec(Cylinder(), preset, 40).domain == Domain(*Cylinder.domain_presets[None])
 
 
+def test_the_fast_preset_is_medium_with_a_graded_wake_box_and_coarser_outer_elements():
+    """`fast` (docs/how-to/meshes.md, docs/performance.md "Fewer unknowns"): `medium`'s sizes at every
+    Re but its wake box graded, 0.05-chord elements to 5 chords and 0.1-chord ones from there to
+    20 (a far wake continuing the box), and 4-chord elements outside the middle box and band, on
+    `medium`'s domain with its outlet sponge and far-field layer; its cache keys differ from
+    `medium`'s. The cylinder has no fast preset."""
+    from dataclasses import replace
+
+    for reynolds in (10, 2900, 10000):
+        fast, medium = preset_sizes(Plate(), "fast", reynolds), preset_sizes(Plate(), "medium", reynolds)
+        assert fast == replace(medium, far=4.0, wake_length=5.0, far_wake=(0.1, 20.0, 1.0))
+    spec, medium = mesh_spec(Plate(), "fast", 2900), mesh_spec(Plate(), "medium", 2900)
+    assert spec.domain == medium.domain and spec.sponge == medium.sponge
+    assert spec.linear_key() != medium.linear_key()
+    with pytest.raises(InputError, match="plate only"):
+        mesh_spec(Cylinder(), "fast", 40)
+
+
 def test_the_quick_preset_is_medium_with_coarser_wake_elements():
     """`quick` (docs/how-to/meshes.md): `medium`'s sizes at every Re but 0.1-chord elements in the
     wake box instead of 0.05, on `medium`'s domain with its middle box, band, outlet sponge and

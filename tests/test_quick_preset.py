@@ -22,6 +22,10 @@ from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
 from fsistab.slopes import static_slopes
 
+# validation of a 270 k-unknown preset (a steady state from rest alone takes minutes): run with
+# `pytest -m slow`; the default suite stays on coarse meshes (README)
+pytestmark = pytest.mark.slow
+
 REYNOLDS = 2900.0
 MASS_RATIO = 1000.0
 

@@ -211,3 +211,17 @@ def test_transfer_command_json(tmp_path, monkeypatch):
     bad = CliRunner().invoke(app, [*args, "--reduced-frequency-range", "0.5", "0.1"])
     assert bad.exit_code == 2
     assert "reduced-frequency range" in bad.stderr
+
+
+def test_a_diverged_newton_on_det_t_is_a_convergence_error_not_an_overflow(monkeypatch, plate_operators):
+    """A Newton iteration on det T that diverged may end at log U* = 1e4 (U* not a float): the
+    failure is reported as the ConvergenceError the sweep handles (an unresolved crossing), not an
+    OverflowError from reading the point."""
+    import fsistab.transfer as transfer
+    from fsistab.continuation import NewtonResult
+    from fsistab.errors import ConvergenceError
+
+    diverged = NewtonResult(np.array([0.2, 1e4, math.log(10.0)]), False, 12, (), None, "step grew")
+    monkeypatch.setattr(transfer, "newton", lambda *args, **kwargs: diverged)
+    with pytest.raises(ConvergenceError, match="did not converge"):
+        transfer.transfer_flutter_point(plate_operators, Solid(10.0, 2.0), 0.2)

@@ -39,6 +39,9 @@ PresetRow = tuple[float, float, float, float, float, float, float, float, float]
 # A graded far field: (middle size, middle box (upstream, downstream, lateral), middle band
 # (downstream end, half-width)) (fsistab.mesh.MeshSizes).
 MiddleRow = tuple[float, tuple[float, float, float], tuple[float, float]]
+# A wake box continued downstream with larger elements: (size, downstream end, half-width)
+# (fsistab.mesh.MeshSizes.far_wake).
+FarWakeRow = tuple[float, float, float]
 Window = tuple[tuple[float, float], tuple[float, float]]
 
 
@@ -115,22 +118,28 @@ class Plate:
     # What the presets mean for the plate (docs/how-to/meshes.md, docs/discretisation.md): `quick`
     # is `medium` with 0.1-chord elements in its wake box; `medium` and `fine` reach [-80, 160] ×
     # [-80, 80] with 1-chord elements to 40 chords and across the wake to the outlet, 2-chord ones
-    # beyond, and absorbing layers at the outlet and over the outer elements.
+    # beyond, and absorbing layers at the outlet and over the outer elements. `fast` is `medium`
+    # with its wake box graded (0.05-chord elements to 5 chords, 0.1-chord ones to 20) and 4-chord
+    # outer elements (docs/performance.md, "Fewer unknowns").
     mesh_presets: ClassVar[dict[str, PresetRow]] = {
         "coarse": (0.03, 1.0, 0.008, 0.05, 0.15, 4.0, 0.25, 4.0, 0.6),
         "quick": (0.015, 0.5, 0.003, 0.025, 0.1, 2.0, 0.25, 20.0, 1.0),
+        "fast": (0.015, 0.5, 0.003, 0.025, 0.05, 4.0, 0.25, 5.0, 1.0),
         "medium": (0.015, 0.5, 0.003, 0.025, 0.05, 2.0, 0.25, 20.0, 1.0),
         "fine": (0.008, 0.25, 0.0015, 0.012, 0.04, 2.0, 0.25, 20.0, 1.0),
     }
     middle_presets: ClassVar[dict[str, MiddleRow]] = {
         "quick": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
+        "fast": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
         "medium": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
         "fine": (1.0, (40.0, 80.0, 40.0), (160.0, 20.0)),
     }
+    far_wake_presets: ClassVar[dict[str, FarWakeRow]] = {"fast": (0.1, 20.0, 1.0)}
     # (upstream, downstream, lateral) of each preset's domain; None: every other preset's
     domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = {
         None: (20.0, 40.0, 20.0),
         "quick": (80.0, 160.0, 80.0),
+        "fast": (80.0, 160.0, 80.0),
         "medium": (80.0, 160.0, 80.0),
         "fine": (80.0, 160.0, 80.0),
     }
@@ -138,6 +147,7 @@ class Plate:
     # whose spurious modes come from its far-field elements, which no outlet layer removes
     sponge_presets: ClassVar[dict[str, dict[str, float]]] = {
         "quick": {"far_sigma": 0.2, "far_ramp": 10.0},
+        "fast": {"far_sigma": 0.2, "far_ramp": 10.0},
         "medium": {"far_sigma": 0.2, "far_ramp": 10.0},
         "fine": {"far_sigma": 0.2, "far_ramp": 10.0},
     }
@@ -291,6 +301,7 @@ class Cylinder:
         "fine": (0.02, 0.15, 0.02, 0.04, 0.1, 2.0, 1.0, 25.0, 4.0),
     }
     middle_presets: ClassVar[dict[str, MiddleRow]] = {}
+    far_wake_presets: ClassVar[dict[str, FarWakeRow]] = {}
     # large enough that blockage shifts the wake-mode frequency by a tenth of what a domain half as
     # large does (docs/validation.md, "Fixed cylinder: leading global mode")
     domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = {None: (50.0, 100.0, 50.0)}
@@ -399,6 +410,7 @@ class _Outline:
     middle_presets: ClassVar[dict[str, MiddleRow]] = {
         k: v for k, v in Plate.middle_presets.items() if k != "fine"
     }
+    far_wake_presets: ClassVar[dict[str, FarWakeRow]] = {}
     domain_presets: ClassVar[dict[str | None, tuple[float, float, float]]] = Plate.domain_presets
     sponge_presets: ClassVar[dict[str, dict[str, float]]] = Plate.sponge_presets
 

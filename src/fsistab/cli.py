@@ -111,7 +111,7 @@ CASE_OPTIONS = {
                     "cylinder (diameter-based)", "plate"),
     "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
     "alpha0": _option(float, "--alpha0", "steady angle of attack, degrees, nose-up +", 0.0),
-    "preset": _option(str, "--mesh", "mesh preset: coarse, quick (plate), medium or fine", "medium"),
+    "preset": _option(str, "--mesh", "mesh preset: coarse, quick or fast (plate), medium or fine", "medium"),
     "mesh_reynolds": _option(float | None, "--mesh-reynolds", "fit the mesh preset to this Re instead of "
                              "the flow's (one mesh for a range of Re: study, flow-neutral, onset)"),
     "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),

@@ -28,7 +28,7 @@ from fsistab.errors import CacheError, InputError
 from fsistab.geometry import fluid_half_geometry, wall_projection
 from fsistab.params import Domain, Sponge, _positive, default_domain, default_sponge, preset_message
 
-PRESETS = ("coarse", "quick", "medium", "fine")
+PRESETS = ("coarse", "quick", "fast", "medium", "fine")
 
 
 @dataclass(frozen=True)
@@ -143,6 +143,7 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
         wall, corner, near = wall * factor**2, corner * factor**2, near * factor
     corner = body.corner_size(corner, wall)
     middle, middle_box, middle_band = body.middle_presets.get(preset, (None, None, None))
+    far_wake = body.far_wake_presets.get(preset)
     return MeshSizes(
         wall=wall,
         corner=min(corner, wall),
@@ -155,6 +156,7 @@ def preset_sizes(body: Body, preset: str, reynolds: float) -> MeshSizes:
         middle=middle,
         middle_box=middle_box,
         middle_band=middle_band,
+        far_wake=far_wake,
     )
 
 

@@ -219,7 +219,8 @@ def as_dict(obj) -> dict:
 
 # --- what a command computes: validated before any work --------------------------------------------
 
-MESH_PRESETS = ("coarse", "quick", "medium", "fine")  # the presets of fsistab.mesh (checked there too)
+# the presets of fsistab.mesh (checked there too)
+MESH_PRESETS = ("coarse", "quick", "fast", "medium", "fine")
 
 
 def preset_message(body: Body, preset: str) -> str:

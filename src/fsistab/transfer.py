@@ -333,7 +333,6 @@ def transfer_flutter_point(
     for y in result.path:
         t = determinant.matrix(y)[0]
         residuals.append(float(np.linalg.svd(t, compute_uv=False)[-1] / np.linalg.norm(t, 2)))
-    omega, velocity = float(result.point[0]), math.exp(float(result.point[1]))
     if not result.converged:
         raise ConvergenceError(
             f"Newton on det T(iω; U*) did not converge from ω = {frequency:.4g}, "
@@ -341,6 +340,8 @@ def transfer_flutter_point(
             f"last residuals {', '.join(f'{r:.1e}' for r in residuals[-3:])}); start closer to the crossing "
             "found by an eigenvalue sweep"
         )
+    # after the test: a diverged iteration's last point may have no finite U* (exp overflows)
+    omega, velocity = float(result.point[0]), math.exp(float(result.point[1]))
     if abs(omega) < 1e-6:
         raise ConvergenceError(
             f"Newton on det T(iω; U*) from ω = {frequency:.4g} converged to the static root "
