@@ -631,7 +631,7 @@ def test_cylinder_viv_threshold_derivatives_match_finite_differences(cylinder_50
     viv = {t.boundary: t for t in found if t.kind == "viv"}
     assert sorted(viv) == ["onset", "restabilisation"]
     assert viv["onset"].reduced_velocity < viv["restabilisation"].reduced_velocity
-    point = viv["restabilisation"].point
+    point = viv["restabilisation"]
     at_point = replace(solid, reduced_velocity=point.reduced_velocity)
     result = threshold_sensitivity(fluid, at_point, point, ("mass_ratio", "zeta_h"))
     assert abs(result.frequency_derivative["mass_ratio"]) < 1e-8

@@ -25,6 +25,30 @@ import typer
 import typer.core
 
 from fsistab import params
+from fsistab.cli_options import (
+    CASE_OPTIONS,
+    CRITICAL_OPTIONS,
+    EXECUTION_OPTIONS,
+    EXTRA_ARGS,
+    FILES,
+    FLOW_NEUTRAL_OPTIONS,
+    MAP_OPTIONS,
+    MASS_OPTION,
+    ONSET_OPTIONS,
+    OUTPUT_OPTIONS,
+    SENSITIVITY_OPTIONS,
+    SIMULATE_OPTIONS,
+    SLOPES_CASE,
+    SOLID_OPTIONS,
+    SPECTRUM_OPTIONS,
+    SPRINGS,
+    STUDY_CASE,
+    STUDY_OPTIONS,
+    THEODORSEN_CASE,
+    THEODORSEN_OPTIONS,
+    TRANSFER_OPTIONS,
+    VELOCITY_OPTION,
+)
 from fsistab.errors import FsistabError, InputError
 from fsistab.progress import BLAS_THREADS, one_line
 
@@ -97,68 +121,6 @@ def _main(
 
 
 # --- the shared options, declared once ------------------------------------------------------------
-
-
-def _option(kind, flag: str, help_text: str, default=None) -> tuple:
-    """``(annotation, default)`` of an option ``flag`` of type ``kind`` (a group entry)."""
-    return Annotated[kind, typer.Option(flag, help=help_text)], default
-
-
-Pair = tuple[float, float]
-# fmt: off
-CASE_OPTIONS = {
-    "body": _option(str, "--body", "plate, naca0012 (any NACA four-digit section; chord-based units) or "
-                    "cylinder (diameter-based)", "plate"),
-    "reynolds": _option(float, "--Re", "Reynolds number on the body length", 2900.0),
-    "alpha0": _option(float, "--alpha0", "steady angle of attack, degrees, nose-up +", 0.0),
-    "preset": _option(str, "--mesh", "mesh preset: coarse, quick or fast (plate), medium or fine", "medium"),
-    "mesh_reynolds": _option(float | None, "--mesh-reynolds", "fit the mesh preset to this Re instead of "
-                             "the flow's (one mesh for a range of Re: study, flow-neutral, onset)"),
-    "aspect_ratio": _option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
-    "corner_radius": _option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
-    "trailing_edge": _option(str, "--trailing-edge", "NACA trailing edge: closed or open (blunt)", "closed"),
-    "body_file": _option(str | None, "--body-file", "a closed curve of points (rows x,y; a header line "
-                         "allowed) as the body, splined; scaled to unit chord or --reference-length"),
-    "reference_length": _option(float | None, "--reference-length",
-                                "length unit of --body-file, in the file's units (default: its chord)"),
-    "domain": _option(tuple[float, float, float] | None, "--domain",
-                      "upstream, downstream and lateral extents in body lengths"),
-    "sponge": _option(str, "--sponge", "outlet sponge of the linear operators: preset (the mesh preset's, "
-                      "on its own domain), none, SIGMA_MAX,ZONE (e.g. 0.2,0.25), or SIGMA_MAX,ZONE,FAR_SIGMA,"
-                      "FAR_RAMP with a far-field layer outside the middle box and band "
-                      "(e.g. 0.2,0.25,0.2,10)", "preset"),
-}
-OUTPUT_OPTIONS = {
-    "out": _option(str, "--out", "directory for figures and data", "fsistab-out"),
-    "as_json": _option(bool, "--json", "print one JSON object on stdout and nothing else", False),
-    "cache": _option(str | None, "--cache", "cache directory (default $FSISTAB_CACHE or ~/.cache/fsistab)"),
-}
-FIGURE_OPTIONS = {"figure_format": _option(str, "--format", "figure format: png, pdf or svg (vector)", "png")}
-SOLID_OPTIONS = {
-    "freq_ratio": _option(float, "--freq-ratio", "Ω = ω_h/ω_θ", 0.8),
-    "zeta_h": _option(float, "--zeta-h", "heave damping ratio", 0.0),
-    "zeta_theta": _option(float, "--zeta-theta", "pitch damping ratio", 0.05),
-    "r_theta": _option(float, "--r-theta", "radius of gyration about G", 0.289),
-}
-MASS_OPTION = {"mass_ratio": _option(float | None, "--mass-ratio",
-                                     "m (plate default 1000; cylinder, docs/model.md §10: 20)")}
-VELOCITY_OPTION = {"reduced_velocity": _option(float | None, "--reduced-velocity",
-                                               "U* (plate default 4.7; cylinder: 8)")}
-DOFS_OPTION = {"dofs": _option(str | None, "--dofs", "heave,pitch | heave | pitch | none")}
-VELOCITY_RANGE = _option(Pair, "--reduced-velocity-range", "U* range of the (initial) sweep", (2.0, 10.0))
-POINTS = _option(int, "--points", "U* values of each sweep (log-spaced)", 24)
-# fmt: on
-FILES = (OUTPUT_OPTIONS, FIGURE_OPTIONS)  # the options of a command that writes figures
-SPRINGS = (SOLID_OPTIONS, DOFS_OPTION)
-
-
-def _sweep_options(wake_help: str) -> dict:
-    """The options of a search for every threshold along U* (critical, sensitivity)."""
-    return {
-        "velocity_range": VELOCITY_RANGE,
-        "points": POINTS,
-        "wake_shift": _option(str | None, "--wake-shift", wake_help),
-    }
 
 
 class Options(SimpleNamespace):
@@ -331,18 +293,6 @@ def steady(opts):
     _finish("steady", figures.steady(result, case.tag, out), opts.as_json, reports.steady)
 
 
-# fmt: off
-SPECTRUM_OPTIONS = {
-    "shift": _option(list[str] | None, "--shift", "complex shift, repeatable"),
-    "n_eigenvalues": _option(int, "--n-eigenvalues", "eigenvalues per shift", 6),
-    "vtk": (Annotated[bool, typer.Option("--vtk/--no-vtk", help="write the modes as VTK")], True),
-    "mode_figures": _option(int, "--mode-figures",
-                            "pressure snapshots and h(t), -θ(t) of the N least stable modes", 2),
-    "phase": _option(float, "--phase", "phase (rad) of the pressure snapshots", 0.0),
-}
-# fmt: on
-
-
 @command(CASE_OPTIONS, *FILES, MASS_OPTION, VELOCITY_OPTION, *SPRINGS, SPECTRUM_OPTIONS)
 def spectrum(opts):
     """Eigenvalues of the coupled fluid–solid system nearest the given shifts (docs/model.md §7),
@@ -362,15 +312,7 @@ def spectrum(opts):
     _finish("spectrum", ds, opts.as_json, reports.spectrum)
 
 
-_OUTLINE = (
-    "trailing_edge",
-    "body_file",
-    "reference_length",
-)  # shape options of the bodies other than the plate
-_SLOPES_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", "reynolds", *_OUTLINE)}
-
-
-@command(_SLOPES_CASE, *FILES)
+@command(SLOPES_CASE, *FILES)
 def slopes(
     opts,
     reynolds: Annotated[list[float], typer.Option("--Re", help="Reynolds numbers: --Re 10 100 1000")],
@@ -392,16 +334,6 @@ def slopes(
     _finish("slopes", figures.slopes(ds, out), opts.as_json, reports.slopes)
 
 
-# fmt: off
-CRITICAL_OPTIONS = {
-    **_sweep_options("shift near the wake mode: samples near its frequency (VIV is labelled without it); "
-                     "with --method tracking, the wake mode is followed and labels VIV"),
-    "method": _option(str, "--method", "transfer (G(iω) swept in frequency; --points unused) or tracking "
-                      "(eigenvalue branches)", "transfer"),
-}
-# fmt: on
-
-
 @command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, CRITICAL_OPTIONS)
 def critical(opts):
     """Every instability threshold along U* at one mass ratio (docs/model.md §8): by default the
@@ -415,44 +347,6 @@ def critical(opts):
     with _running() as progress:
         ds = workflows.critical_points(case, solid, sweep, cache, out, progress)
     _finish("critical", figures.critical(ds), opts.as_json, reports.critical)
-
-
-# fmt: off
-# where a command's independent tasks run (fsistab.study.study_client): in this process by default
-EXECUTION_OPTIONS = {
-    "workers": _option(int | None, "--workers", "run on a new dask LocalCluster of N worker processes"),
-    "scheduler": _option(str | None, "--scheduler", "run on the dask scheduler at ADDRESS (tcp://host:8786)"),
-}
-MAP_OPTIONS = {
-    "mass_range": _option(Pair, "--mass-ratio-range", "m range", (1.0, 1e4)),
-    "start_mass": _option(float, "--start-mass-ratio", "m of the initial sweep", 1000.0),
-    "velocity_range": VELOCITY_RANGE,
-    "seed_masses": _option(list[float] | None, "--seed-mass-ratio", "further sweeps (repeatable; default "
-                           "m/10 and m/100 of the start), U* range scaled by √m"),
-    "wake_frequency": _option(float | None, "--wake-frequency", "guess of the fixed body's wake-mode ω "
-                              "(refined by Arnoldi): extra frequencies (transfer) or the VIV sweep at the "
-                              "lowest m (continuation); VIV is labelled without it"),
-    "points": POINTS,
-    "max_points": _option(int, "--max-points", "points per curve and direction", 60),
-    "method": _option(str, "--method", "transfer (G(iω) sweep, default) or continuation (sweeps + arclength)",
-                      "transfer"),
-    "frequency_range": _option(Pair | None, "--frequency-range", "transfer: ω range sampled (default 0.01 to "
-                               "max(20, 1.5 ω_wake), extended down while a curve leaves it)"),
-    "min_step": _option(float | None, "--min-step", "transfer: smallest relative step of the exact "
-                        "refinement in ω (default 1e-3; reduced models: 1e-7); below it a certified "
-                        "rational fit of the samples refines on to 1e-7 where it can"),
-    "tolerance": _option(float | None, "--tolerance", "transfer: largest error of the tangent predictions "
-                         "between two samples, in (log m, log U*) (default 3e-3; exact samples only: 3e-2)"),
-    "max_frequencies": _option(int | None, "--max-frequencies", "transfer: at most this many sampled ω "
-                               "(default 4000; exact: 400, not counting those from rational fits)"),
-    "reduced_blocks": _option(int | None, "--reduced-blocks", "transfer: Krylov blocks of the reduced fluid "
-                              "models (0: exact samples, one model at a sharp resonance such as the wake "
-                              "mode and one at ω = 0; default 60 below 100 000 fluid unknowns, 0 from "
-                              "there)"),
-    "reduced_tolerance": _option(float, "--reduced-tolerance", "transfer: certified error of the reduced "
-                                 "models' G", 1e-7),
-}
-# fmt: on
 
 
 @command(CASE_OPTIONS, *FILES, SOLID_OPTIONS, MAP_OPTIONS, EXECUTION_OPTIONS)
@@ -500,15 +394,6 @@ def neutral(opts):
     _finish("neutral", ds, opts.as_json, reports.stability_map, settings.mass_range, out)
 
 
-FLOW_NEUTRAL_OPTIONS = {
-    "parameter": _option(str, "--parameter", "reynolds or alpha0", "alpha0"),
-    "parameter_range": _option(Pair, "--range", "range of Re, or of alpha0 in degrees", (0.0, 5.0)),
-    "velocity_range": VELOCITY_RANGE,
-    "points": POINTS,
-    "max_points": _option(int, "--max-points", "points per curve and direction", 40),
-}
-
-
 @command(CASE_OPTIONS, *FILES, MASS_OPTION, SOLID_OPTIONS, FLOW_NEUTRAL_OPTIONS, name="flow-neutral")
 def flow_neutral(opts):
     """Neutral curves in the (Re, U*) or (alpha0, U*) plane at one mass ratio, by pseudo-arclength
@@ -530,30 +415,7 @@ def flow_neutral(opts):
     _finish("flow-neutral", figures.flow_neutral(ds, case, out), opts.as_json, reports.flow_neutral, out)
 
 
-# fmt: off
-THEODORSEN_OPTIONS = {
-    **SOLID_OPTIONS,
-    "r_theta": _option(float, "--r-theta", "radius of gyration about the elastic axis", 0.289),
-    "mass_ratio": _option(float, "--mass-ratio", "m = m_solid/(½ρc²)", 1000.0),
-    "mass_range": _option(Pair | None, "--mass-ratio-range",
-                          "draw the neutral curves U*(m) over this m range"),
-    "points": _option(int, "--points", "mass ratios of the neutral curves (log)", 40),
-    "velocity_range": _option(Pair, "--reduced-velocity-range", "U* range searched", (0.01, 100.0)),
-    "slopes": _option(str, "--slopes", "thin-airfoil | calibrated (viscous, at --Re) | given",
-                      "thin-airfoil"),
-    "lift_slope_alpha": _option(float | None, "--lift-slope-alpha", "dC_L/dα per radian (--slopes given)"),
-    "moment_slope_alpha": _option(float | None, "--moment-slope-alpha",
-                                  "d(-C_M)/dα about mid-chord per radian (--slopes given)"),
-    "elastic_axis": _option(float, "--elastic-axis",
-                            "a: mid-chord → elastic axis, chords, downstream +", 0.0),
-    "static_unbalance": _option(float, "--static-unbalance",
-                                "x_θ: elastic axis → centre of mass, chords, aft +", 0.0),
-}
-# fmt: on
-_THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", *_OUTLINE)}
-
-
-@command(THEODORSEN_OPTIONS, _THEODORSEN_CASE, *FILES)
+@command(THEODORSEN_OPTIONS, THEODORSEN_CASE, *FILES)
 def theodorsen(opts):
     """Analytic typical section with Theodorsen aerodynamics (docs/model.md §9): every flutter
     boundary (real roots of the 2×2 determinant) and the divergence along U* at one mass ratio, or
@@ -582,20 +444,6 @@ def theodorsen(opts):
             reports.theodorsen_map,
             settings.mass_range,
         )
-
-
-# fmt: off
-TRANSFER_OPTIONS = {
-    "k_range": _option(Pair, "--reduced-frequency-range", "k = ω L/(2U∞) range, log-spaced", (0.01, 2.0)),
-    "points": _option(int, "--points", "number of reduced frequencies", 24),
-}
-ONSET_OPTIONS = {
-    "guess": (Annotated[float, typer.Option("--guess", help="first guess of the critical value (Re, or "
-                                            "alpha0 in degrees)")], ...),
-    "parameter": _option(str, "--parameter", "reynolds or alpha0", "reynolds"),
-    "shift": _option(str | None, "--shift", "guess of the leading eigenvalue, e.g. 0.75j (cylinder default)"),
-}
-# fmt: on
 
 
 @command(CASE_OPTIONS, *FILES, TRANSFER_OPTIONS)
@@ -632,28 +480,7 @@ def onset(opts):
     _finish("onset", figures.onset(ds), opts.as_json, reports.onset, figures.onset_title(ds))
 
 
-_STUDY_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("reynolds", "alpha0")}
-_EXTRA_ARGS = {"ignore_unknown_options": True, "allow_extra_args": True}  # the lists of study_lists
-
-
-# fmt: off
-STUDY_OPTIONS = {
-    "slopes": _option(bool, "--slopes", "steady C_L, C_M, C_D, recirculation length, static slopes", False),
-    "modes": _option(bool, "--modes", "the fixed body's least stable eigenvalues", False),
-    "shift": _option(list[str] | None, "--shift",
-                     "eigenvalue guess of --modes, repeatable (cylinder default 0.75j)"),
-    "n_modes": _option(int, "--n-modes", "eigenvalues kept per point", 4),
-    "velocity_range": VELOCITY_RANGE,
-    "points": POINTS,
-    "wake_shift": _option(str | None, "--wake-shift", "shift near the wake mode: samples near its frequency, "
-                          "which the classification also tests (rule 2); VIV is recognised without it"),
-    "with_map": _option(bool, "--map", "the whole (m, U*) map at each point (plate)", False),
-    **EXECUTION_OPTIONS,
-}
-# fmt: on
-
-
-@command(_STUDY_CASE, *FILES, *SPRINGS, STUDY_OPTIONS, context_settings=_EXTRA_ARGS)
+@command(STUDY_CASE, *FILES, *SPRINGS, STUDY_OPTIONS, context_settings=EXTRA_ARGS)
 def study(opts, ctx: typer.Context):
     """A parameter study over flow points: --Re R1 R2 ... and --alpha0 A1 A2 ... (degrees; default
     0), and at each point --slopes, --modes, --thresholds M1 M2 ... (every threshold along U* at
@@ -686,11 +513,6 @@ def study(opts, ctx: typer.Context):
         raise typer.Exit(code=1)
 
 
-SENSITIVITY_OPTIONS = _sweep_options(
-    "shift near the wake mode: samples near its frequency, and map the fixed body's"
-)
-
-
 @command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, SENSITIVITY_OPTIONS)
 def sensitivity(opts):
     """Every threshold along U* with its derivatives dU*_c/dp for p in Re, α0 (per degree), m, Ω,
@@ -706,24 +528,6 @@ def sensitivity(opts):
         result = workflows.sensitivity(case, solid, sweep, cache, out, progress)
         ds = figures.sensitivity(result, progress)
     _finish("sensitivity", ds, opts.as_json, reports.sensitivity)
-
-
-# fmt: off
-SIMULATE_OPTIONS = {
-    "duration": _option(float, "--duration", "simulated time, in the body's time unit L/U", 100.0),
-    "time_step": _option(float, "--time-step", "time step of the BDF2 march, in L/U", 0.05),
-    "perturbation": _option(float, "--perturbation", "amplitude of the eigenmode added to the steady state "
-                            "(its largest entry)", 1e-3),
-    "shift": _option(str | None, "--shift", "start from the eigenmode nearest this complex shift "
-                     "(default: the body's spectrum shift)"),
-    "start": _option(str | None, "--start", "start from the last state of this simulation checkpoint "
-                     "(same mesh, flow and dofs; e.g. a saturated state at another U*) instead"),
-    "checkpoint_every": _option(int, "--checkpoint-every", "steps between checkpoints (a rerun resumes "
-                                "from the last one)", 100),
-    "snapshot_interval": _option(float | None, "--snapshot-interval", "write the velocity and pressure as "
-                                 "VTK every this much simulated time"),
-}
-# fmt: on
 
 
 @command(CASE_OPTIONS, OUTPUT_OPTIONS, MASS_OPTION, VELOCITY_OPTION, *SPRINGS, SIMULATE_OPTIONS)
