@@ -46,3 +46,17 @@ def plate_2900_alpha5(plate_coarse_spec):
 @pytest.fixture(scope="session")
 def cylinder_coarse_40():
     return solve_steady(mesh_spec(Cylinder(), "coarse", 40), Flow(40))
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A dask.distributed client on a 2-worker LocalCluster of single-threaded processes (one per
+    test module that asks for it)."""
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as c,
+    ):
+        yield c

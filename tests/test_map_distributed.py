@@ -32,18 +32,6 @@ SMALL_MAP = dict(
 )
 
 
-@pytest.fixture(scope="module")
-def client():
-    distributed = pytest.importorskip("distributed")
-    with (
-        distributed.LocalCluster(
-            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
-        ) as cluster,
-        distributed.Client(cluster) as c,
-    ):
-        yield c
-
-
 def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     """Equal bit for bit (NaN included) for numbers, equal for strings."""
     if a.dtype.kind in "biufc":

@@ -302,18 +302,6 @@ def serial(tmp_path_factory, base_case):
 
 
 @pytest.fixture(scope="module")
-def client():
-    distributed = pytest.importorskip("distributed")
-    with (
-        distributed.LocalCluster(
-            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
-        ) as cluster,
-        distributed.Client(cluster) as c,
-    ):
-        yield c
-
-
-@pytest.fixture(scope="module")
 def parallel(tmp_path_factory, base_case, client):
     """The same study on 2 worker processes, from an empty cache."""
     root = tmp_path_factory.mktemp("parallel")

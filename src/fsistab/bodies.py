@@ -437,13 +437,9 @@ class _Outline:
         """The table's size at the edges, at most the wall size, at least an eighth of it."""
         return max(min(corner, wall), wall / 8)
 
-    @classmethod
-    def generic_solid(cls, solid):
-        return solid
-
-    @classmethod
-    def own_mass_ratio(cls, solid) -> float:
-        return solid.mass_ratio
+    # the plate's conventions: the solid is already in the generic form of docs/model.md §3
+    generic_solid = Plate.__dict__["generic_solid"]
+    own_mass_ratio = Plate.__dict__["own_mass_ratio"]
 
     def face(self, wall_size: float, corner_size: float):
         """The outline splined by netgen.occ (:func:`fsistab.outlines.outline_face`)."""
