@@ -16,7 +16,8 @@ BLAS runs on one thread unless ``OMP_NUM_THREADS``, ``OPENBLAS_NUM_THREADS`` or 
 is set, as in the ``fsistab`` command (:func:`fsistab.progress.blas_threads`).
 Usage: python benchmarks/critical.py [coarse|quick|fast|medium|fine] [--method both|transfer|tracking]
 [--mass-ratio M] [--velocity-range LOW HIGH] [--size NAME=VALUE ...] (a preset's mesh sizes
-overridden, e.g. ``--size far=4 --size far_wake=0.1,20,1``: :class:`fsistab.mesh.MeshSizes`)
+overridden, e.g. ``--size far=4 --size far_wake=0.1,20,1``, or ``--size far_wake=none``:
+:class:`fsistab.mesh.MeshSizes`)
 """
 
 import argparse
@@ -78,9 +79,11 @@ class _Breakdown:
         self.calls.clear()
 
 
-def _size(text: str) -> tuple[str, float | tuple[float, ...]]:
-    """``NAME=VALUE`` or ``NAME=V1,V2,...`` as a mesh-size override."""
+def _size(text: str) -> tuple[str, float | tuple[float, ...] | None]:
+    """``NAME=VALUE``, ``NAME=V1,V2,...`` or ``NAME=none`` (no such box) as a mesh-size override."""
     name, _, value = text.partition("=")
+    if value.strip().lower() == "none":
+        return name.strip(), None
     values = tuple(float(v) for v in value.split(","))
     return name.strip(), values[0] if len(values) == 1 else values
 

@@ -56,7 +56,16 @@ MASS_RATIO = 1000.0
 # The variants start from the presets' sizes before this study (BASE: `medium` with 2.5-chord
 # far-field elements, an 8-chord wake box, no middle box nor band), so that they are the meshes the
 # study measured; the presets take their values from its results.
-BASE = {"medium": {"far": 2.5, "wake_length": 8.0, "middle": None, "middle_box": None, "middle_band": None}}
+BASE = {
+    "medium": {
+        "far": 2.5,
+        "wake_length": 8.0,
+        "middle": None,
+        "middle_box": None,
+        "middle_band": None,
+        "far_wake": None,
+    }
+}
 
 CANDIDATE = {"far": 4.0, "middle": 1.0, "middle_box": (20, 40, 20)}
 FINE_NEAR = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
@@ -115,6 +124,19 @@ VARIANTS = {
     # the `medium` preset, chosen by the far-field study at low mass ratio (docs/discretisation.md):
     # band20 with 2-chord outer elements, the outlet sponge and the far-field layer
     "far2-layer": ("medium", {**BAND20, "far": 2.0}, (80, 160, 80)),
+    # far2-layer with its wake box graded: 0.05-chord elements to 5 chords, 0.1-chord ones to 20
+    # (docs/performance.md, "Fewer unknowns")
+    "far2-graded-layer": (
+        "medium",
+        {**BAND20, "far": 2.0, "wake_length": 5.0, "far_wake": (0.1, 20.0, 1.0)},
+        (80, 160, 80),
+    ),
+    # the same with the 0.05-chord elements to 10 chords
+    "far2-graded10-layer": (
+        "medium",
+        {**BAND20, "far": 2.0, "wake_length": 10.0, "far_wake": (0.1, 20.0, 1.0)},
+        (80, 160, 80),
+    ),
     "d1-wake40": ("medium", {"wake_length": 40.0, **CANDIDATE}, (40, 80, 40)),
     "d1-nearfine": ("medium", {"wake_length": 20.0, **CANDIDATE, **FINE_NEAR}, (40, 80, 40)),
     "d1-dom80-wake40": (
