@@ -1,6 +1,7 @@
 """Bodies and fluid domains as netgen.occ shapes (docs/model.md §1, §10).
 
-The body is centred on its elastic centre ``G = (0, 0)``; the fluid comes from ``-x``. Boundary
+The origin is the body's pitch axis: its centre ``G`` (mid-chord), or its elastic axis for a
+:class:`fsistab.bodies.Pivoted` section (docs/model.md §3.1); the fluid comes from ``-x``. Boundary
 names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = ±lateral),
 ``wall`` (the body); ``interface`` (edges of the refinement regions) and ``symmetry`` (the line
 ``Y = 0`` where the two mirrored halves of the mesh meet) are internal, not physical boundaries.
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 from netgen.occ import Glue, MoveTo, OCCGeometry, X, Y
 
-from fsistab.bodies import Body
+from fsistab.bodies import Body, frame_offset
 from fsistab.params import Domain
 
 SYMMETRY = "symmetry"  # internal line Y = 0 where the mirrored halves meet
@@ -75,11 +76,14 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
 
     margin = sizes.near_margin
     half_height = body.half_height
-    near = _box(-0.5 - margin, 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral), whole)
+    mid = frame_offset(body)  # mid-chord: the near box and the wake box's front follow the body
+    near = _box(
+        mid - 0.5 - margin, mid + 0.5 + 2 * margin, min(margin + half_height, 0.9 * domain.lateral), whole
+    )
     wake_end = min(sizes.wake_length, domain.downstream - 1.0)
     wake = _box(
-        -0.5 - 2 * margin,
-        max(wake_end, 0.5 + 3 * margin),
+        mid - 0.5 - 2 * margin,
+        max(wake_end, mid + 0.5 + 3 * margin),
         min(sizes.wake_half_width, 0.9 * domain.lateral),
         whole,
     )

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsistab.bodies import interval_overlap, rectangle_distance
+from fsistab.bodies import frame_offset, interval_overlap, rectangle_distance
 from fsistab.errors import InputError
 from fsistab.geometry import far_wake_extent, middle_band_extent, middle_box_extent
 from fsistab.mesh import MeshSpec
@@ -93,16 +93,17 @@ class _SizeField:
         self.half_height = body.half_height
         # the refinement boxes of fsistab.geometry.fluid_half_geometry
         margin = sizes.near_margin
+        mid = frame_offset(body)
         self.near = (
-            -0.5 - margin,
-            0.5 + 2 * margin,
+            mid - 0.5 - margin,
+            mid + 0.5 + 2 * margin,
             0.0,
             min(margin + self.half_height, 0.9 * domain.lateral),
         )
         wake_end = min(sizes.wake_length, domain.downstream - 1.0)
         self.wake = (
-            -0.5 - 2 * margin,
-            max(wake_end, 0.5 + 3 * margin),
+            mid - 0.5 - 2 * margin,
+            max(wake_end, mid + 0.5 + 3 * margin),
             0.0,
             min(sizes.wake_half_width, 0.9 * domain.lateral),
         )
