@@ -590,10 +590,11 @@ class Pivoted:
     about the origin, are about the elastic axis with no change to the fluid equations.
 
     Every convention is ``body``'s (attributes are looked up there); the shape queries are moved
-    with it: the wall face, its exact projection, the distances of the mesh-size estimate and the
-    refinement boxes of :func:`fsistab.geometry.fluid_half_geometry` (:attr:`offset`). The domain's
-    extents are measured from the origin, the elastic axis. With ``elastic_axis`` 0 use ``body``
-    itself (:func:`make_body`): its cache keys are then those of the section about mid-chord.
+    with it (the wall face, its exact projection, the distances of the mesh-size estimate), and
+    :func:`fsistab.geometry.fluid_half_geometry` translates the whole domain of ``body`` (its
+    extents, refinement boxes and absorbing layers are measured from mid-chord, :attr:`offset`): the
+    mesh is the mid-chord section's, translated. With ``elastic_axis`` 0 use ``body`` itself
+    (:func:`make_body`): its cache keys are then those of the section about mid-chord.
     """
 
     body: Plate | Airfoil | Curve
@@ -642,6 +643,11 @@ class Pivoted:
     def solid_area(self, x0, x1, y0, y1):
         a = self.elastic_axis
         return self.body.solid_area(x0 + a, x1 + a, y0, y1)
+
+
+def mid_chord_body(body):
+    """The section about mid-chord: ``body`` itself, or a :class:`Pivoted` section's own."""
+    return body.body if isinstance(body, Pivoted) else body
 
 
 def frame_offset(body) -> float:
