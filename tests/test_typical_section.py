@@ -211,3 +211,24 @@ def test_divergence_about_the_elastic_axis(pivoted, mid_chord):
         real = min(eigenpairs_near(system, [0.0], 3), key=lambda p: abs(p.value)).value
         assert abs(real.imag) < 1e-12
         assert (real.real > 0) == (velocity > divergence)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--body", "cylinder", "--elastic-axis", "0.1"],
+        ["--alpha0", "5", "--static-unbalance", "0.1"],
+        ["--elastic-axis", "0.3", "--static-unbalance", "0.25"],
+    ],
+    ids=["cylinder", "unbalance-at-incidence", "centre-of-mass-off-the-chord"],
+)
+def test_the_commands_refuse_a_bad_typical_section_in_one_line(extra, tmp_path):
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+
+    args = ["critical", "--mesh", "coarse", *extra, "--out", str(tmp_path / "out"), "--cache", str(tmp_path)]
+    result = CliRunner().invoke(app, args)
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
+    assert not (tmp_path / "out").exists()
