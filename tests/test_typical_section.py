@@ -232,3 +232,32 @@ def test_the_commands_refuse_a_bad_typical_section_in_one_line(extra, tmp_path):
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
     assert not (tmp_path / "out").exists()
+
+
+def test_solid_parameter_derivatives_with_unbalance(pivoted):
+    """``dσ/dp`` of the adjoint formula (S1) for the solid parameters, whose solid rows now carry the
+    unbalance's mass coupling (``(x_θ/r_θ²) cos θ₀`` depends on r_θ), against centred differences of
+    the eigenvalue."""
+    from fsistab.sensitivity import adjoint_mode, eigenvalue_derivatives
+
+    solid = _solid(mass_ratio=100.0, reduced_velocity=2.3, freq_ratio=0.5, r_theta=0.25, static_unbalance=0.1)
+    system = CoupledSystem(pivoted, solid)
+    start = min(eigenpairs_near(system, [0.4j], 3), key=lambda p: abs(p.value - 0.4j))
+    mode = adjoint_mode(system, start.value, start.vector)
+    parameters = ("mass_ratio", "r_theta", "reduced_velocity", "freq_ratio")
+    derivatives = eigenvalue_derivatives(system, mode, parameters)
+    for name in parameters:
+        step = 1e-4 * getattr(solid, name)
+        values = [
+            min(
+                eigenpairs_near(
+                    CoupledSystem(pivoted, replace(solid, **{name: getattr(solid, name) + s * step})),
+                    [mode.value],
+                    3,
+                ),
+                key=lambda p: abs(p.value - mode.value),
+            ).value
+            for s in (1, -1)
+        ]
+        difference = (values[0] - values[1]) / (2 * step)
+        assert abs(difference - derivatives[name]) < 1e-4 * abs(derivatives[name]), name
