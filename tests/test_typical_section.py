@@ -261,3 +261,25 @@ def test_solid_parameter_derivatives_with_unbalance(pivoted):
         ]
         difference = (values[0] - values[1]) / (2 * step)
         assert abs(difference - derivatives[name]) < 1e-4 * abs(derivatives[name]), name
+
+
+def test_a_small_perturbation_of_the_unbalanced_section_grows_at_its_eigenvalue(pivoted):
+    """``fsistab simulate``'s nonlinear march (the inertia ``M_s(θ) q̇`` with the centripetal term,
+    docs/model.md §3.1, §12) from the steady state plus 1e-4 of a coupled mode: heave and pitch
+    follow that mode's eigenvalue, as BDF2 maps it (``(3/2 − σΔt) g² − 2g + 1/2 = 0``)."""
+    from fsistab.simulation import MarchState, damped_oscillation, march, perturbed_state
+
+    if pivoted.theta0 != 0:
+        pytest.skip("one incidence suffices")
+    solid = _solid(mass_ratio=100.0, reduced_velocity=2.3, freq_ratio=0.5, r_theta=0.25, static_unbalance=0.1)
+    system = CoupledSystem(pivoted, solid)
+    pair = min(eigenpairs_near(system, [0.4j], 3), key=lambda p: abs(p.value - 0.4j))
+    dt = 0.1
+    roots = np.roots([1.5 - pair.value * dt, -2.0, 0.5])
+    image = complex(np.log(roots[np.argmax(np.abs(roots))]) / dt)
+    stepper = TimeStepper(system, dt)
+    state = MarchState(0.0, 0, perturbed_state(stepper, pair.vector, 1e-4))
+    samples = [sample for _, sample in march(stepper, state, 20 * dt)][2:]  # the BDF1 start decayed
+    for index in (0, 1):  # heave, pitch
+        fit = damped_oscillation([s.time for s in samples], [s.solid[index] for s in samples])
+        assert abs(fit - image) < 1e-5 * abs(pair.value)
