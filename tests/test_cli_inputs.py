@@ -44,6 +44,8 @@ SOLID = {
     "--zeta-h": "damping",
     "--zeta-theta": "damping",
     "--r-theta": "positive",
+    "--elastic-axis": "elastic-axis",
+    "--static-unbalance": "unbalance",
 }
 MAP = {
     "--mass-ratio-range": "range",
@@ -62,11 +64,7 @@ MAP = {
 }
 THEODORSEN = {k: v for k, v in CASE.items() if k != "--body"} | SOLID
 THEODORSEN |= {"--mass-ratio": "positive", "--mass-ratio-range": "range", "--reduced-velocity-range": "range"}
-THEODORSEN |= {
-    "--points": ("count", 2, 2000),
-    "--elastic-axis": "elastic-axis",
-    "--static-unbalance": "unbalance",
-}
+THEODORSEN |= {"--points": ("count", 2, 2000)}
 OPTIONS = {
     "mesh": CASE,
     "steady": CASE,

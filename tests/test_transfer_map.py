@@ -86,6 +86,40 @@ def test_characteristic_function_is_det_t_and_its_derivatives_match_differences(
     assert abs((f_plus - f_minus) / (2j * d) - f_s) < 1e-6 * abs(f_s)
 
 
+def test_static_unbalance_in_the_characteristic_function(fluid, sample_03):
+    """With a static unbalance (docs/model.md §3.1) ``W`` has the off-diagonal ``x_θ s²``: F is still
+    det T times ``m² r_θ²`` (T from the first-order solid mass), its ``s`` derivative still matches
+    differences, the scaled polynomials sum to F, and with both dofs undamped the coupled in-vacuo
+    resonances are the roots ``undamped_resonances`` divides out (where ``P₂`` vanishes)."""
+    solid = Solid(mass_ratio=37.0, reduced_velocity=2.3, zeta_h=0.02, static_unbalance=0.1)
+    s, m, u = 0.3j, solid.mass_ratio, 1 / solid.reduced_velocity
+    loads, rate = second_order_loads(sample_03, fluid.theta0, fluid.loads0)
+    f, _, _, f_s = characteristic_function(loads, rate, solid, s, m, u)
+    det_t = np.linalg.det(characteristic_matrix(sample_03.transfer, solid, s, fluid.theta0, fluid.loads0))
+    assert abs(f / (m * m * solid.r_theta**2) - det_t) < 1e-12 * abs(det_t)
+    balanced = characteristic_function(loads, rate, replace(solid, static_unbalance=0.0), s, m, u)[0]
+    assert abs(f - balanced) > 1e-3 * abs(f)
+    scaled = sum(
+        npoly.polyval(u / 0.3, p) * (m * 0.09) ** k for k, p in enumerate(scaled_polynomials(loads, solid))
+    )
+    assert abs(scaled - f) < 1e-12 * abs(f)
+    d = 1e-5
+    plus, minus = (
+        second_order_loads(_sample(fluid, 0.3 + e), fluid.theta0, fluid.loads0)[0] for e in (d, -d)
+    )
+    difference = (
+        characteristic_function(plus, rate, solid, s + 1j * d, m, u)[0]
+        - characteristic_function(minus, rate, solid, s - 1j * d, m, u)[0]
+    ) / (2j * d)
+    assert abs(difference - f_s) < 1e-6 * abs(f_s)
+    undamped = replace(solid, zeta_h=0.0, zeta_theta=0.0)
+    resonances = undamped_resonances(undamped)
+    assert len(resonances) == 2 and abs(resonances[0] - undamped.freq_ratio) > 1e-3
+    leading = scaled_polynomials(loads, undamped)[2]
+    assert all(abs(npoly.polyval(v, leading)) < 1e-12 for v in resonances)
+    assert undamped_resonances(solid) == []
+
+
 def test_every_root_is_a_neutral_eigenvalue_of_the_full_problem(fluid, sample_03):
     """At ω = 0.3 all neutral (m, U*) with 1 ≤ m ≤ 1e4 come from the resultant; the eigen-solver of
     the whole coupled problem finds λ = 0, ω = 0.3 at each, and the crossing rate has the sign of

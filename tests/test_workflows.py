@@ -106,6 +106,22 @@ def test_theodorsen_comparison_refuses_a_map_of_other_solid_parameters(tmp_path)
     assert ds.attrs["viscous_comparison"].startswith("no stability map of plate_Re1000_a0 in the cache")
 
 
+def test_theodorsen_comparison_of_a_typical_section_reads_its_own_map(tmp_path):
+    """A section with an elastic axis and a static unbalance (docs/model.md §3.1) is compared with the
+    map of the same section (its mesh about the axis: tag ``_ea-0.25``), never with another's."""
+    typical = _map_dataset().assign_attrs(elastic_axis=-0.25, static_unbalance=0.1)
+    write_dataset(typical, workflows.stored_map_path(tmp_path, "plate_Re2900_a0_ea-0.25"))
+    write_dataset(_map_dataset(), workflows.stored_map_path(tmp_path, "plate_Re2900_a0"))
+    settings = TheodorsenSettings(mass_range=(500, 2000), points=3, elastic_axis=-0.25, static_unbalance=0.1)
+    section = workflows.typical_section(solid_for("plate"), settings)
+    ds = workflows.theodorsen_comparison(section, settings, Case.create("plate", 2900), tmp_path, tmp_path)
+    np.testing.assert_array_equal(ds.comparison_viscous.values, [u for _, u in FLUTTER])
+    other = TheodorsenSettings(mass_range=(500, 2000), points=3, elastic_axis=-0.25)
+    section = workflows.typical_section(solid_for("plate"), other)
+    ds = workflows.theodorsen_comparison(section, other, Case.create("plate", 2900), tmp_path, tmp_path)
+    assert "other solid parameters" in ds.attrs["viscous_comparison"]
+
+
 def test_neutral_payload_carries_the_map(tmp_path):
     ds = _map_dataset()
     payload = make_payload("neutral", ds)

@@ -226,23 +226,25 @@ class Plate:
             edge.maxh = wall_size if is_long_side else corner_size
         return face
 
-    def wall_projection(self):
+    def wall_projection(self, shift: float = 0.0):
         """Closest point on the corner arcs, as a CoefficientFunction of ``(x, y)`` (the straight
-        sides need no correction): curves the elements at the wall."""
+        sides need no correction): curves the elements at the wall. ``shift``: the plate's centre
+        is at ``x = -shift`` (a frame whose origin is an elastic axis, :class:`Pivoted`)."""
         from ngsolve import CF, IfPos, sqrt, x, y
 
         e = self.thickness
         rc = self.corner_radius * e
         if rc == 0:
             return CF((x, y))
+        px = x + shift if shift else x  # the abscissa from the plate's centre
         # centre of the nearest corner arc, then the projection onto it when the point lies in a corner
-        cx = IfPos(x, 0.5 - rc, -(0.5 - rc))
+        cx = IfPos(px, 0.5 - rc, -(0.5 - rc))
         cy = IfPos(y, e / 2 - rc, -(e / 2 - rc))
-        dx, dy = x - cx, y - cy
+        dx, dy = px - cx, y - cy
         dist = sqrt(dx * dx + dy * dy) + 1e-300
-        abs_x, abs_y = IfPos(x, x, -x), IfPos(y, y, -y)
+        abs_x, abs_y = IfPos(px, px, -px), IfPos(y, y, -y)
         in_corner = IfPos(abs_x - (0.5 - rc), IfPos(abs_y - (e / 2 - rc), 1.0, 0.0), 0.0)
-        return CF((x + in_corner * (cx + rc * dx / dist - x), y + in_corner * (cy + rc * dy / dist - y)))
+        return CF((x + in_corner * (cx + rc * dx / dist - px), y + in_corner * (cy + rc * dy / dist - y)))
 
     def distance(self, x, y):
         """Distance from ``(x, y)`` to the body (its bounding rectangle; 0 inside)."""
@@ -455,11 +457,12 @@ class _Outline:
 
         return is_mirror_symmetric(self.outline)
 
-    def wall_projection(self):
+    def wall_projection(self, shift: float = 0.0):
         """Closest point on the splined wall, as a CoefficientFunction of ``(x, y)``: for a
         symmetric outline, the projection on its upper half tabulated on a fine grid
         (:func:`fsistab.outlines.upper_projection`) and mirrored; None otherwise (the mesh is whole
-        and curved on its netgen.occ geometry, :func:`fsistab.mesh.curve_wall`)."""
+        and curved on its netgen.occ geometry, :func:`fsistab.mesh.curve_wall`). ``shift``: the
+        outline's frame origin is at ``x = -shift`` (:class:`Pivoted`)."""
         if not self.symmetric:
             return None
         from ngsolve import CF, IfPos, VoxelCoefficient, x, y
@@ -468,10 +471,11 @@ class _Outline:
 
         start, end, px, py = upper_projection(self.face(1.0, 1.0))
         above = IfPos(y, 1.0, -1.0)
-        mirrored = CF((x, above * y))  # the tables are read at (x, |y|): they cover the upper half
+        # the tables are read at (x, |y|) in the outline's own frame: they cover the upper half
+        mirrored = CF((x + shift if shift else x, above * y))
         table_x = VoxelCoefficient(start, end, px, linear=True, trafocf=mirrored)
         table_y = VoxelCoefficient(start, end, py, linear=True, trafocf=mirrored)
-        return CF((table_x, above * table_y))
+        return CF((table_x - shift if shift else table_x, above * table_y))
 
     def distance(self, x, y):
         """Distance to the outline's bounding box (0 inside)."""
@@ -578,7 +582,80 @@ class Curve(_Outline):
         return np.array(self.points, dtype=float)
 
 
-Body = Plate | Cylinder | Airfoil | Curve
+@dataclass(frozen=True)
+class Pivoted:
+    """A pitching section whose frame's origin is its elastic axis (docs/model.md §3.1): ``body``
+    (the plate, a NACA section or a curve, centred on mid-chord) translated by ``-elastic_axis``
+    along ``X``, so that the fluid's rotation ``θ'(-Y, X)`` and the moment of docs/model.md §4, both
+    about the origin, are about the elastic axis with no change to the fluid equations.
+
+    Every convention is ``body``'s (attributes are looked up there); the shape queries are moved
+    with it (the wall face, its exact projection, the distances of the mesh-size estimate), and
+    :func:`fsistab.geometry.fluid_half_geometry` translates the whole domain of ``body`` (its
+    extents, refinement boxes and absorbing layers are measured from mid-chord, :attr:`offset`): the
+    mesh is the mid-chord section's, translated. With ``elastic_axis`` 0 use ``body`` itself
+    (:func:`make_body`): its cache keys are then those of the section about mid-chord.
+    """
+
+    body: Plate | Airfoil | Curve
+    elastic_axis: float
+
+    def __post_init__(self):
+        if isinstance(self.body, Pivoted) or "pitch" not in getattr(self.body, "allowed_dofs", ()):
+            raise InputError(
+                "an elastic axis is for a section that pitches (the plate, a NACA section, a curve)"
+            )
+        a = finite("elastic axis (--elastic-axis)", self.elastic_axis)
+        if abs(a) >= 0.5:
+            raise InputError(f"the elastic axis must lie inside the chord, |a| < 1/2, got a = {a:g}")
+        object.__setattr__(self, "elastic_axis", a)
+
+    def __getattr__(self, name):  # the body's conventions (only for names not found on Pivoted)
+        if name.startswith("__") or name == "body":
+            raise AttributeError(name)
+        return getattr(self.body, name)
+
+    @property
+    def offset(self) -> float:
+        """Abscissa of mid-chord in this frame, ``-a``."""
+        return -self.elastic_axis
+
+    @property
+    def rear(self) -> float:
+        return self.body.rear + self.offset
+
+    @property
+    def outline(self):
+        return self.body.outline + [self.offset, 0.0]
+
+    def face(self, wall_size: float, corner_size: float):
+        return self.body.face(wall_size, corner_size).Move((self.offset, 0, 0))
+
+    def wall_projection(self):
+        return self.body.wall_projection(shift=self.elastic_axis)
+
+    def distance(self, x, y):
+        return self.body.distance(x + self.elastic_axis, y)
+
+    def corner_distance(self, x, y):
+        return self.body.corner_distance(x + self.elastic_axis, y)
+
+    def solid_area(self, x0, x1, y0, y1):
+        a = self.elastic_axis
+        return self.body.solid_area(x0 + a, x1 + a, y0, y1)
+
+
+def mid_chord_body(body):
+    """The section about mid-chord: ``body`` itself, or a :class:`Pivoted` section's own."""
+    return body.body if isinstance(body, Pivoted) else body
+
+
+def frame_offset(body) -> float:
+    """Abscissa of the body's mid-chord in its frame: ``-a`` for a :class:`Pivoted` section, else 0."""
+    return body.offset if isinstance(body, Pivoted) else 0.0
+
+
+Body = Plate | Cylinder | Airfoil | Curve | Pivoted
 BODY_TYPES: dict[str, type[Body]] = {"plate": Plate, "cylinder": Cylinder, "naca": Airfoil, "curve": Curve}
 BODIES = ("plate", "cylinder", "nacaMPTT", "curve")
 
@@ -606,10 +683,20 @@ def make_body(
     trailing_edge: str = "closed",
     body_file: str | None = None,
     reference_length: float | None = None,
+    elastic_axis: float = 0.0,
 ) -> Body:
     """Body from its name and shape options; every option is checked, also those this body does not
     use (a value that makes no sense is refused even where it is ignored). With ``body_file`` the
-    body is the curve it describes, whatever ``kind``."""
+    body is the curve it describes, whatever ``kind``. A non-zero ``elastic_axis`` gives the
+    section in the frame of its elastic axis (:class:`Pivoted`)."""
+    shape = _make_shape(kind, aspect_ratio, corner_radius, trailing_edge, body_file, reference_length)
+    if finite("elastic axis (--elastic-axis)", elastic_axis) == 0:
+        return shape
+    return Pivoted(shape, elastic_axis)
+
+
+def _make_shape(kind, aspect_ratio, corner_radius, trailing_edge, body_file, reference_length) -> Body:
+    """The section about mid-chord (:func:`make_body`)."""
     plate = Plate(aspect_ratio=aspect_ratio, corner_radius=corner_radius)
     if trailing_edge not in ("closed", "open"):
         raise InputError(f"trailing edge must be closed or open, got {trailing_edge!r}")

@@ -52,7 +52,12 @@ SOLID_OPTIONS = {
     "freq_ratio": option(float, "--freq-ratio", "Ω = ω_h/ω_θ", 0.8),
     "zeta_h": option(float, "--zeta-h", "heave damping ratio", 0.0),
     "zeta_theta": option(float, "--zeta-theta", "pitch damping ratio", 0.05),
-    "r_theta": option(float, "--r-theta", "radius of gyration about G", 0.289),
+    "r_theta": option(float, "--r-theta", "radius of gyration about the elastic axis (G when a = x_θ = 0)",
+                       0.289),
+    "elastic_axis": option(float, "--elastic-axis",
+                            "a: mid-chord → elastic axis (pitch axis), chords, downstream +", 0.0),
+    "static_unbalance": option(float, "--static-unbalance",
+                                "x_θ: elastic axis → centre of mass, chords, aft +", 0.0),
 }
 
 MASS_OPTION = {"mass_ratio": option(float | None, "--mass-ratio",
@@ -160,7 +165,6 @@ FLOW_NEUTRAL_OPTIONS = {
 # fmt: off
 THEODORSEN_OPTIONS = {
     **SOLID_OPTIONS,
-    "r_theta": option(float, "--r-theta", "radius of gyration about the elastic axis", 0.289),
     "mass_ratio": option(float, "--mass-ratio", "m = m_solid/(½ρc²)", 1000.0),
     "mass_range": option(Pair | None, "--mass-ratio-range",
                           "draw the neutral curves U*(m) over this m range"),
@@ -171,10 +175,6 @@ THEODORSEN_OPTIONS = {
     "lift_slope_alpha": option(float | None, "--lift-slope-alpha", "dC_L/dα per radian (--slopes given)"),
     "moment_slope_alpha": option(float | None, "--moment-slope-alpha",
                                   "d(-C_M)/dα about mid-chord per radian (--slopes given)"),
-    "elastic_axis": option(float, "--elastic-axis",
-                            "a: mid-chord → elastic axis, chords, downstream +", 0.0),
-    "static_unbalance": option(float, "--static-unbalance",
-                                "x_θ: elastic axis → centre of mass, chords, aft +", 0.0),
 }
 # fmt: on
 

@@ -4,7 +4,9 @@ Unknowns ``q = (q_s, q_f)``: the active solid states first — a subset of ``(h,
 :attr:`fsistab.params.Solid.dofs` (heave: ``h, ḣ``; pitch: ``θ, θ'``) — then the fluid unknowns
 of :class:`fsistab.operators.FluidOperators`. Inactive solid states stay at their steady value.
 Only the small solid blocks depend on the solid parameters: building a system for new
-``(m, U*, Ω, ζ, r_θ)`` re-uses the fluid blocks as they are.
+``(m, U*, Ω, ζ, r_θ, x_θ)`` re-uses the fluid blocks as they are. The elastic axis ``a`` is the
+origin of the mesh's frame (:class:`fsistab.bodies.Pivoted`, docs/model.md §3.1): the solid's ``a``
+must be the mesh's.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from fsistab.bodies import frame_offset
+from fsistab.errors import InputError
 from fsistab.operators import SOLID_STATE, FluidOperators, FluidResidual
 from fsistab.params import Solid
 
@@ -50,10 +54,29 @@ def solid_stiffness(solid: Solid) -> np.ndarray:
     )
 
 
-def solid_mass(solid: Solid) -> np.ndarray:
-    """In-vacuo solid rows of ``M_s`` (4 × 4, docs/model.md §7): ``I₄``, the rows being divided by the
-    solid inertia (``/m``, ``/(m r_θ²)``), before the fluid's load inertia."""
-    return np.eye(4)
+def solid_mass(solid: Solid, theta: float = 0.0) -> np.ndarray:
+    """In-vacuo solid rows of ``M_s(θ)`` (4 × 4, docs/model.md §3.1, §7), the rows being divided by
+    the solid inertia (``/m``, ``/(m r_θ²)``), before the fluid's load inertia: ``I₄`` plus the
+    static unbalance's coupling ``x_θ cos θ`` (heave row, ``θ''`` column) and ``(x_θ/r_θ²) cos θ``
+    (pitch row, ``h''`` column). At the steady ``θ₀`` it is the linear mass; ``I₄`` when the centre
+    of mass is on the pitch axis."""
+    mass = np.eye(4)
+    if solid.static_unbalance:
+        coupling = solid.static_unbalance * math.cos(theta)
+        mass[2, 3] = coupling
+        mass[3, 2] = coupling / solid.r_theta**2
+    return mass
+
+
+def solid_inertia(solid: Solid, q_solid: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """The nonlinear inertia of the solid rows (docs/model.md §3.1), ``M_s(θ) q̇_s`` plus the
+    centripetal term ``-x_θ sin θ θ'²`` of the heave row (the centre of mass turning about the
+    elastic axis): what ``fsistab simulate`` adds to ``R_s``. ``q_solid``, ``rate``: ``(h, θ, ḣ, θ')``
+    and its time derivative."""
+    out = solid_mass(solid, q_solid[1]) @ rate
+    if solid.static_unbalance:
+        out[2] -= solid.static_unbalance * math.sin(q_solid[1]) * q_solid[3] ** 2
+    return out
 
 
 def stiffness_derivative(solid: Solid) -> np.ndarray:
@@ -84,7 +107,7 @@ def solid_blocks(
     jss = solid_stiffness(solid).astype(np.result_type(load_s, float))
     jss[2:, :] -= coefficient_rows @ load_s
     jss[2, 1] -= dcl_dtheta / solid.mass_ratio  # the steady force rotated with the body
-    mss = solid_mass(solid).astype(np.result_type(load_mass_s, float))
+    mss = solid_mass(solid, theta0).astype(np.result_type(load_mass_s, float))
     mss[2:, :] -= coefficient_rows @ load_mass_s
     return jss, mss, coefficient_rows
 
@@ -100,6 +123,14 @@ class CoupledSystem:
 
     fluid: FluidOperators
     solid: Solid
+
+    def __post_init__(self):
+        axis = self.fluid.steady.mesh_spec.body
+        if "pitch" in self.solid.dofs and self.solid.elastic_axis != -frame_offset(axis):
+            raise InputError(
+                f"the solid's elastic axis a = {self.solid.elastic_axis:g} is not the pitch axis of the "
+                f"mesh (a = {-frame_offset(axis):g}): build the case with the same --elastic-axis"
+            )
 
     @cached_property
     def active(self) -> list[int]:
@@ -207,10 +238,15 @@ class CoupledResidual:
         """The steady state as a coupled vector."""
         return np.concatenate([self.q_solid0[self.system.active], self.q_fluid0])
 
-    def __call__(self, q: np.ndarray) -> np.ndarray:
-        solid = self.system.solid
+    def solid_state(self, q: np.ndarray) -> np.ndarray:
+        """``(h, θ, ḣ, θ')`` of a coupled vector, inactive states at their steady values."""
         q_solid = self.q_solid0.copy()
         q_solid[self.system.active] = q[: self.system.n_solid]
+        return q_solid
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        solid = self.system.solid
+        q_solid = self.solid_state(q)
         q_fluid = q[self.system.n_solid :]
         r_fluid, loads = self.fluid(q_solid, q_fluid)
         lift, moment = self._coefficients(q_solid[1], loads)
@@ -218,3 +254,11 @@ class CoupledResidual:
         r_solid[2] -= (lift + self.lift_ext) / solid.mass_ratio
         r_solid[3] -= (moment + self.moment_ext) / (solid.mass_ratio * solid.r_theta**2)
         return np.concatenate([r_solid[self.system.active], r_fluid])
+
+    def inertia(self, q: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """The solid rows' nonlinear inertia at ``q`` for the solid rates ``rate`` (the active
+        states' time derivatives), :func:`solid_inertia` on the active states: ``M q̇ + R(q) = 0``
+        with this in place of ``M_s q̇_s`` is the nonlinear system of docs/model.md §3.1, §5."""
+        full = np.zeros(4, dtype=np.result_type(rate, float))
+        full[self.system.active] = rate
+        return solid_inertia(self.system.solid, self.solid_state(q), full)[self.system.active]

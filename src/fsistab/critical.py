@@ -25,7 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from fsistab.continuation import CurveProblem, SquareProblem, newton
-from fsistab.coupled import CoupledSystem, active_states, solid_stiffness, velocity_derivative
+from fsistab.coupled import CoupledSystem, active_states, solid_mass, solid_stiffness, velocity_derivative
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.frequency_sweep import sweep_thresholds
@@ -53,12 +53,15 @@ def phase_index(system: CoupledSystem) -> int:
 def mass_derivative(system: CoupledSystem, q: np.ndarray, omega: float) -> np.ndarray:
     """``∂(J + iωM)/∂(log m) q``: every aerodynamic term of the solid rows (and its inertia) scales
     with ``1/m`` (docs/model.md §3), so this is minus the aerodynamic part of the solid rows applied to
-    ``q``."""
+    ``q`` (the in-vacuo part, the springs and the solid mass with its unbalance, §3.1, does not)."""
     ns = system.n_solid
     full = system.jacobian @ q + 1j * omega * (system.mass @ q)
     in_vacuo = np.zeros_like(full)
     active = system.active
-    in_vacuo[:ns] = solid_stiffness(system.solid)[np.ix_(active, active)] @ q[:ns] + 1j * omega * q[:ns]
+    in_vacuo[:ns] = (
+        solid_stiffness(system.solid)[np.ix_(active, active)]
+        + 1j * omega * solid_mass(system.solid, system.fluid.theta0)[np.ix_(active, active)]
+    ) @ q[:ns]
     d = np.zeros_like(full)
     d[:ns] = -(full[:ns] - in_vacuo[:ns])
     return d

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsistab.bodies import WALL
+from fsistab.bodies import WALL, frame_offset
 from fsistab.steady import SteadyProblem, SteadyState, wall_velocity
 
 RIGID_MOTIONS = ("x", "y", "rotation")
@@ -114,7 +114,8 @@ def recirculation_length(steady: SteadyState, spacing: float = 2e-3, reach: floa
     (0 if the velocity is never negative just behind the body).
     """
     d = streamwise_direction(steady.flow.theta0)
-    downstream = steady.mesh_spec.domain.downstream - steady.mesh_spec.body.rear
+    body = steady.mesh_spec.body  # the outlet at downstream + frame_offset (docs/model.md §3.1)
+    downstream = steady.mesh_spec.domain.downstream + frame_offset(body) - body.rear
     distance = np.arange(spacing, min(reach, 0.95 * downstream), spacing)
     points = np.array([steady.mesh_spec.body.rear, 0.0]) + distance[:, None] * d
     values = steady.velocity(steady.mesh(points[:, 0], points[:, 1]))

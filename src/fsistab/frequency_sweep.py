@@ -299,7 +299,17 @@ def _branch(mode: np.ndarray, solid: Solid) -> str:
     if len(solid.dofs) == 1:
         return solid.dofs[0]
     velocities = mode[2:4]  # (ḣ, θ') of a two-dof body
+    # (with an unbalance, the kinetic energy of the elastic axis's heave and of the pitch about it)
     return "heave" if abs(velocities[0]) ** 2 >= solid.r_theta**2 * abs(velocities[1]) ** 2 else "pitch"
+
+
+def in_vacuo_rates(solid: Solid) -> list[float]:
+    """The undamped in-vacuo frequencies of heave and pitch with a static unbalance, in units of
+    ``1/U*`` (docs/model.md §3.1): the roots ``w`` of ``(1 − x_θ²/r_θ²) w⁴ − (Ω² + 1) w² + Ω² = 0``."""
+    beta = 1 - solid.static_unbalance**2 / solid.r_theta**2
+    total, product = solid.freq_ratio**2 + 1, solid.freq_ratio**2
+    root = math.sqrt(total * total - 4 * beta * product)
+    return [math.sqrt((total - root) / (2 * beta)), math.sqrt((total + root) / (2 * beta))]
 
 
 def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[float, float]:
@@ -307,6 +317,8 @@ def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[f
     active dofs over the velocity range, widened by ``BAND_MARGIN`` (the sweep widens it further
     where roots still lie in the range at an end)."""
     rates = [solid.freq_ratio if dof == "heave" else 1.0 for dof in solid.dofs]
+    if len(rates) == 2 and solid.static_unbalance:  # the coupled in-vacuo frequencies (docs/model.md §3.1)
+        rates = in_vacuo_rates(solid)
     return min(rates) / velocity_range[1] / BAND_MARGIN, BAND_MARGIN * max(rates) / velocity_range[0]
 
 

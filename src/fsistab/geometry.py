@@ -1,6 +1,8 @@
 """Bodies and fluid domains as netgen.occ shapes (docs/model.md §1, §10).
 
-The body is centred on its elastic centre ``G = (0, 0)``; the fluid comes from ``-x``. Boundary
+The origin is the body's pitch axis: its centre ``G`` (mid-chord), or its elastic axis for a
+:class:`fsistab.bodies.Pivoted` section, whose whole domain is translated (docs/model.md §3.1); the
+fluid comes from ``-x``. Boundary
 names: ``inlet`` (x = -upstream), ``outlet`` (x = downstream), ``lateral`` (y = ±lateral),
 ``wall`` (the body); ``interface`` (edges of the refinement regions) and ``symmetry`` (the line
 ``Y = 0`` where the two mirrored halves of the mesh meet) are internal, not physical boundaries.
@@ -10,7 +12,7 @@ from __future__ import annotations
 
 from netgen.occ import Glue, MoveTo, OCCGeometry, X, Y
 
-from fsistab.bodies import Body
+from fsistab.bodies import Body, frame_offset, mid_chord_body
 from fsistab.params import Domain
 
 SYMMETRY = "symmetry"  # internal line Y = 0 where the mirrored halves meet
@@ -62,10 +64,13 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     with a near-body box, a wake box, if ``sizes.far_wake`` is set a far-wake box continuing it, and
     if ``sizes.middle`` is set a middle box grading the far field.
 
-    The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
+    A :class:`fsistab.bodies.Pivoted` section's domain is its section's translated by ``-a``
+    (domain, boxes and body together: the same mesh in the frame of the elastic axis, docs/model.md
+    §3.1). The mesh of the whole domain is this half's mesh mirrored about ``Y = 0`` (see
     :func:`fsistab.mesh.build_mesh`), so that it is exactly symmetric: a symmetric flow then has
     zero lift and moment to solver precision. ``sizes`` is a :class:`fsistab.mesh.MeshSizes`.
     """
+    section = mid_chord_body(body)  # the whole domain is built about mid-chord, then translated
     whole = not body.symmetric
     outer = _box(-domain.upstream, domain.downstream, domain.lateral, whole)
     outer.edges.Min(X).name = "inlet"
@@ -84,7 +89,7 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
         whole,
     )
 
-    body_shape = body_face(body, sizes.wall, sizes.corner)
+    body_shape = body_face(section, sizes.wall, sizes.corner)
     near_region = near - body_shape
     near_region.maxh = sizes.near
     wake_region = wake - near
@@ -114,6 +119,8 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     for edge in shape.edges:
         if edge.name == "interface" and abs(edge.center.y) < 1e-12:
             edge.name = SYMMETRY
+    if frame_offset(body):  # the frame of the elastic axis: mid-chord at X = -a
+        shape = shape.Move((frame_offset(body), 0, 0))
     return OCCGeometry(shape, dim=2)
 
 

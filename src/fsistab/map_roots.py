@@ -4,15 +4,17 @@
 On the imaginary axis ``s = iω`` the solid velocities are eliminated from ``T(s)``
 (:func:`fsistab.transfer.characteristic_matrix`), leaving, for the active dofs among heave and pitch,
 
-    ``X(s; m, u) = m W(s, u) − A(s)``,   ``W = diag(S_h, r_θ² S_θ)``,   ``u = 1/U*``,
+    ``X(s; m, u) = m W(s, u) − A(s)``,   ``W = [[S_h, x_θ s²], [x_θ s², r_θ² S_θ]]``,   ``u = 1/U*``,
     ``S_h = s² + 2ζ_h Ω u s + Ω² u²``,   ``S_θ = s² + 2ζ_θ u s + u²``,
 
 with ``A(s)`` the 2 × 2 loads ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` of :func:`fsistab.transfer.aerodynamic_loads`
-(``det T = det X / (m² r_θ²)`` for both dofs). At a fixed frequency, ``F = det X`` is a polynomial
+(``det T = det X / (m² r_θ²)`` for both dofs; ``x_θ`` the static unbalance of docs/model.md §3.1,
+whose linear coupling ``x_θ cos α0`` is taken at ``α0 = 0``: the commands refuse an unbalance
+with ``α0 ≠ 0``). At a fixed frequency, ``F = det X`` is a polynomial
 of degree ≤ 2 in ``m`` whose coefficients are polynomials in ``u``: with ``m̂ = m ω²``, ``v = u/ω``
 
-    ``F = P₂(v) m̂² + P₁(v) m̂ + P₀``,   ``P₂ = r_θ² ŝ_h ŝ_θ``,
-    ``P₁ = −(ŝ_h A_θθ + r_θ² ŝ_θ A_hh)``,   ``P₀ = det A``,
+    ``F = P₂(v) m̂² + P₁(v) m̂ + P₀``,   ``P₂ = r_θ² ŝ_h ŝ_θ − x_θ²``,
+    ``P₁ = −(ŝ_h A_θθ + r_θ² ŝ_θ A_hh) − x_θ (A_hθ + A_θh)``,   ``P₀ = det A``,
     ``ŝ_h = −1 + 2iζ_h Ω v + Ω² v²``,   ``ŝ_θ = −1 + 2iζ_θ v + v²``.
 
 A real ``m̂`` is a common root of ``Re F`` and ``Im F``: their resultant in ``m̂``, a real polynomial
@@ -109,14 +111,18 @@ def _dof_indices(solid: Solid) -> list[int]:
 
 
 def _weights(solid: Solid, s: complex, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``diag(S_h, r_θ² S_θ)`` and its derivatives in ``u`` and ``s`` (diagonals, 2 each)."""
-    omega_h, r2 = solid.freq_ratio, solid.r_theta**2
+    """``W = [[S_h, x_θ s²], [x_θ s², r_θ² S_θ]]`` and its derivatives in ``u`` and ``s`` (2 × 2
+    each; the off-diagonal terms are the static unbalance's, docs/model.md §3.1, at ``α0 = 0``)."""
+    omega_h, r2, x = solid.freq_ratio, solid.r_theta**2, solid.static_unbalance
     zh, zt = solid.zeta_h, solid.zeta_theta
     w = np.array(
-        [s * s + 2 * zh * omega_h * u * s + omega_h**2 * u * u, r2 * (s * s + 2 * zt * u * s + u * u)]
+        [
+            [s * s + 2 * zh * omega_h * u * s + omega_h**2 * u * u, x * s * s],
+            [x * s * s, r2 * (s * s + 2 * zt * u * s + u * u)],
+        ]
     )
-    w_u = np.array([2 * zh * omega_h * s + 2 * omega_h**2 * u, r2 * (2 * zt * s + 2 * u)])
-    w_s = np.array([2 * s + 2 * zh * omega_h * u, r2 * (2 * s + 2 * zt * u)])
+    w_u = np.diag([2 * zh * omega_h * s + 2 * omega_h**2 * u, r2 * (2 * zt * s + 2 * u)])
+    w_s = np.array([[2 * s + 2 * zh * omega_h * u, 2 * x * s], [2 * x * s, r2 * (2 * s + 2 * zt * u)]])
     return w, w_u, w_s
 
 
@@ -132,7 +138,7 @@ def characteristic_function(
     """``F = det(m W − A)`` and ``∂F/∂m``, ``∂F/∂u``, ``∂F/∂s`` (``dF = tr(adj X dX)``, valid at a
     root), on the active dofs; ``loads``/``rate`` are ``A(s)``/``dA/ds``."""
     a = _dof_indices(solid)
-    w, w_u, w_s = (np.diag(d[a]) for d in _weights(solid, s, u))
+    w, w_u, w_s = (d[np.ix_(a, a)] for d in _weights(solid, s, u))
     x = mass_ratio * w - loads[np.ix_(a, a)]
     adj = _adjugate(x)
     value = np.linalg.det(x) if len(a) > 1 else x[0, 0]
@@ -149,8 +155,10 @@ def scaled_polynomials(loads: np.ndarray, solid: Solid) -> list[np.ndarray]:
     s_t = np.array([-1.0, 2j * solid.zeta_theta, 1.0])
     a = _dof_indices(solid)
     if a == [0, 1]:
-        p2 = r2 * npoly.polymul(s_h, s_t)
+        x = solid.static_unbalance  # m W's off-diagonal m x_θ s² = -m̂ x_θ
+        p2 = npoly.polysub(r2 * npoly.polymul(s_h, s_t), np.array([x * x]))
         p1 = -npoly.polyadd(s_h * loads[1, 1], r2 * s_t * loads[0, 0])
+        p1 = npoly.polysub(p1, np.array([x * (loads[0, 1] + loads[1, 0])]))
         p0 = np.array([loads[0, 0] * loads[1, 1] - loads[0, 1] * loads[1, 0]])
         return [p0, p1, p2]
     if a == [0]:
@@ -253,6 +261,12 @@ def undamped_resonances(solid: Solid) -> list[float]:
     root of the resultant at every frequency and carries no curve."""
     dofs = _dof_indices(solid)
     roots = []
+    if dofs == [0, 1] and solid.static_unbalance:
+        # the coupled in-vacuo resonances, real roots of P₂ = r_θ² ŝ_h ŝ_θ − x_θ², both dofs undamped
+        if solid.zeta_h or solid.zeta_theta:
+            return []  # no real root: with damping ŝ_h ŝ_θ is never real and positive
+        p2 = scaled_polynomials(np.eye(2), solid)[2].real
+        return sorted(float(v.real) for v in npoly.polyroots(p2) if abs(v.imag) < 1e-12 and v.real > 0)
     if 0 in dofs and solid.zeta_h == 0:
         roots.append(1.0 / solid.freq_ratio)
     if 1 in dofs and solid.zeta_theta == 0:

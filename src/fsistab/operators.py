@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from fsistab.bodies import frame_offset
 from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
 from fsistab.steady import (
     SteadyState,
@@ -155,11 +156,12 @@ def sponge_coefficient(steady: SteadyState):
     spec = steady.mesh_spec
     if spec.sponge is None:
         return None
-    start, end = spec.sponge.start(spec.domain), spec.domain.downstream
+    shift = frame_offset(spec.body)  # the domain's mid-chord (-a about an elastic axis, §3.1)
+    start, end = shift + spec.sponge.start(spec.domain), shift + spec.domain.downstream
     t = IfPos(x - start, (x - start) / (end - start), 0.0)  # 0 before the layer, 1 at the outlet
     sigma = spec.sponge.sigma_max * t * t * (3 - 2 * t)
     if spec.sponge.far_sigma > 0:
-        sigma = sigma + far_layer(spec.sponge, spec.sizes)
+        sigma = sigma + far_layer(spec.sponge, spec.sizes, shift)
     return sigma
 
 
@@ -169,26 +171,28 @@ def _positive_part(value):
     return IfPos(value, value, 0.0)
 
 
-def _distance_outside(upstream: float, downstream: float, lateral: float):
-    """Distance from ``(X, Y)`` to the box ``[-upstream, downstream] × [-lateral, lateral]`` (0 inside)."""
+def _distance_outside(upstream: float, downstream: float, lateral: float, shift: float = 0.0):
+    """Distance from ``(X, Y)`` to the box ``[shift - upstream, shift + downstream] × [-lateral,
+    lateral]`` (0 inside)."""
     from ngsolve import sqrt, x, y
 
-    dx = _positive_part(-upstream - x) + _positive_part(x - downstream)
+    dx = _positive_part(shift - upstream - x) + _positive_part(x - shift - downstream)
     dy = _positive_part(y - lateral) + _positive_part(-y - lateral)
     return sqrt(dx * dx + dy * dy)
 
 
-def far_layer(sponge, sizes):
+def far_layer(sponge, sizes, shift: float = 0.0):
     """``σ_far(X, Y)`` of the far-field layer (:class:`fsistab.params.Sponge`): 0 in the mesh's
     middle box and band (``sizes.middle_box``, ``middle_band``), rising by ``3t² − 2t³`` over
-    ``far_ramp`` body lengths of distance from them to ``far_sigma``."""
+    ``far_ramp`` body lengths of distance from them to ``far_sigma``; ``shift``: the abscissa of
+    the domain's mid-chord (:func:`fsistab.bodies.frame_offset`)."""
     from ngsolve import IfPos
 
     u, d, l = sizes.middle_box
-    distance = _distance_outside(u, d, l)
+    distance = _distance_outside(u, d, l, shift)
     if sizes.middle_band is not None:
         end, width = sizes.middle_band
-        band = _distance_outside(0.0, end, width)
+        band = _distance_outside(0.0, end, width, shift)
         distance = IfPos(distance - band, band, distance)
     t = IfPos(sponge.far_ramp - distance, distance / sponge.far_ramp, 1.0)
     return sponge.far_sigma * t * t * (3 - 2 * t)

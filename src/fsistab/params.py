@@ -17,7 +17,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Literal
 
-from fsistab.bodies import BODY_TYPES, Body, body_type, make_body
+from fsistab.bodies import BODY_TYPES, Body, body_type, frame_offset, make_body
 from fsistab.errors import InputError
 from fsistab.validate import finite as _finite
 from fsistab.validate import non_negative as _non_negative
@@ -165,8 +165,13 @@ class Solid:
     """Solid parameters (docs/model.md §2-§3); they change only small blocks of the coupled system.
 
     ``mass_ratio`` m = m̃/(½ρL²s), ``reduced_velocity`` U* = U∞/(L ω_θ), ``freq_ratio`` Ω = ω_h/ω_θ,
-    ``zeta_h``/``zeta_theta`` damping ratios, ``r_theta`` radius of gyration about G in body lengths,
-    ``dofs`` the active degrees of freedom among ``heave`` and ``pitch`` (empty: fixed body).
+    ``zeta_h``/``zeta_theta`` damping ratios, ``r_theta`` radius of gyration about the pitch axis in
+    body lengths, ``dofs`` the active degrees of freedom among ``heave`` and ``pitch`` (empty: fixed
+    body). The full typical section (docs/model.md §3.1): ``elastic_axis`` ``a``, mid-chord → elastic
+    axis (the pitch axis, where the springs act), and ``static_unbalance`` ``x_θ``, elastic axis →
+    centre of mass, both in body lengths, downstream positive; ``r_theta`` is then about the
+    elastic axis and must exceed ``|x_θ|`` (the inertia about the centre of mass, ``m(r_θ² - x_θ²)``,
+    is positive). Both zero: the centre of mass is the pitch axis (docs/model.md §3).
     For the cylinder (docs/model.md §10) use :meth:`Solid.cylinder`, which converts its diameter-based
     ``m = 4m̃/(πρD²s)`` and ``U* = 2πU∞/(Dω_n)`` to this form.
     """
@@ -178,6 +183,8 @@ class Solid:
     zeta_theta: float = 0.05
     r_theta: float = 0.289
     dofs: tuple[str, ...] = field(default=SOLID_DOFS)
+    elastic_axis: float = 0.0
+    static_unbalance: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "mass_ratio", _positive("mass ratio", self.mass_ratio))
@@ -191,6 +198,9 @@ class Solid:
         if bad or len(set(dofs)) != len(dofs):
             raise InputError(f"dofs must be distinct names among {SOLID_DOFS}, got {dofs}")
         object.__setattr__(self, "dofs", tuple(d for d in SOLID_DOFS if d in dofs))
+        a, x = check_typical_section(self.elastic_axis, self.static_unbalance, self.r_theta)
+        object.__setattr__(self, "elastic_axis", a)
+        object.__setattr__(self, "static_unbalance", x)
 
     @classmethod
     def cylinder(cls, mass_ratio: float, reduced_velocity: float, zeta: float = 0.0) -> Solid:
@@ -210,6 +220,26 @@ class Solid:
             r_theta=1.0,
             dofs=("heave",),
         )
+
+
+def check_typical_section(
+    elastic_axis: float, static_unbalance: float, r_theta: float
+) -> tuple[float, float]:
+    """``(a, x_θ)`` checked (docs/model.md §3.1): the elastic axis inside the chord (``|a| < 1/2``),
+    the centre of mass ``a + x_θ`` on it, and ``x_θ² < r_θ²`` (positive inertia about the centre of
+    mass, hence a positive-definite solid mass)."""
+    a = _finite("elastic axis (--elastic-axis)", elastic_axis)
+    x = _finite("static unbalance (--static-unbalance)", static_unbalance)
+    if abs(a) >= 0.5:
+        raise InputError(f"the elastic axis must lie inside the chord, |a| < 1/2, got a = {a:g}")
+    if abs(a + x) > 0.5:
+        raise InputError(f"the centre of mass a + x_θ = {a + x:g} must lie on the chord, |a + x_θ| <= 1/2")
+    if x * x >= r_theta**2:
+        raise InputError(
+            f"static unbalance |x_θ| = {abs(x):g} must be smaller than the radius of gyration about the "
+            f"elastic axis r_θ = {r_theta:g} (inertia about the centre of mass m(r_θ² - x_θ²) > 0)"
+        )
+    return a, x
 
 
 def as_dict(obj) -> dict:
@@ -335,10 +365,14 @@ class Case:
         body_file: str | None = None,
         reference_length: float | None = None,
         mesh_reynolds: float | None = None,
+        elastic_axis: float = 0.0,
     ) -> Case:
         """From the command-line options (:func:`fsistab.bodies.make_body`). Every shape option is
-        checked for every body: a value that makes no sense is refused even where it is not used."""
-        shape = make_body(body, aspect_ratio, corner_radius, trailing_edge, body_file, reference_length)
+        checked for every body: a value that makes no sense is refused even where it is not used.
+        ``elastic_axis`` ``a``: the section in the frame of its elastic axis (docs/model.md §3.1)."""
+        shape = make_body(
+            body, aspect_ratio, corner_radius, trailing_edge, body_file, reference_length, elastic_axis
+        )
         return cls(
             body=shape,
             flow=Flow(reynolds, alpha0_deg),
@@ -353,6 +387,12 @@ class Case:
         return self.body.kind
 
     @property
+    def elastic_axis(self) -> float:
+        """``a`` of the body's frame (docs/model.md §3.1): 0 unless the section pitches about an
+        elastic axis away from mid-chord."""
+        return 0.0 - frame_offset(self.body)
+
+    @property
     def fitted_reynolds(self) -> float:
         """The Reynolds number the mesh is fitted to: ``mesh_reynolds``, or the flow's."""
         return self.flow.reynolds if self.mesh_reynolds is None else self.mesh_reynolds
@@ -363,6 +403,8 @@ class Case:
         ``_meshRe2900`` when the mesh is fitted to another Re than the flow's (another mesh; the
         same Re is the same mesh, whose files keep their names)."""
         tag = f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
+        if self.elastic_axis:
+            tag += f"_ea{self.elastic_axis:g}"
         if self.fitted_reynolds != self.flow.reynolds:
             tag += f"_meshRe{self.fitted_reynolds:g}"
         return tag
@@ -405,6 +447,8 @@ def solid_for(
     zeta_theta: float = 0.05,
     r_theta: float = 0.289,
     dofs: tuple[str, ...] | None = None,
+    elastic_axis: float = 0.0,
+    static_unbalance: float = 0.0,
 ) -> Solid:
     """Solid parameters in the body's conventions (plate docs/model.md §2, cylinder §10), None
     meaning the body's default (never a falsy value: ``0`` is refused, not replaced), returned in
@@ -427,7 +471,11 @@ def solid_for(
         zeta_theta=zeta_theta,
         r_theta=_bounded("radius of gyration", r_theta, 1e3),
         dofs=body.default_dofs if dofs is None else dofs,
+        elastic_axis=elastic_axis,
+        static_unbalance=static_unbalance,
     )
+    if "pitch" not in body.allowed_dofs and (checked.elastic_axis or checked.static_unbalance):
+        raise InputError(f"the {body.kind} does not pitch: it has no elastic axis or static unbalance")
     for name, value in (("heave damping ratio", checked.zeta_h), ("pitch damping ratio", checked.zeta_theta)):
         if value > 100:
             raise InputError(f"{name} must be at most 100, got {value:g}")

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsistab.bodies import interval_overlap, rectangle_distance
+from fsistab.bodies import interval_overlap, mid_chord_body, rectangle_distance
 from fsistab.errors import InputError
 from fsistab.geometry import far_wake_extent, middle_band_extent, middle_box_extent
 from fsistab.mesh import MeshSpec
@@ -86,7 +86,8 @@ class _SizeField:
     """``h(x, y)`` on the upper half ``y ≥ 0`` of the domain of ``spec`` (the mesh is its mirror)."""
 
     def __init__(self, spec: MeshSpec):
-        body, domain, sizes = spec.body, spec.domain, spec.sizes
+        # the estimate is that of the section about mid-chord: a Pivoted mesh is its translation
+        body, domain, sizes = mid_chord_body(spec.body), spec.domain, spec.sizes
         self.sizes = sizes
         self.slope = GRADING_SLOPE * sizes.grading
         self.body = body

@@ -66,7 +66,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from fsistab.coupled import CoupledSystem, solid_blocks, solid_stiffness, stiffness_derivative
+from fsistab.coupled import CoupledSystem, solid_blocks, solid_mass, solid_stiffness, stiffness_derivative
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.operators import FluidOperators, fluid_operators
@@ -381,13 +381,14 @@ def solid_parameter_derivative(
     rows = np.zeros(4, dtype=out.dtype)
     if parameter in ("mass_ratio", "r_theta"):
         full = system.jacobian[:ns] @ q + sigma * (system.mass[:ns] @ q)
-        in_vacuo = solid_stiffness(solid)[np.ix_(active, range(4))] @ q_s + sigma * q[:ns]
+        mass = solid_mass(solid, system.fluid.theta0)
+        in_vacuo = (solid_stiffness(solid) + sigma * mass)[np.ix_(active, range(4))] @ q_s
         aerodynamic = np.zeros(4, dtype=out.dtype)
         aerodynamic[active] = full - in_vacuo
         if parameter == "mass_ratio":
             rows = -aerodynamic / solid.mass_ratio
-        else:
-            rows[3] = -2 * aerodynamic[3] / solid.r_theta
+        else:  # and the unbalance's coupling (x_θ/r_θ²) cos θ₀ ḣ' of the pitch row (docs/model.md §3.1)
+            rows[3] = -2 * (aerodynamic[3] + sigma * mass[3, 2] * q_s[2]) / solid.r_theta
     elif parameter == "reduced_velocity":
         rows = stiffness_derivative(solid) @ q_s
     elif parameter == "freq_ratio":

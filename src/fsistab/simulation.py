@@ -167,9 +167,7 @@ class TimeStepper:
 
     def solid_state(self, q: np.ndarray) -> np.ndarray:
         """``(h, θ, ḣ, θ')`` of a coupled vector, inactive states at their steady values."""
-        q_solid = self.residual.q_solid0.copy()
-        q_solid[self.system.active] = q[: self.system.n_solid]
-        return q_solid
+        return self.residual.solid_state(q)
 
     def _full(self, q: np.ndarray) -> np.ndarray:
         return self.fluid.full_state(self.solid_state(q), q[self.system.n_solid :])
@@ -190,7 +188,8 @@ class TimeStepper:
 
         def equations(q: np.ndarray) -> np.ndarray:
             r = self.residual(q)
-            r[:ns] += (c0 * q[:ns] + history[:ns]) / dt  # M_s = I on the solid rows
+            # M_s(θ) q̇_s and the centripetal term of a static unbalance (docs/model.md §3.1)
+            r[:ns] += self.residual.inertia(q, (c0 * q[:ns] + history[:ns]) / dt)
             return r
 
         return equations

@@ -35,6 +35,7 @@ class StaticSlopes:
     lift: float  # dC_L/dθ
     moment: float  # dC_M/dθ (moment about G, counter-clockwise +)
     drag: float  # dC_D/dθ
+    steady_drag: float = 0.0  # C_D of the steady state (moves a moment slope, docs/model.md §3.1)
 
     @property
     def lift_slope_alpha(self) -> float:
@@ -74,4 +75,5 @@ def static_slopes(
         lift=float(d_lift + d_lift_rotation),
         moment=float(d_moment),
         drag=float(d_drag),
+        steady_drag=float(2 * (c * fx - s * fy)),
     )

@@ -189,8 +189,9 @@ class StudySettings:
     log-spaced values, at each mass ratio of ``thresholds``, body conventions; the wake mode
     followed from ``wake_shift`` when given) and ``map`` (settings ``map_settings``). The solid
     parameters other than ``m`` and ``U*`` are ``freq_ratio``, ``zeta_h``, ``zeta_theta``,
-    ``r_theta`` and ``dofs`` (None: the body's default). Every value is checked on creation;
-    what depends on the body is checked by :meth:`check_body`."""
+    ``r_theta``, ``dofs`` (None: the body's default), ``elastic_axis`` and ``static_unbalance``
+    (docs/model.md §3.1; the cases' meshes must be in the frame of the same axis). Every value is
+    checked on creation; what depends on the body is checked by :meth:`check_body`."""
 
     reynolds: tuple[float, ...]
     alpha0: tuple[float, ...] = (0.0,)
@@ -209,6 +210,8 @@ class StudySettings:
     zeta_theta: float = 0.05
     r_theta: float = 0.289
     dofs: tuple[str, ...] | None = None
+    elastic_axis: float = 0.0
+    static_unbalance: float = 0.0
 
     @classmethod
     def from_options(cls, lists: dict, options: dict) -> StudySettings:
@@ -218,7 +221,7 @@ class StudySettings:
 
         wake = options["wake_shift"]
         keys = ("slopes", "modes", "n_modes", "velocity_range", "points")
-        keys += ("freq_ratio", "zeta_h", "zeta_theta", "r_theta")
+        keys += ("freq_ratio", "zeta_h", "zeta_theta", "r_theta", "elastic_axis", "static_unbalance")
         return cls(
             reynolds=tuple(lists["reynolds"]),
             alpha0=tuple(lists.get("alpha0", [0.0])),
@@ -262,7 +265,10 @@ class StudySettings:
         if not isinstance(self.map_settings, MapSettings):
             raise InputError("map_settings must be a fsistab.params.MapSettings")
         # the solid parameters, checked as every command checks them (the plate's conventions)
-        solid_for("plate", None, None, self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta, ())
+        springs = (self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta)
+        solid_for("plate", None, None, *springs, (), self.elastic_axis, self.static_unbalance)
+        if self.static_unbalance and any(self.alpha0):
+            raise InputError("a static unbalance is implemented at --alpha0 0 (docs/model.md §3.1)")
         if self.dofs is not None:
             object.__setattr__(self, "dofs", Solid(dofs=tuple(self.dofs)).dofs)
 
@@ -302,6 +308,8 @@ class StudySettings:
             self.zeta_theta,
             self.r_theta,
             self.dofs,
+            self.elastic_axis,
+            self.static_unbalance,
         )
 
     def flows(self) -> list[Flow]:
@@ -330,6 +338,9 @@ class StudySettings:
             unused += ["freq_ratio", "zeta_h", "zeta_theta", "r_theta", "dofs"]
         for name in unused:
             identity[name] = None
+        for name in ("elastic_axis", "static_unbalance"):  # the section about mid-chord: as before
+            if not identity[name]:
+                identity.pop(name)
         return json.loads(json.dumps(identity, default=list))
 
 

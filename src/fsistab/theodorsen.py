@@ -20,8 +20,8 @@ Conventions (those of the project, docs/model.md §1–§3, never the textbooks'
   (docs/model.md §2 defines it about G; the two coincide when ``x_θ = 0``, the plate of the paper);
 * coefficients ``C_L = L/(½ρU∞²c)`` (up), ``C_M = M/(½ρU∞²c²)`` about the elastic axis,
   counter-clockwise positive; slopes ``dC_L/dθ`` and ``dC_M/dθ`` (thin airfoil ``-2π`` and ``π/2``
-  about mid-chord), the moment slope about the elastic axis being ``dC_M/dθ - a dC_L/dθ``
-  (thin airfoil ``(π/2)(1 + 4a)``, docs/model.md §9);
+  about mid-chord), the moment slope about the elastic axis being ``dC_M/dθ - a (dC_L/dθ - C_D)``
+  (thin airfoil, ``C_D = 0``: ``(π/2)(1 + 4a)``, docs/model.md §3.1, §9);
 * eigenvalues ``σ = λ + iω`` of ``(h, θ) ∝ e^{σt}``, ``ω`` in units of ``U∞/c``; the reduced
   frequency on the semi-chord is ``k = ω/2``, and ``ω/ω_θ = ω U*``.
 
@@ -113,10 +113,12 @@ class AirfoilSlopes:
     lift: float = THIN_AIRFOIL_LIFT_SLOPE
     moment: float = THIN_AIRFOIL_MOMENT_SLOPE
     source: str = "thin-airfoil"
+    drag: float = 0.0  # the steady C_D (none in thin-airfoil theory)
 
     def __post_init__(self):
         object.__setattr__(self, "lift", _finite("lift slope dC_L/dθ", self.lift))
         object.__setattr__(self, "moment", _finite("moment slope dC_M/dθ", self.moment))
+        object.__setattr__(self, "drag", _finite("steady drag coefficient", self.drag))
 
     @classmethod
     def thin_airfoil(cls) -> AirfoilSlopes:
@@ -136,11 +138,14 @@ class AirfoilSlopes:
             lift=slopes.lift,
             moment=slopes.moment,
             source=f"viscous Re={slopes.reynolds:g} alpha0={slopes.alpha0_deg:g}",
+            drag=slopes.steady_drag,
         )
 
     def moment_about(self, elastic_axis: float) -> float:
-        """``dC_M/dθ`` about the elastic axis ``X = a``: ``dC_M/dθ|_mid - a dC_L/dθ``."""
-        return self.moment - elastic_axis * self.lift
+        """``dC_M/dθ`` about the elastic axis ``X = a``: ``dC_M/dθ|_mid - a (dC_L/dθ - C_D)``, the
+        moment of the body-axis normal force, whose slope is the lift's less the steady drag turned
+        with the body (docs/model.md §3.1; thin airfoil ``C_D = 0``)."""
+        return self.moment - elastic_axis * (self.lift - self.drag)
 
     @property
     def lift_slope_alpha(self) -> float:

@@ -45,6 +45,7 @@ from fsistab.coupled import (
     active_states,
     lift_and_moment_rows,
     solid_blocks,
+    solid_mass,
     solid_stiffness,
     stiffness_derivative,
 )
@@ -200,13 +201,16 @@ def aerodynamic_loads(transfer: np.ndarray, theta0: float, loads0: np.ndarray, s
     return np.column_stack([heave, pitch])
 
 
-def _solid_parts(solid: Solid, theta0: float, loads0: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """``P0`` and ``E`` of ``T(s) = P0 + s I - E G(s)[:, a]`` on the active states ``a``."""
+def _solid_parts(
+    solid: Solid, theta0: float, loads0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """``P0``, ``M_s`` and ``E`` of ``T(s) = P0 + s M_s - E G(s)[:, a]`` on the active states ``a``
+    (``M_s`` the in-vacuo solid mass, ``I`` without a static unbalance, docs/model.md §3.1)."""
     zero = np.zeros((3, 4))
-    jss, _, rows = solid_blocks(solid, theta0, loads0, zero, zero)
+    jss, mss, rows = solid_blocks(solid, theta0, loads0, zero, zero)
     a = active_states(solid)
     coupling = np.vstack([np.zeros((2, 3)), rows])[a]
-    return jss[np.ix_(a, a)], coupling, a
+    return jss[np.ix_(a, a)], mss[np.ix_(a, a)], coupling, a
 
 
 def characteristic_matrix(
@@ -215,8 +219,8 @@ def characteristic_matrix(
     """``T(s)`` on the active solid states (n_s × n_s) from ``G(s)`` (``transfer``, 3 × 4): ``σ`` is a
     coupled eigenvalue iff ``det T(σ) = 0``. Rows those of ``R_s`` (docs/model.md §5), columns the active
     ``(h, θ, ḣ, θ')``."""
-    p0, coupling, a = _solid_parts(solid, theta0, loads0)
-    return p0 + s * np.eye(len(a)) - coupling @ transfer[:, a]
+    p0, mass, coupling, a = _solid_parts(solid, theta0, loads0)
+    return p0 + s * mass - coupling @ transfer[:, a]
 
 
 def determinant_on_axis(
@@ -225,10 +229,9 @@ def determinant_on_axis(
     """``T(iω)``, ``det T`` and its derivatives ``∂/∂ω`` and ``∂/∂ log U*`` (docs/model.md §8) from
     ``G(iω)`` and ``dG/ds`` (``transfer``, ``rate``), by Jacobi's formula
     ``d det T = det T · tr(T⁻¹ dT)``; ``U*`` enters the in-vacuo rows only."""
-    p0, coupling, a = _solid_parts(solid, theta0, loads0)
-    identity = np.eye(len(a))
-    t = p0 + 1j * omega * identity - coupling @ transfer[:, a]
-    dt_ds = identity - coupling @ rate[:, a]
+    p0, mass, coupling, a = _solid_parts(solid, theta0, loads0)
+    t = p0 + 1j * omega * mass - coupling @ transfer[:, a]
+    dt_ds = mass - coupling @ rate[:, a]
     dt_dlogu = solid.reduced_velocity * stiffness_derivative(solid)[np.ix_(a, a)]
     det = np.linalg.det(t)
     inverse = np.linalg.inv(t)
@@ -240,10 +243,12 @@ def determinant_gradient(
 ) -> tuple[np.ndarray, complex, np.ndarray]:
     """``T(iω)``, ``det T`` and its gradient ``∂/∂(ω, log U*, log m)`` (docs/model.md §8; three complex
     numbers) from ``G(iω)`` and ``dG/ds``. Every aerodynamic term of the solid rows scales with
-    ``1/m``, so ``∂T/∂(log m) = -(T - T_vac)`` with ``T_vac = P_vac + iωI`` the in-vacuo part."""
+    ``1/m``, so ``∂T/∂(log m) = -(T - T_vac)`` with ``T_vac = P_vac + iωM_s`` the in-vacuo part (the
+    solid mass ``M_s`` of a static unbalance is a ratio of the solid's own inertias, independent of m)."""
     t, det, d_omega, d_logu = determinant_on_axis(transfer, rate, solid, omega, theta0, loads0)
     a = active_states(solid)
-    in_vacuo = solid_stiffness(solid)[np.ix_(a, a)] + 1j * omega * np.eye(len(a))
+    mass = solid_mass(solid, theta0)[np.ix_(a, a)]
+    in_vacuo = solid_stiffness(solid)[np.ix_(a, a)] + 1j * omega * mass
     d_log_mass = -det * np.trace(np.linalg.inv(t) @ (t - in_vacuo))
     return t, det, np.array([d_omega, d_logu, d_log_mass])
 

@@ -340,6 +340,8 @@ def _solid_attrs(case: Case, solid: Solid) -> dict:
         "zeta_h": solid.zeta_h,
         "zeta_theta": solid.zeta_theta,
         "r_theta": solid.r_theta,
+        "elastic_axis": solid.elastic_axis,
+        "static_unbalance": solid.static_unbalance,
     }
 
 
@@ -689,8 +691,6 @@ def viscous_map_curves(cache_dir: Path, tag: str, section):
     path = stored_map_path(cache_dir, tag)
     if not path.is_file():
         return None, f"no stability map of {tag} in the cache {cache_dir}: no viscous comparison"
-    if section.elastic_axis != 0 or section.static_unbalance != 0:
-        return None, "the viscous plate has a = 0 and x_θ = 0: no viscous comparison"
     try:
         ds = read_dataset(path)
     except CacheError as exc:
@@ -698,7 +698,12 @@ def viscous_map_curves(cache_dir: Path, tag: str, section):
     solid = section.solid
     wanted = {"freq_ratio": solid.freq_ratio, "zeta_h": solid.zeta_h, "zeta_theta": solid.zeta_theta}
     wanted["r_theta"] = solid.r_theta
-    if any(not math.isclose(float(ds.attrs.get(k, math.nan)), v) for k, v in wanted.items()):
+    stored = {k: float(ds.attrs.get(k, math.nan)) for k in wanted}
+    # maps saved before the typical section (docs/model.md §3.1) are about mid-chord, balanced
+    typical = {"elastic_axis": section.elastic_axis, "static_unbalance": section.static_unbalance}
+    stored.update({k: float(ds.attrs.get(k, 0.0)) for k in typical})
+    wanted.update(typical)
+    if any(not math.isclose(stored[k], v, abs_tol=1e-15) for k, v in wanted.items()):
         return None, f"the stored map of {tag} has other solid parameters: no viscous comparison"
     from fsistab.neutral_map import map_curves
 
@@ -731,7 +736,11 @@ def theodorsen_comparison(
     ds["flutter_frequency_ratio"] = ds.reduced_velocity * ds.frequency  # ω_F/ω_θ
     ds.attrs.update(_slope_attrs(section))
     ds.attrs.update({"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg})
-    tag = case.tag
+    # the viscous map of the same section: its mesh is in the frame of the elastic axis
+    from fsistab.bodies import Pivoted
+
+    axis = section.elastic_axis
+    tag = replace(case, body=Pivoted(case.body, axis)).tag if axis else case.tag
     viscous, note = viscous_map_curves(cache_dir, tag, section)
     ds.attrs["viscous_comparison"] = note
     if viscous:
