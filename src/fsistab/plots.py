@@ -1358,3 +1358,43 @@ def plot_thresholds(ds, path: Path, title: str = "") -> Path:
     ax.legend(fontsize="small")
     ax.set_title(title or "thresholds along U*")
     return save_figure(fig, path)
+
+
+@_styled
+def plot_lco(ds, path: Path, title: str = "") -> Path:
+    """The bifurcation diagram of ``fsistab lco`` (:func:`fsistab.lco.limit_cycles`): the saturated
+    amplitudes of the moving degrees of freedom against U* (filled: saturated; open: not; triangles
+    down: the sweep by decreasing U*), the linear thresholds dashed; beside it the frequency of the
+    leading signal with the in-vacuo natural frequency."""
+    u = ds.reduced_velocity.values
+    names = [n for n in ("pitch", "heave") if n in ds.attrs.get("dofs", "")] or ["lift"]
+    fig, (ax_amp, ax_freq) = plt.subplots(1, 2, figsize=(10.0, 3.8))
+    fig.subplots_adjust(wspace=0.3)
+    for name, colour in zip(names, ("tab:blue", "tab:orange"), strict=False):
+        for prefix, marker, label in (("", "o", "increasing U*"), ("decreasing_", "v", "decreasing U*")):
+            if f"{prefix}{name}_amplitude" not in ds:
+                continue
+            amp = ds[f"{prefix}{name}_amplitude"].values
+            held = ds[f"{prefix}{name}_saturated"].values == 1
+            unit = " [rad]" if name == "pitch" else ""
+            ax_amp.plot(u, amp, "-", color=colour, lw=0.8, alpha=0.6)
+            ax_amp.plot(u[held], amp[held], marker, color=colour, ms=5, label=f"{name}{unit}, {label}")
+            ax_amp.plot(u[~held], amp[~held], marker, color=colour, ms=5, mfc="none")
+            if not prefix:
+                ax_freq.plot(u, ds[f"{name}_frequency"].values, marker + "-", color=colour, ms=4, label=name)
+    for ax in (ax_amp, ax_freq):
+        for k, threshold in enumerate(ds.threshold_velocity.values):
+            ax.axvline(
+                threshold, color="tab:red", ls="--", lw=1, label="linear threshold" if k == 0 else None
+            )
+        ax.set_xlabel("U*")
+        ax.grid(alpha=0.3)
+    scale = body_type(ds.attrs["body"]).velocity_scale
+    natural = np.linspace(u.min(), u.max(), 50) if len(u) > 1 else u
+    ax_freq.plot(natural, scale / natural, ":", color="k", label="in-vacuo natural frequency")
+    ax_amp.set_ylabel("amplitude (half peak-to-peak)")
+    ax_freq.set_ylabel("frequency ω [U∞/L]")
+    ax_amp.legend(fontsize="small")
+    ax_freq.legend(fontsize="small")
+    fig.suptitle(title)
+    return save_figure(fig, path)
