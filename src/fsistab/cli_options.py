@@ -243,6 +243,8 @@ LCO_OPTIONS = {
                                                      "convention)")], ...),
     "points": option(int, "--points", "marches, at equally spaced U* (1: the first U* only)", 5),
     **{k: v for k, v in SIMULATE_OPTIONS.items() if k != "snapshot_interval"},
+    "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
+                         "entry of its update is below this", 1e-9),
     "periods": option(int, "--periods", "whole periods over which the saturation is judged and the "
                        "amplitude taken", 4),
     "saturation_tolerance": option(float, "--saturation-tolerance", "saturated when the envelope changes "

@@ -1398,3 +1398,22 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
     ax_freq.legend(fontsize="small")
     fig.suptitle(title)
     return save_figure(fig, path)
+
+
+@_styled
+def plot_time_series(ds, path: Path, title: str = "") -> Path:
+    """A march's time series (``fsistab simulate``, one point of ``fsistab lco``): the moving
+    degrees of freedom (heave in L, pitch in rad) above, the lift and drag coefficients below."""
+    t = ds.time.values
+    fig, (ax_solid, ax_loads) = plt.subplots(2, 1, figsize=(9.0, 5.2), sharex=True)
+    dofs = [n for n in ("heave", "pitch") if n in ds.attrs.get("dofs", "")]
+    for name in dofs or ["heave"]:
+        ax_solid.plot(t, ds[name].values, lw=0.9, label=name + (" [rad]" if name == "pitch" else " [L]"))
+    ax_loads.plot(t, ds.lift_coefficient.values, lw=0.9, label="lift coefficient $C_L$")
+    ax_loads.plot(t, ds.drag_coefficient.values, lw=0.9, label="drag coefficient $C_D$")
+    ax_loads.set_xlabel("time [L/U∞]")
+    for ax in (ax_solid, ax_loads):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small", loc="upper left")
+    fig.suptitle(title)
+    return save_figure(fig, path)
