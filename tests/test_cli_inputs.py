@@ -133,6 +133,7 @@ OPTIONS = {
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--periods": ("count", 2, 1000),
+        "--max-step-iterations": ("count", 1, 1000),
         "--saturation-tolerance": "tolerance",
         "--workers": ("count", 1, 256),
     },

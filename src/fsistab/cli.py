@@ -572,7 +572,15 @@ def lco(opts):
     mass = case.body.default_mass_ratio if opts.mass_ratio is None else opts.mass_ratio
     solid = opts.solid(case.kind, mass_ratio=mass, reduced_velocity=opts.velocity_range[0])
     shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
-    names = ("duration", "time_step", "perturbation", "start", "checkpoint_every", "tolerance")
+    names = (
+        "duration",
+        "time_step",
+        "perturbation",
+        "start",
+        "checkpoint_every",
+        "tolerance",
+        "max_iterations",
+    )
     simulation = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
     settings = params.LcoSettings(
         opts.velocity_range, opts.points, simulation, opts.periods, opts.saturation_tolerance, opts.hysteresis

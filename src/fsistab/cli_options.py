@@ -245,6 +245,8 @@ LCO_OPTIONS = {
     **{k: v for k, v in SIMULATE_OPTIONS.items() if k != "snapshot_interval"},
     "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
                          "entry of its update is below this", 1e-9),
+    "max_iterations": option(int, "--max-step-iterations", "chord iterations allowed per step before the "
+                              "march fails (a large-amplitude cycle needs more than a small one)", 30),
     "periods": option(int, "--periods", "whole periods over which the saturation is judged and the "
                        "amplitude taken", 4),
     "saturation_tolerance": option(float, "--saturation-tolerance", "saturated when the envelope changes "

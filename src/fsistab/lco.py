@@ -421,7 +421,7 @@ def limit_cycles(
         "pitch in rad, half peak-to-peak; frequencies in U/L",
     )
     name = _leading(ds)
-    if len(critical):
+    if len(critical) and name in ds:
         slope, start = onset_fit(
             ds.reduced_velocity, ds[name], ds[name.replace("amplitude", "saturated")], critical[0]
         )
@@ -431,7 +431,8 @@ def limit_cycles(
             onset=classify_onset(ds.assign_attrs(onset_slope=slope, onset_velocity=start), critical[0]),
         )
     else:
-        ds.attrs.update(onset_slope=math.nan, onset_velocity=math.nan, onset="no threshold in the range")
+        onset = "no threshold in the range" if not len(critical) else "undetermined (no march finished)"
+        ds.attrs.update(onset_slope=math.nan, onset_velocity=math.nan, onset=onset)
     key = cache_key(
         "lco",
         {
