@@ -10,7 +10,8 @@ Command-line equivalent::
 
     fsistab lco --body cylinder --Re 100 --mass-ratio 10 --zeta-h 0 --mesh coarse \\
         --reduced-velocity-range 5 6 --points 2 --duration 100 --time-step 0.2 \\
-        --perturbation 0.1 --shift 0.1+0.75j --step-tolerance 1e-6 --workers 2
+        --perturbation 0.1 --shift 0.1+0.75j --step-tolerance 1e-6 --max-step-iterations 80 \\
+        --workers 2
 
 Mesh: ``--mesh`` preset (default coarse). Reference: the fixed cylinder's saturated shedding at
 Re 100 (docs/simulation.md: St 0.164), whose frequency 2π·0.164 ≈ 1.03 meets the in-vacuo natural
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> None:
     case = Case.create("cylinder", 100.0, 0.0, args.mesh)
     solid = solid_for("cylinder", MASS_RATIO, args.range[0], zeta_h=0.0, dofs=("heave",))
     march = SimulationSettings(
-        args.duration, 0.2, 0.1, 0.1 + 0.75j, checkpoint_every=25, tolerance=1e-6
+        args.duration, 0.2, 0.1, 0.1 + 0.75j, checkpoint_every=25, tolerance=1e-6, max_iterations=80
     )  # fmt: skip
     settings = LcoSettings(tuple(args.range), args.points, march)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -151,6 +151,19 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_points(tmp_path, 
 
     written = read_dataset(ds.attrs["data"])
     assert written.heave_amplitude.attrs["units"] == "1" and written.heave_state.dtype.kind in "UO"
+    # the outputs layer: the diagram, the JSON payload and the report from the same dataset
+    from pathlib import Path
+
+    from fsistab import figures, reports
+    from fsistab.payloads import payload
+
+    drawn = figures.lco(ds)
+    assert Path(drawn.attrs["figure"]).stat().st_size > 0
+    p = payload("lco", drawn)
+    assert [point["heave"]["state"] for point in p["points"]] == ["saturated"] * 3
+    assert p["figure"] == drawn.attrs["figure"] and p["failed"] == 0
+    lines = reports.lco(drawn, p)  # the table, the thresholds' line and the run's (no onset fit)
+    assert len(lines) == 3 and "none in the range" in lines[1]
 
 
 def test_classify_onset_by_hysteresis_and_by_the_fit():
@@ -174,8 +187,12 @@ def test_classify_onset_by_hysteresis_and_by_the_fit():
 def test_lco_command_on_the_coarse_cylinder_gives_the_eigenvalue_frequency(tmp_path):
     """Two short marches of the heaving cylinder at Re 60 (m = 10) from its wake mode: the
     command's JSON and NetCDF structure, and the frequency of the first whole period of the heave
-    within 1 % of the eigenvalue's (the march follows the linear mode while it is small; BDF2's
-    phase error at Δt = 0.2 is 0.7 %, docs/simulation.md)."""
+    within 2 % of the eigenvalue's: the march follows the linear mode while it is small, with
+    BDF2's phase error at Δt = 0.2 (0.7 %, docs/simulation.md), and the crossings of one period
+    of a growing or decaying oscillation about a mid-level read from the signal itself are off by
+    up to about 1 % at growth rates of ±0.05 (the extraction is meant for saturated cycles; on a
+    single such period it is a check of the plumbing, not of the march's accuracy, which
+    tests/test_simulation.py checks by Prony's fit to 1e-5)."""
     from typer.testing import CliRunner
 
     from fsistab.cli import app
@@ -203,6 +220,6 @@ def test_lco_command_on_the_coarse_cylinder_gives_the_eigenvalue_frequency(tmp_p
             eigenpairs_near(CoupledSystem(fluid, solid), [0.05 + 0.75j], 6),
             key=lambda p: abs(p.value - 0.05 - 0.75j),
         )
-        assert point["heave"]["frequency"] == pytest.approx(pair.frequency, rel=1e-2)
+        assert point["heave"]["frequency"] == pytest.approx(pair.frequency, rel=2e-2)
         # about two periods of a linear transient: never judged a limit cycle
         assert point["heave"]["state"] == "too short"

@@ -1378,8 +1378,11 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
             held = ds[f"{prefix}{name}_saturated"].values == 1
             unit = " [rad]" if name == "pitch" else ""
             ax_amp.plot(u, amp, "-", color=colour, lw=0.8, alpha=0.6)
-            ax_amp.plot(u[held], amp[held], marker, color=colour, ms=5, label=f"{name}{unit}, {label}")
-            ax_amp.plot(u[~held], amp[~held], marker, color=colour, ms=5, mfc="none")
+            if held.any():
+                ax_amp.plot(u[held], amp[held], marker, color=colour, ms=5, label=f"{name}{unit}, {label}")
+            if (~held).any():
+                ax_amp.plot(u[~held], amp[~held], marker, color=colour, ms=5, mfc="none",
+                            label=f"{name}{unit}, {label}, not saturated")  # fmt: skip
             if not prefix:
                 ax_freq.plot(u, ds[f"{name}_frequency"].values, marker + "-", color=colour, ms=4, label=name)
     for ax in (ax_amp, ax_freq):
@@ -1392,6 +1395,7 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
     scale = body_type(ds.attrs["body"]).velocity_scale
     natural = np.linspace(u.min(), u.max(), 50) if len(u) > 1 else u
     ax_freq.plot(natural, scale / natural, ":", color="k", label="in-vacuo natural frequency")
+    ax_amp.set_ylim(bottom=0.0)
     ax_amp.set_ylabel("amplitude (half peak-to-peak)")
     ax_freq.set_ylabel("frequency ω [U∞/L]")
     ax_amp.legend(fontsize="small")
