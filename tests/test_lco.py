@@ -223,3 +223,36 @@ def test_lco_command_on_the_coarse_cylinder_gives_the_eigenvalue_frequency(tmp_p
         assert point["heave"]["frequency"] == pytest.approx(pair.frequency, rel=2e-2)
         # about two periods of a linear transient: never judged a limit cycle
         assert point["heave"]["state"] == "too short"
+
+
+def test_the_decreasing_sweep_starts_each_march_from_the_saturated_state_above(tmp_path, monkeypatch):
+    """``hysteresis``: after the increasing sweep, the marches by decreasing U* start from the
+    checkpoint of the one above (a chain), and their amplitudes are kept beside the others."""
+    from fsistab import workflows
+
+    starts = []
+
+    class Result:
+        def __init__(self, velocity, start):
+            # a subcritical system: from rest nothing grows below U* = 6; from a cycle it stays
+            amplitude = 0.05 * velocity if (start is not None or velocity >= 6) else 1e-3
+            self.dataset = (
+                _fake_series(velocity)
+                .assign(heave=lambda ds: ds.heave * amplitude / (0.05 * velocity))
+                .assign_attrs(checkpoint=f"state_u{velocity:g}.nc")
+            )
+
+    def fake_simulate(case, solid, settings, cache_dir, out, progress=None):
+        velocity = round(solid.reduced_velocity * 2 * math.pi, 9)
+        starts.append((velocity, settings.start))
+        return Result(velocity, settings.start)
+
+    monkeypatch.setattr(workflows, "simulate", fake_simulate)
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.0, dofs=("heave",))
+    settings = LcoSettings((4.0, 6.0), 3, SimulationSettings(200.0, 0.1), hysteresis=True)
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert starts == [(4.0, None), (5.0, None), (6.0, None), (5.0, "state_u6.nc"), (4.0, "state_u5.nc")]
+    np.testing.assert_allclose(ds.decreasing_heave_amplitude, [0.2, 0.25, 0.3], rtol=1e-3)
+    np.testing.assert_allclose(ds.heave_amplitude, [1e-3, 1e-3, 0.3], rtol=1e-3)
+    assert lco.classify_onset(ds, 5.5) == "subcritical"
