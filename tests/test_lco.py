@@ -256,3 +256,33 @@ def test_the_decreasing_sweep_starts_each_march_from_the_saturated_state_above(t
     np.testing.assert_allclose(ds.decreasing_heave_amplitude, [0.2, 0.25, 0.3], rtol=1e-3)
     np.testing.assert_allclose(ds.heave_amplitude, [1e-3, 1e-3, 0.3], rtol=1e-3)
     assert lco.classify_onset(ds, 5.5) == "subcritical"
+
+
+def test_a_resumed_march_rebuilds_its_iteration_matrix_only_after_a_hard_step():
+    """A march interrupted after a step that needed more chord iterations than the rebuild
+    threshold gets the matrix rebuilt at the resumed state (it is not saved); after an easy step,
+    or at the start, nothing changes."""
+    from types import SimpleNamespace
+
+    from fsistab.workflows import _resume_linearisation
+
+    class Stepper:
+        refresh_after = 6
+
+        def __init__(self):
+            self.rebuilt = []
+
+        def refresh(self, q):
+            self.rebuilt.append(q)
+
+    state = SimpleNamespace(step=430, time=86.0, current="q")
+    for iterations, expected in ((72, ["q"]), (6, []), (3, [])):
+        stepper = Stepper()
+        table = SimpleNamespace(records=[{"chord_iterations": 2}, {"chord_iterations": iterations}])
+        _resume_linearisation(table, stepper, state, lambda message: None)
+        assert stepper.rebuilt == expected
+    stepper = Stepper()
+    _resume_linearisation(
+        SimpleNamespace(records=[{"chord_iterations": 0}]), stepper, SimpleNamespace(step=0), print
+    )
+    assert stepper.rebuilt == []

@@ -1398,8 +1398,9 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
     ax_amp.set_ylim(bottom=0.0)
     ax_amp.set_ylabel("amplitude (half peak-to-peak)")
     ax_freq.set_ylabel("frequency ω [U∞/L]")
-    ax_amp.legend(fontsize="small")
-    ax_freq.legend(fontsize="small")
+    for ax in (ax_amp, ax_freq):
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize="small")
     fig.suptitle(title)
     return save_figure(fig, path)
 
