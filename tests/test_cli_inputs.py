@@ -35,6 +35,7 @@ BASE = {
     + ["--moment-slope-alpha", "1.562"],
     "transfer": ["transfer", "--mesh", "coarse"],
     "simulate": ["simulate", "--mesh", "coarse", "--duration", "1"],
+    "lco": ["lco", "--mesh", "coarse", "--reduced-velocity-range", "4", "8", "--duration", "1"],
 }
 
 CASE = {"--Re": "positive", "--alpha0": "angle", "--aspect-ratio": "aspect", "--corner-radius": "corner"}
@@ -116,6 +117,23 @@ OPTIONS = {
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--snapshot-interval": "positive",
+    },
+    "lco": CASE
+    | SOLID
+    | {
+        "--mass-ratio": "positive",
+        "--reduced-velocity-range": "range",
+        "--points": ("count", 1, 500),
+        "--dofs": "dofs",
+        "--duration": "positive",
+        "--time-step": "positive",
+        "--perturbation": "damping",
+        "--shift": "complex",
+        "--checkpoint-every": ("count", 1, 10_000_000),
+        "--periods": ("count", 2, 1000),
+        "--max-step-iterations": ("count", 1, 1000),
+        "--saturation-tolerance": "tolerance",
+        "--workers": ("count", 1, 256),
     },
 }
 

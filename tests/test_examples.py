@@ -20,6 +20,7 @@ EXPECTED = {
     "plot_reynolds_study.py",
     "plot_alpha0_study.py",
     "plot_wake_onset.py",
+    "plot_limit_cycles.py",
 }
 
 

@@ -32,6 +32,7 @@ from fsistab.cli_options import (
     EXTRA_ARGS,
     FILES,
     FLOW_NEUTRAL_OPTIONS,
+    LCO_OPTIONS,
     MAP_OPTIONS,
     MASS_OPTION,
     ONSET_OPTIONS,
@@ -574,6 +575,60 @@ def simulate(opts):
         result = workflows.simulate(case, solid, settings, cache, out, progress, snapshot=write)
     ds = result.dataset.assign_attrs(snapshots=json.dumps(paths))
     _finish("simulate", ds, opts.as_json, reports.simulate)
+
+
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, LCO_OPTIONS)
+def lco(opts):
+    """Limit-cycle amplitudes past the threshold: one nonlinear march (as `fsistab simulate`) at each
+    of --points U* over --reduced-velocity-range, the saturated amplitude and frequency of h and θ
+    from their last --periods periods (saturated when the envelope changes by less than
+    --saturation-tolerance per period), the bifurcation diagram with the linear thresholds of the
+    same mesh, and whether the onset is supercritical (A² linear in U* − U*_c) or subcritical
+    (--hysteresis: a sweep by decreasing U* from saturated states). Each march is one task: in this
+    process by default, on a dask LocalCluster with --workers N or a scheduler with --scheduler;
+    finished marches are kept in OUT/lco_points and rerunning resumes. Exit status 1 when a march
+    failed."""
+    from fsistab.study import check_execution, study_client
+
+    case = opts.case()
+    mass = case.body.default_mass_ratio if opts.mass_ratio is None else opts.mass_ratio
+    solid = opts.solid(case.kind, mass_ratio=mass, reduced_velocity=opts.velocity_range[0])
+    shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
+    names = (
+        "duration",
+        "time_step",
+        "perturbation",
+        "start",
+        "checkpoint_every",
+        "tolerance",
+        "max_iterations",
+    )
+    simulation = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
+    settings = params.LcoSettings(
+        opts.velocity_range, opts.points, simulation, opts.periods, opts.saturation_tolerance, opts.hysteresis
+    )
+    if simulation.start is not None and not Path(simulation.start).is_file():
+        raise InputError(f"--start: no such file {simulation.start}")
+    check_execution(opts.workers, opts.scheduler)
+    out, cache = _prepare(opts, [case])
+    from fsistab import figures, reports
+    from fsistab.lco import limit_cycles
+
+    with _running() as progress, study_client(opts.workers, opts.scheduler) as client:
+        ds = limit_cycles(
+            case,
+            solid,
+            settings,
+            mass,
+            cache,
+            out,
+            client=client,
+            progress=progress,
+            thresholds=opts.thresholds,
+        )
+    p = _finish("lco", figures.lco(ds), opts.as_json, reports.lco)
+    if p["failed"]:
+        raise typer.Exit(code=1)
 
 
 def single_threaded_blas(environ: MutableMapping[str, str]) -> MutableMapping[str, str]:

@@ -235,3 +235,27 @@ SIMULATE_OPTIONS = {
                                  "VTK every this much simulated time"),
 }
 # fmt: on
+
+# fmt: off
+LCO_OPTIONS = {
+    "velocity_range": (Annotated[Pair, typer.Option("--reduced-velocity-range",
+                                                     help="U* of the first and last march (body "
+                                                     "convention)")], ...),
+    "points": option(int, "--points", "marches, at equally spaced U* (1: the first U* only)", 5),
+    **{k: v for k, v in SIMULATE_OPTIONS.items() if k != "snapshot_interval"},
+    "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
+                         "entry of its update is below this", 1e-9),
+    "max_iterations": option(int, "--max-step-iterations", "chord iterations allowed per step before the "
+                              "march fails (a large-amplitude cycle needs more than a small one)", 30),
+    "periods": option(int, "--periods", "whole periods over which the saturation is judged and the "
+                       "amplitude taken", 4),
+    "saturation_tolerance": option(float, "--saturation-tolerance", "saturated when the envelope changes "
+                                    "by less than this (relative) per period", 0.01),
+    "hysteresis": option(bool, "--hysteresis", "also sweep by decreasing U*, each march from the "
+                          "saturated state of the one above", False),
+    "thresholds": (Annotated[bool, typer.Option("--thresholds/--no-thresholds",
+                                                 help="mark the linear thresholds (fsistab critical on the "
+                                                 "same mesh)")], True),
+    **EXECUTION_OPTIONS,
+}
+# fmt: on

@@ -159,3 +159,11 @@ def sensitivity(result, progress: Callable[[str], None] = _quiet) -> xr.Dataset:
     vtk = write_maps_vtk(result.maps, result.steady.mesh, Path(f"{stem}_maps"))
     figure = plots.plot_sensitivity_maps(result.maps, result.steady, Path(f"{stem}_maps.png"), result.scale)
     return ds.assign_attrs(vtk=str(vtk), figure=str(figure))
+
+
+def lco(ds: xr.Dataset) -> xr.Dataset:
+    """The bifurcation diagram beside the data file (``fsistab lco``), its path in ``figure``."""
+    a = ds.attrs
+    title = f"limit cycles: {a['body']}, Re = {a['reynolds']:g}, m = {a['mass_ratio']:g}, dofs {a['dofs']}"
+    path = Path(a["data"]).with_suffix(".png")
+    return ds.assign_attrs(figure=str(plots.plot_lco(ds, path, title=title)))

@@ -841,3 +841,61 @@ class SimulationSettings:
             "start": "none" if self.start is None else str(self.start),
             "tolerance": self.tolerance,
         }
+
+
+@dataclass(frozen=True)
+class LcoSettings:
+    """``fsistab lco``: one march (``simulation``, :class:`SimulationSettings`) at each of ``points``
+    equally spaced U* over ``velocity_range`` (body conventions; one point: its low end), the
+    saturated amplitude taken over the last ``periods`` whole periods and called saturated when
+    the envelope changes by less than ``saturation_tolerance`` (relative) per period; with
+    ``hysteresis`` a second sweep by decreasing U*, each march started from the saturated state of
+    the one before (docs/model.md §12)."""
+
+    velocity_range: tuple[float, float]
+    points: int
+    simulation: SimulationSettings
+    periods: int = 4
+    saturation_tolerance: float = 0.01
+    hysteresis: bool = False
+
+    def __post_init__(self):
+        low, high = _lco_range(self.velocity_range)
+        object.__setattr__(self, "velocity_range", (low, high))
+        points = _count("--points", self.points, 1, MAX_SWEEP_POINTS)
+        if points > 1 and low == high:
+            raise InputError(f"--points {points} needs a range of U*, got {low:g} {high:g}")
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "periods", _count("--periods", self.periods, 2, 1000))
+        tolerance = _positive("--saturation-tolerance", self.saturation_tolerance)
+        if tolerance >= 0.5:
+            raise InputError(
+                f"--saturation-tolerance must be below 0.5 (relative, per period), got {tolerance:g}"
+            )
+        object.__setattr__(self, "saturation_tolerance", tolerance)
+
+    def velocities(self) -> tuple[float, ...]:
+        """The U* of the marches, increasing (rounded to 12 digits: the same U* given twice is the
+        same march)."""
+        low, high = self.velocity_range
+        if self.points == 1:
+            return (low,)
+        step = (high - low) / (self.points - 1)
+        return tuple(float(round(low + k * step, 12)) for k in range(self.points))
+
+
+def _lco_range(pair) -> tuple[float, float]:
+    """``--reduced-velocity-range A B``: ``0 < A <= B`` (equal for one point), both finite."""
+    try:
+        low, high = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        raise InputError(f"--reduced-velocity-range must be two numbers, got {pair!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low):
+        raise InputError(f"--reduced-velocity-range must be positive and finite, got {low:g} {high:g}")
+    if high < low:
+        raise InputError(f"--reduced-velocity-range is reversed: {low:g} > {high:g} (give A <= B)")
+    if high > MAX_REDUCED_VELOCITY:
+        raise InputError(
+            f"--reduced-velocity-range must end at most at {MAX_REDUCED_VELOCITY:g}, got {high:g}"
+        )
+    return low, high

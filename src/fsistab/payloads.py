@@ -414,6 +414,46 @@ def _simulate_payload(ds):
     }
 
 
+def _lco_payload(ds):
+    a = ds.attrs
+    points = []
+    for i, u in enumerate(ds.reduced_velocity.values):
+        point = {"reduced_velocity": float(u), "error": str(ds["error"].values[i]) or None}
+        for name in ("heave", "pitch", "lift"):
+            if f"{name}_amplitude" in ds:
+                point[name] = {
+                    "amplitude": _finite_or_none([ds[f"{name}_amplitude"].values[i]])[0],
+                    "frequency": _finite_or_none([ds[f"{name}_frequency"].values[i]])[0],
+                    "change_per_period": _finite_or_none([ds[f"{name}_change"].values[i]])[0],
+                    "state": str(ds[f"{name}_state"].values[i]),
+                }
+            if f"decreasing_{name}_amplitude" in ds:
+                point[f"decreasing_{name}"] = {
+                    "amplitude": _finite_or_none([ds[f"decreasing_{name}_amplitude"].values[i]])[0],
+                    "state": str(ds[f"decreasing_{name}_state"].values[i]),
+                }
+        points.append(point)
+    return {
+        "data": a["data"],
+        "figure": a.get("figure"),
+        "points": points,
+        "thresholds": [float(u) for u in ds.threshold_velocity.values],
+        "onset": a["onset"],
+        "onset_fit": {
+            "slope": _finite_or_none([a["onset_slope"]])[0],
+            "velocity": _finite_or_none([a["onset_velocity"]])[0],
+        },
+        "saturation_rule": a["saturation_rule"],
+        "saturation_tolerance": float(a["saturation_tolerance"]),
+        "periods": int(a["periods"]),
+        "ndof": int(a["ndof"]),
+        "computed": int(a["computed"]),
+        "failed": int(a["failed"]),
+        "seconds": float(a["seconds"]),
+        "execution": a["execution"],
+    }
+
+
 _PAYLOADS = {
     "mesh": _mesh_payload,
     "steady": _steady_payload,
@@ -429,4 +469,5 @@ _PAYLOADS = {
     "study": _study_payload,
     "sensitivity": _sensitivity_payload,
     "simulate": _simulate_payload,
+    "lco": _lco_payload,
 }

@@ -1358,3 +1358,67 @@ def plot_thresholds(ds, path: Path, title: str = "") -> Path:
     ax.legend(fontsize="small")
     ax.set_title(title or "thresholds along U*")
     return save_figure(fig, path)
+
+
+@_styled
+def plot_lco(ds, path: Path, title: str = "") -> Path:
+    """The bifurcation diagram of ``fsistab lco`` (:func:`fsistab.lco.limit_cycles`): the saturated
+    amplitudes of the moving degrees of freedom against U* (filled: saturated; open: not; triangles
+    down: the sweep by decreasing U*), the linear thresholds dashed; beside it the frequency of the
+    leading signal with the in-vacuo natural frequency."""
+    u = ds.reduced_velocity.values
+    names = [n for n in ("pitch", "heave") if n in ds.attrs.get("dofs", "")] or ["lift"]
+    fig, (ax_amp, ax_freq) = plt.subplots(1, 2, figsize=(10.0, 3.8))
+    fig.subplots_adjust(wspace=0.3)
+    for name, colour in zip(names, ("tab:blue", "tab:orange"), strict=False):
+        for prefix, marker, label in (("", "o", "increasing U*"), ("decreasing_", "v", "decreasing U*")):
+            if f"{prefix}{name}_amplitude" not in ds:
+                continue
+            amp = ds[f"{prefix}{name}_amplitude"].values
+            held = ds[f"{prefix}{name}_saturated"].values == 1
+            unit = " [rad]" if name == "pitch" else ""
+            ax_amp.plot(u, amp, "-", color=colour, lw=0.8, alpha=0.6)
+            if held.any():
+                ax_amp.plot(u[held], amp[held], marker, color=colour, ms=5, label=f"{name}{unit}, {label}")
+            if (~held).any():
+                ax_amp.plot(u[~held], amp[~held], marker, color=colour, ms=5, mfc="none",
+                            label=f"{name}{unit}, {label}, not saturated")  # fmt: skip
+            if not prefix:
+                ax_freq.plot(u, ds[f"{name}_frequency"].values, marker + "-", color=colour, ms=4, label=name)
+    for ax in (ax_amp, ax_freq):
+        for k, threshold in enumerate(ds.threshold_velocity.values):
+            ax.axvline(
+                threshold, color="tab:red", ls="--", lw=1, label="linear threshold" if k == 0 else None
+            )
+        ax.set_xlabel("U*")
+        ax.grid(alpha=0.3)
+    scale = body_type(ds.attrs["body"]).velocity_scale
+    natural = np.linspace(u.min(), u.max(), 50) if len(u) > 1 else u
+    ax_freq.plot(natural, scale / natural, ":", color="k", label="in-vacuo natural frequency")
+    ax_amp.set_ylim(bottom=0.0)
+    ax_amp.set_ylabel("amplitude (half peak-to-peak)")
+    ax_freq.set_ylabel("frequency ω [U∞/L]")
+    for ax in (ax_amp, ax_freq):
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize="small")
+    fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+@_styled
+def plot_time_series(ds, path: Path, title: str = "") -> Path:
+    """A march's time series (``fsistab simulate``, one point of ``fsistab lco``): the moving
+    degrees of freedom (heave in L, pitch in rad) above, the lift and drag coefficients below."""
+    t = ds.time.values
+    fig, (ax_solid, ax_loads) = plt.subplots(2, 1, figsize=(9.0, 5.2), sharex=True)
+    dofs = [n for n in ("heave", "pitch") if n in ds.attrs.get("dofs", "")]
+    for name in dofs or ["heave"]:
+        ax_solid.plot(t, ds[name].values, lw=0.9, label=name + (" [rad]" if name == "pitch" else " [L]"))
+    ax_loads.plot(t, ds.lift_coefficient.values, lw=0.9, label="lift coefficient $C_L$")
+    ax_loads.plot(t, ds.drag_coefficient.values, lw=0.9, label="drag coefficient $C_D$")
+    ax_loads.set_xlabel("time [L/U∞]")
+    for ax in (ax_solid, ax_loads):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small", loc="upper left")
+    fig.suptitle(title)
+    return save_figure(fig, path)

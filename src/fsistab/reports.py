@@ -419,3 +419,39 @@ def simulate(ds: xr.Dataset, p: dict) -> list:
     if p["vtk"]:
         lines.append(f"{_plural(len(p['vtk']), 'snapshot')}: {p['vtk'][0]} ...")
     return lines
+
+
+def lco(ds: xr.Dataset, p: dict) -> list:
+    a = ds.attrs
+    names = [n for n in ("pitch", "heave") if n in a["dofs"]] or ["lift"]
+    rows = []
+    for point in p["points"]:
+        if point["error"]:
+            rows.append((f"{point['reduced_velocity']:g}", *(["FAILED"] * len(names)), point["error"]))
+            continue
+        cells = []
+        for name in names:
+            s = point[name]
+            amplitude = "—" if s["amplitude"] is None else f"{s['amplitude']:.4g}"
+            frequency = "—" if s["frequency"] is None else f"{s['frequency']:.4g}"
+            cells.append(f"{amplitude} (ω {frequency})")
+        state = point[names[0]]
+        change = "" if state["change_per_period"] is None else f" {state['change_per_period']:+.2g}/period"
+        rows.append((f"{point['reduced_velocity']:g}", *cells, f"{state['state']}{change}"))
+    title = (
+        f"limit cycles: {a['body']}, Re = {a['reynolds']:g}, m = {a['mass_ratio']:g}, dofs {a['dofs']}, "
+        f"dt = {a['time_step']:g}, duration {a['duration']:g}"
+    )
+    lines = [table(title, ("U*", *(f"{n} amplitude" for n in names), "envelope"), rows)]
+    thresholds = ", ".join(f"{u:.5g}" for u in p["thresholds"]) or "none in the range"
+    lines.append(f"linear thresholds U*_c: {thresholds}; onset: {p['onset']}")
+    fit = p["onset_fit"]
+    if fit["velocity"] is not None:
+        lines.append(
+            f"A² = {fit['slope']:.4g} (U* − {fit['velocity']:.5g}) through the first saturated points"
+        )
+    lines.append(
+        f"{p['computed']} marches computed ({p['execution']}), {p['failed']} failed, {p['seconds']:.4g} s; "
+        f"{p['ndof']} unknowns; data {p['data']}; figure {p['figure']}"
+    )
+    return lines

@@ -68,6 +68,30 @@ _M = "mass ratio m (body's convention, docs/model.md §2, §10)"
 _W = "angular frequency omega (time unit L/U)"
 _SIGMA = "of sigma = lambda + i omega (time unit L/U)"
 
+
+def _limit_cycle_fields() -> dict[str, Field]:
+    """The saturated oscillation of each signal of ``fsistab lco`` (fsistab.lco), on the sweep by
+    increasing U* and (prefix ``decreasing_``) by decreasing U*."""
+    signals = {"heave": ("heave h", "1"), "pitch": ("pitch theta", "rad"), "lift": ("lift coefficient", "1")}
+    fields = {"error": _text("error message of a failed point")}
+    for name, (what, unit) in signals.items():
+        fields |= {
+            f"{name}_amplitude": Field(f"saturated amplitude (half peak-to-peak) of the {what}", unit),
+            f"{name}_frequency": Field(f"angular frequency of the {what} over its last periods (U/L)"),
+            f"{name}_mean": Field(f"mid-level of the {what} oscillation", unit),
+            f"{name}_change": Field(f"relative change per period of the {what} envelope"),
+            f"{name}_saturated": Field(f"1 when the {what} envelope changes less than the tolerance"),
+            f"{name}_state": _text(f"the {what} march: saturated, growing, decaying or too short"),
+            f"{name}_periods": Field(f"whole periods of the {what} in the march"),
+        }
+    fields |= {
+        f"decreasing_{k}": Field(f"{v.long_name} (sweep by decreasing U*)", v.units)
+        for k, v in fields.items()
+    }
+    fields["threshold_velocity"] = Field(f"linear threshold: {_U}")
+    return fields
+
+
 # every variable and coordinate name, in the meaning it has in every file that holds it
 VARIABLES: Mapping[str, Field] = MappingProxyType(
     {
@@ -275,6 +299,7 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "status": _text("state of the study point: done or failed"),
         "error": _text("error message of a failed study point"),
     }
+    | {k: v for k, v in _limit_cycle_fields().items() if k != "error"}
 )
 
 # a dimension coordinate whose name means something else as a data variable

@@ -1086,6 +1086,21 @@ def _start(table, stepper, system, settings, case, identity, say):
     return start
 
 
+def _resume_linearisation(table, stepper, state, say) -> None:
+    """A march resumed after a step that needed more than ``stepper.refresh_after`` chord
+    iterations had its iteration matrix rebuilt about the current field
+    (:meth:`fsistab.simulation.TimeStepper.refresh`); that matrix is not saved, so rebuild it at
+    the resumed state: the steady state's would make the next step start over far from its
+    solution (a large-amplitude cycle then stalls). The residual, hence every converged step, is
+    unchanged."""
+    records = table.records
+    if state.step == 0 or not records or stepper.refresh_after <= 0:
+        return
+    if int(records[-1]["chord_iterations"]) > stepper.refresh_after:
+        say(f"iteration matrix rebuilt at the resumed state (t = {state.time:.6g})")
+        stepper.refresh(state.current)
+
+
 def _amplitude(samples, reference, active: list[int]) -> float:
     """The largest deviation from the steady ``reference`` sample, over ``samples``, of the pitch
     (else the heave, else the lift coefficient for a fixed body): the progress display's amplitude."""
@@ -1138,6 +1153,7 @@ def simulate(
     table = ResumableTable(path, identity, {"sample": SIMULATION_FIELDS}, SIMULATION_STATE)
     stepper = TimeStepper(system, settings.time_step, settings.tolerance, settings.max_iterations)
     state = _start(table, stepper, system, settings, case, identity, say)
+    _resume_linearisation(table, stepper, state, say)
     say(f"BDF2 march to t = {settings.duration:g}, dt = {settings.time_step:g}, {system.size} unknowns")
     reference = stepper.sample(0.0, stepper.steady_point(), fluid.loads0)
     started, first_step, recent = clock.perf_counter(), state.step, deque(maxlen=PROGRESS_WINDOW)

@@ -1,0 +1,288 @@
+"""Limit-cycle amplitudes (fsistab.lco): the saturation test and the amplitude law on analytic
+signals, the onset fit on an exact square-root law, the resume of an interrupted sweep, bad input,
+and a short coarse march whose extracted frequency is the eigenvalue's."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from fsistab import lco
+from fsistab.errors import InputError
+from fsistab.params import Case, LcoSettings, SimulationSettings, solid_for
+
+
+def _landau(t, growth, omega, start, limit):
+    """``A(t) sin(ωt)`` with ``A`` the solution of ``A' = σA(1 − A²/A∞²)`` from ``A(0) = start``:
+    a supercritical oscillation growing to its limit cycle, whose amplitude law is known."""
+    envelope = limit / np.sqrt(1 + (limit**2 / start**2 - 1) * np.exp(-2 * growth * t))
+    return envelope * np.sin(omega * t)
+
+
+def test_a_growing_then_saturating_oscillation_is_saturated_at_its_limit():
+    t = np.arange(0.0, 400.0, 0.02)
+    s = lco.saturation(t, 0.1 + _landau(t, 0.08, 0.73, 1e-4, 0.4), periods=4, tolerance=1e-3)
+    assert s.state == "saturated" and s.saturated
+    assert s.amplitude == pytest.approx(0.4, rel=1e-4)
+    assert s.frequency == pytest.approx(0.73, rel=1e-4)
+    assert s.mean == pytest.approx(0.1, abs=1e-4)
+    assert abs(s.change) < 1e-6
+
+
+def test_a_signal_still_growing_or_decaying_is_said_so():
+    t = np.arange(0.0, 100.0, 0.01)
+    omega, rate = 0.9, 0.01
+    growing = lco.saturation(t, np.exp(rate * t) * np.sin(omega * t), periods=4)
+    assert growing.state == "growing" and not growing.saturated
+    # the envelope grows by e^{rate·T} per period T = 2π/ω (to the sampling's and the
+    # peak-location's small error)
+    assert growing.change == pytest.approx(math.expm1(rate * 2 * math.pi / omega), rel=2e-2)
+    decaying = lco.saturation(t, np.exp(-rate * t) * np.sin(omega * t), periods=4)
+    assert decaying.state == "decaying" and decaying.change < 0
+    short = lco.saturation(t[:1500], np.sin(omega * t[:1500]), periods=4)  # two periods
+    assert short.state == "too short" and math.isnan(short.change) and short.found < 4
+
+
+def test_the_envelope_growth_rate_follows_the_amplitude_law():
+    """For ``A' = σA(1 − A²/A∞²)`` the rate measured between periods is ``σ(1 − A²/A∞²)``: its zero is
+    the limit cycle, with ``dσ/dA < 0`` (stable)."""
+    t = np.arange(0.0, 300.0, 0.01)
+    growth, limit = 0.02, 0.3
+    amplitudes, rates = lco.envelope_growth(t, _landau(t, growth, 1.1, 0.01, limit))
+    expected = growth * (1 - amplitudes**2 / limit**2)
+    assert len(rates) > 40
+    np.testing.assert_allclose(rates, expected, atol=2e-3 * growth)
+    assert np.all(np.diff(rates[amplitudes > 0.05]) < 0)
+
+
+def test_onset_fit_recovers_a_square_root_law():
+    u = np.array([4.0, 4.5, 5.0, 5.5, 6.0])
+    amplitude = np.sqrt(np.clip(0.2 * (u - 4.3), 0, None))
+    slope, start = lco.onset_fit(u, amplitude, np.ones(5), threshold=4.3)
+    assert slope == pytest.approx(0.2, rel=1e-10) and start == pytest.approx(4.3, rel=1e-10)
+    assert all(math.isnan(v) for v in lco.onset_fit(u, amplitude, np.zeros(5), threshold=4.3))
+
+
+@pytest.mark.parametrize(
+    ("velocity_range", "points", "message"),
+    [
+        ((5.0, 4.0), 3, "reversed"),
+        ((4.0, 5.0), 0, "--points must be between 1"),
+        ((4.0, 4.0), 3, "needs a range"),
+        ((-1.0, 4.0), 3, "positive"),
+    ],
+)
+def test_bad_sweeps_are_refused_in_one_line(velocity_range, points, message):
+    with pytest.raises(InputError, match=message) as caught:
+        LcoSettings(velocity_range, points, SimulationSettings(10.0))
+    assert "\n" not in str(caught.value)
+    assert LcoSettings((4.0, 4.0), 1, SimulationSettings(10.0)).velocities() == (4.0,)
+    assert LcoSettings((4.0, 6.0), 5, SimulationSettings(10.0)).velocities() == (4.0, 4.5, 5.0, 5.5, 6.0)
+
+
+def test_the_command_refuses_a_reversed_range_before_any_work(tmp_path):
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+
+    where = ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")]
+    result = CliRunner().invoke(app, ["lco", "--reduced-velocity-range", "6", "4", *where])
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and "reversed" in lines[0]
+    result = CliRunner().invoke(app, ["lco", "--reduced-velocity-range", "4", "6", "--points", "0", *where])
+    assert result.exit_code == 2 and "--points must be between 1" in result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def _fake_series(velocity: float) -> xr.Dataset:
+    t = np.arange(0.0, 200.0, 0.1)
+    heave = _landau(t, 0.1, 0.8, 1e-3, 0.05 * velocity)
+    names = (
+        "pitch",
+        "heave_rate",
+        "pitch_rate",
+        "lift_coefficient",
+        "drag_coefficient",
+        "moment_coefficient",
+    )
+    data = {"heave": ("time", heave)} | {n: ("time", np.zeros_like(t)) for n in names}
+    data["lift_coefficient"] = ("time", 2 * heave)
+    return xr.Dataset(data, coords={"time": t}, attrs={"ndof": 10, "dofs": "heave", "checkpoint": "c.nc"})
+
+
+def test_an_interrupted_sweep_resumes_without_redoing_finished_points(tmp_path, monkeypatch):
+    """The march is replaced by a known signal (its amplitude 0.05 U*): the second point is
+    interrupted; rerun, the first is read back from its file, not marched again."""
+    from fsistab import workflows
+
+    calls = []
+
+    class Result:
+        def __init__(self, velocity):
+            self.dataset = _fake_series(velocity)
+
+    def fake_simulate(case, solid, settings, cache_dir, out, progress=None):
+        velocity = solid.reduced_velocity * 2 * math.pi
+        calls.append(round(velocity, 9))
+        if len(calls) == 2 and not (tmp_path / "interrupted").exists():
+            (tmp_path / "interrupted").touch()
+            raise KeyboardInterrupt
+        return Result(velocity)
+
+    monkeypatch.setattr(workflows, "simulate", fake_simulate)
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.0, dofs=("heave",))
+    settings = LcoSettings((4.0, 6.0), 3, SimulationSettings(200.0, 0.1))
+    with pytest.raises(KeyboardInterrupt):
+        lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert calls == [4.0, 5.0]
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert calls == [4.0, 5.0, 5.0, 6.0] and ds.attrs["computed"] == 2
+    # to the sampling: the peak falls between samples by at most ωΔt/2 in phase, 1 − cos(0.04)
+    np.testing.assert_allclose(ds.heave_amplitude, 0.05 * ds.reduced_velocity, rtol=1e-3)
+    assert list(ds.heave_state.values) == ["saturated"] * 3
+    np.testing.assert_allclose(ds.heave_frequency, 0.8, rtol=1e-4)
+    assert ds.attrs["onset"] == "no threshold in the range"
+    again = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert len(calls) == 4 and again.attrs["computed"] == 0
+    from fsistab.store import read_dataset
+
+    written = read_dataset(ds.attrs["data"])
+    assert written.heave_amplitude.attrs["units"] == "1" and written.heave_state.dtype.kind in "UO"
+    # the outputs layer: the diagram, the JSON payload and the report from the same dataset
+    from pathlib import Path
+
+    from fsistab import figures, reports
+    from fsistab.payloads import payload
+
+    drawn = figures.lco(ds)
+    assert Path(drawn.attrs["figure"]).stat().st_size > 0
+    p = payload("lco", drawn)
+    assert [point["heave"]["state"] for point in p["points"]] == ["saturated"] * 3
+    assert p["figure"] == drawn.attrs["figure"] and p["failed"] == 0
+    lines = reports.lco(drawn, p)  # the table, the thresholds' line and the run's (no onset fit)
+    assert len(lines) == 3 and "none in the range" in lines[1]
+
+
+def test_classify_onset_by_hysteresis_and_by_the_fit():
+    u = np.array([4.0, 4.5, 5.0, 5.5])
+    up = np.array([0.0, 0.0, 0.2, 0.3])
+    ds = xr.Dataset(
+        {"heave_amplitude": ("reduced_velocity", up), "heave_saturated": ("reduced_velocity", np.ones(4))},
+        coords={"reduced_velocity": u},
+        attrs={"dofs": "heave", "onset_slope": 0.1, "onset_velocity": 4.6},
+    )
+    assert lco.classify_onset(ds, 4.7) == "supercritical"
+    assert lco.classify_onset(ds.assign_attrs(onset_velocity=3.0), 4.7) == "undetermined"
+    held = ds.assign(
+        decreasing_heave_amplitude=("reduced_velocity", np.array([0.0, 0.15, 0.2, 0.3])),
+        decreasing_heave_saturated=("reduced_velocity", np.ones(4)),
+    )
+    assert lco.classify_onset(held, 4.7) == "subcritical"
+
+
+@pytest.mark.slow
+def test_lco_command_on_the_coarse_cylinder_gives_the_eigenvalue_frequency(tmp_path):
+    """Two short marches of the heaving cylinder at Re 60 (m = 10) from its wake mode: the
+    command's JSON and NetCDF structure, and the frequency of the first whole period of the heave
+    within 2 % of the eigenvalue's: the march follows the linear mode while it is small, with
+    BDF2's phase error at Δt = 0.2 (0.7 %, docs/simulation.md), and the crossings of one period
+    of a growing or decaying oscillation about a mid-level read from the signal itself are off by
+    up to about 1 % at growth rates of ±0.05 (the extraction is meant for saturated cycles; on a
+    single such period it is a check of the plumbing, not of the march's accuracy, which
+    tests/test_simulation.py checks by Prony's fit to 1e-5)."""
+    from typer.testing import CliRunner
+
+    from fsistab.cli import app
+    from fsistab.coupled import CoupledSystem
+    from fsistab.eigen import eigenpairs_near
+    from fsistab.store import read_dataset
+    from fsistab.workflows import _fluid
+
+    where = ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache")]
+    args = ["lco", "--body", "cylinder", "--Re", "60", "--mesh", "coarse", "--mass-ratio", "10"]
+    args += ["--reduced-velocity-range", "5", "6", "--points", "2", "--duration", "18", "--time-step", "0.2"]
+    args += ["--perturbation", "1e-3", "--shift", "0.05+0.75j", "--periods", "2", "--no-thresholds"]
+    result = CliRunner().invoke(app, [*args, "--json", *where])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert [p["reduced_velocity"] for p in payload["points"]] == [5.0, 6.0]
+    assert payload["failed"] == 0 and payload["computed"] == 2 and payload["thresholds"] == []
+    ds = read_dataset(payload["data"])
+    assert ds.heave_amplitude.sizes["reduced_velocity"] == 2 and ds.heave_amplitude.attrs["units"] == "1"
+    case = Case.create("cylinder", 60, preset="coarse")
+    _, fluid = _fluid(case, tmp_path / "cache", lambda message: None)
+    for point in payload["points"]:
+        solid = solid_for("cylinder", 10.0, point["reduced_velocity"], dofs=("heave",))
+        pair = min(
+            eigenpairs_near(CoupledSystem(fluid, solid), [0.05 + 0.75j], 6),
+            key=lambda p: abs(p.value - 0.05 - 0.75j),
+        )
+        assert point["heave"]["frequency"] == pytest.approx(pair.frequency, rel=2e-2)
+        # about two periods of a linear transient: never judged a limit cycle
+        assert point["heave"]["state"] == "too short"
+
+
+def test_the_decreasing_sweep_starts_each_march_from_the_saturated_state_above(tmp_path, monkeypatch):
+    """``hysteresis``: after the increasing sweep, the marches by decreasing U* start from the
+    checkpoint of the one above (a chain), and their amplitudes are kept beside the others."""
+    from fsistab import workflows
+
+    starts = []
+
+    class Result:
+        def __init__(self, velocity, start):
+            # a subcritical system: from rest nothing grows below U* = 6; from a cycle it stays
+            amplitude = 0.05 * velocity if (start is not None or velocity >= 6) else 1e-3
+            self.dataset = (
+                _fake_series(velocity)
+                .assign(heave=lambda ds: ds.heave * amplitude / (0.05 * velocity))
+                .assign_attrs(checkpoint=f"state_u{velocity:g}.nc")
+            )
+
+    def fake_simulate(case, solid, settings, cache_dir, out, progress=None):
+        velocity = round(solid.reduced_velocity * 2 * math.pi, 9)
+        starts.append((velocity, settings.start))
+        return Result(velocity, settings.start)
+
+    monkeypatch.setattr(workflows, "simulate", fake_simulate)
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.0, dofs=("heave",))
+    settings = LcoSettings((4.0, 6.0), 3, SimulationSettings(200.0, 0.1), hysteresis=True)
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert starts == [(4.0, None), (5.0, None), (6.0, None), (5.0, "state_u6.nc"), (4.0, "state_u5.nc")]
+    np.testing.assert_allclose(ds.decreasing_heave_amplitude, [0.2, 0.25, 0.3], rtol=1e-3)
+    np.testing.assert_allclose(ds.heave_amplitude, [1e-3, 1e-3, 0.3], rtol=1e-3)
+    assert lco.classify_onset(ds, 5.5) == "subcritical"
+
+
+def test_a_resumed_march_rebuilds_its_iteration_matrix_only_after_a_hard_step():
+    """A march interrupted after a step that needed more chord iterations than the rebuild
+    threshold gets the matrix rebuilt at the resumed state (it is not saved); after an easy step,
+    or at the start, nothing changes."""
+    from types import SimpleNamespace
+
+    from fsistab.workflows import _resume_linearisation
+
+    class Stepper:
+        refresh_after = 6
+
+        def __init__(self):
+            self.rebuilt = []
+
+        def refresh(self, q):
+            self.rebuilt.append(q)
+
+    state = SimpleNamespace(step=430, time=86.0, current="q")
+    for iterations, expected in ((72, ["q"]), (6, []), (3, [])):
+        stepper = Stepper()
+        table = SimpleNamespace(records=[{"chord_iterations": 2}, {"chord_iterations": iterations}])
+        _resume_linearisation(table, stepper, state, lambda message: None)
+        assert stepper.rebuilt == expected
+    stepper = Stepper()
+    _resume_linearisation(
+        SimpleNamespace(records=[{"chord_iterations": 0}]), stepper, SimpleNamespace(step=0), print
+    )
+    assert stepper.rebuilt == []
