@@ -9,9 +9,11 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from fsistab.bodies import Pivoted, Plate
-from fsistab.coupled import CoupledResidual, CoupledSystem, solid_inertia
+from fsistab.coupled import CoupledResidual, CoupledSystem, solid_energies, solid_inertia
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import InputError
 from fsistab.mesh import build_mesh, mesh_spec
@@ -154,6 +156,53 @@ def test_nonlinear_inertia_is_lagranges():
     assert rows == pytest.approx([lagrange[0], lagrange[1] / r2], rel=1e-8)
     balanced = solid_inertia(_solid(static_unbalance=0.0), np.array([*q, *v]), np.array([*v, *a]))[2:]
     assert np.abs(rows - balanced).min() > 1e-2  # the unbalance's terms are there
+
+
+_amplitude = st.complex_numbers(max_magnitude=10.0, allow_nan=False, allow_infinity=False)
+
+
+@given(
+    st.floats(0.1, 1e4),
+    st.floats(0.05, 0.5),
+    st.floats(-0.99, 0.99),
+    st.floats(-1.5, 1.5),
+    _amplitude,
+    _amplitude,
+)
+def test_mode_energies_split_the_kinetic_energy_of_the_section(mass_ratio, r_theta, ratio, theta, hdot, pdot):
+    """:func:`fsistab.coupled.solid_energies` against the kinetic energy of §3.1 written from the
+    velocity of the centre of mass, ``v_G = (−x_θ sin θ θ', ḣ + x_θ cos θ θ')`` (perturbation, complex
+    amplitudes), ``E = (m/2)(½|v_G|² + ½(r_θ² − x_θ²)|θ'|²)`` in units ``ρL²U∞²``: the two parts add up
+    to it, the heave part is G's vertical motion, neither is negative, and without unbalance they
+    are ``(m/4)|ḣ|²`` and ``(m/4) r_θ²|θ'|²`` to the last bit."""
+    x = ratio * r_theta
+    solid = Solid(mass_ratio=mass_ratio, reduced_velocity=2.0, r_theta=r_theta, static_unbalance=x)
+    vx, vy = -x * math.sin(theta) * pdot, hdot + x * math.cos(theta) * pdot
+    kinetic = (
+        0.5 * mass_ratio * (0.5 * (abs(vx) ** 2 + abs(vy) ** 2) + 0.5 * (r_theta**2 - x * x) * abs(pdot) ** 2)
+    )
+    heave, pitch = solid_energies(solid, (hdot, pdot), theta)
+    scale = 0.25 * mass_ratio * (abs(hdot) ** 2 + r_theta**2 * abs(pdot) ** 2) + 1e-300
+    assert abs(heave + pitch - kinetic) <= 1e-12 * scale
+    assert abs(heave - 0.25 * mass_ratio * abs(vy) ** 2) <= 1e-12 * scale
+    assert heave >= 0 and pitch >= 0
+    balanced = solid_energies(replace(solid, static_unbalance=0.0), (hdot, pdot), theta)
+    assert balanced == (0.25 * mass_ratio * abs(hdot) ** 2, 0.25 * mass_ratio * r_theta**2 * abs(pdot) ** 2)
+
+
+def test_labels_weigh_the_heave_of_the_centre_of_mass():
+    """A motion whose centre of mass heaves twice as fast as the elastic axis (``ḣ = x_θ θ'``) holds
+    most of its kinetic energy in heave (``4x_θ²`` against ``r_θ² − x_θ²``), though the axis alone
+    (``x_θ²`` against ``r_θ²``) would call it pitch: the eigenvalue labels and the threshold's branch
+    read the same energies."""
+    from fsistab.eigen import label_mode
+    from fsistab.frequency_sweep import _branch
+
+    solid = _solid(r_theta=0.15, static_unbalance=0.1, elastic_axis=0.0)
+    motion = np.array([0.0, 0.0, 0.1, 1.0])  # (h, θ, ḣ, θ')
+    assert label_mode(motion, solid, 0.0)[0] == "heave"
+    assert _branch(motion, solid, 0.0) == "heave"
+    assert _branch(motion, replace(solid, static_unbalance=0.0), 0.0) == "pitch"
 
 
 def test_in_vacuo_frequencies_of_the_unbalanced_section(pivoted):

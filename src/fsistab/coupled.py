@@ -68,6 +68,20 @@ def solid_mass(solid: Solid, theta: float = 0.0) -> np.ndarray:
     return mass
 
 
+def solid_energies(solid: Solid, velocities, theta: float = 0.0) -> tuple[float, float]:
+    """``(E_h, E_θ)``: the kinetic energy of a mode's solid velocities ``(ḣ, θ')`` (complex
+    amplitudes, units ``ρL²U∞²``, docs/model.md §3.1), split by König's theorem: the heave of the
+    centre of mass ``E_h = (m/4)|ḣ + x_θ cos θ θ'|²`` and the rest ``E_θ = (m/4)(r_θ² − x_θ² cos²θ)|θ'|²``
+    (rotation about G and G's streamwise motion, both from pitch). Their sum is the energy of the
+    linear solid mass ``M_s(θ)``; both are non-negative (``r_θ² > x_θ²``), which a split of the cross
+    term between the dofs is not; without unbalance ``(m/4)|ḣ|²`` and ``(m/4) r_θ²|θ'|²``."""
+    m, r = solid.mass_ratio, solid.r_theta
+    coupling = solid.static_unbalance * math.cos(theta)
+    heave = 0.25 * m * abs(velocities[0] + coupling * velocities[1]) ** 2
+    pitch = 0.25 * m * (r**2 - coupling**2) * abs(velocities[1]) ** 2
+    return float(heave), float(pitch)
+
+
 def solid_inertia(solid: Solid, q_solid: np.ndarray, rate: np.ndarray) -> np.ndarray:
     """The nonlinear inertia of the solid rows (docs/model.md §3.1), ``M_s(θ) q̇_s`` plus the
     centripetal term ``-x_θ sin θ θ'²`` of the heave row (the centre of mass turning about the

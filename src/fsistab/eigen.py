@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from fsistab.coupled import CoupledSystem
+from fsistab.coupled import CoupledSystem, solid_energies
 from fsistab.errors import ConvergenceError
 from fsistab.linalg import FactorCounter, FluidFactor, ShiftedSolver, residual_norm, shift_invert_operator
 from fsistab.params import Solid
@@ -47,12 +47,14 @@ class Eigenpair:
         return float(self.value.imag)
 
 
-def label_mode(solid: np.ndarray, params: Solid, fluid_energy: float) -> tuple[str, float]:
+def label_mode(
+    solid: np.ndarray, params: Solid, fluid_energy: float, theta0: float = 0.0
+) -> tuple[str, float]:
     """``fluid`` when the solid holds less than half the kinetic energy, else ``heave``, ``pitch``
-    or ``coupled`` (both above a quarter of the solid energy)."""
+    or ``coupled`` (both above a quarter of the solid energy); the solid's energies as
+    :func:`fsistab.coupled.solid_energies` (with a static unbalance, the heave of the centre of mass)."""
     # m̃ = m ρL²/2, so the kinetic energy ½m̃|ḣ|² is (m/4)|ḣ|² in units of ρL²U∞²; the fluid's is ½∫|û|²
-    m, r = params.mass_ratio, params.r_theta
-    heave, pitch = 0.25 * m * abs(solid[2]) ** 2, 0.25 * m * r**2 * abs(solid[3]) ** 2
+    heave, pitch = solid_energies(params, solid[2:4], theta0)
     solid_energy = heave + pitch
     fraction = solid_energy / (solid_energy + fluid_energy) if solid_energy + fluid_energy > 0 else 0.0
     if fraction < 0.5:
@@ -140,7 +142,7 @@ def _labelled(system: CoupledSystem, sigma: complex, vector: np.ndarray, residua
     vector = _normalise(system, vector)
     solid, fluid = system.split(vector)
     fluid_energy = 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
-    label, fraction = label_mode(solid, system.solid, fluid_energy)
+    label, fraction = label_mode(solid, system.solid, fluid_energy, system.fluid.theta0)
     return Eigenpair(sigma, vector, residual, label, solid, fraction, shift)
 
 

@@ -64,6 +64,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.polynomial.polynomial as npoly
 
+from fsistab.coupled import solid_energies
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.neutral_map import following_kind, following_ratio
@@ -293,14 +294,15 @@ def _crossings_certain(values: np.ndarray, margin: np.ndarray) -> bool:
     return True
 
 
-def _branch(mode: np.ndarray, solid: Solid) -> str:
-    """``heave`` or ``pitch``: the dof with the larger kinetic energy ``|ḣ|²`` or ``r_θ²|θ'|²`` in
-    the critical mode's solid part (active states ``h, θ, ḣ, θ'``)."""
+def _branch(mode: np.ndarray, solid: Solid, theta0: float) -> str:
+    """``heave`` or ``pitch``: the dof with the larger kinetic energy ``(m/4)|ḣ|²`` or
+    ``(m/4) r_θ²|θ'|²`` in the critical mode's solid part (active states ``h, θ, ḣ, θ'``); with a
+    static unbalance, the heave of the centre of mass and the rest
+    (:func:`fsistab.coupled.solid_energies`)."""
     if len(solid.dofs) == 1:
         return solid.dofs[0]
-    velocities = mode[2:4]  # (ḣ, θ') of a two-dof body
-    # (with an unbalance, the kinetic energy of the elastic axis's heave and of the pitch about it)
-    return "heave" if abs(velocities[0]) ** 2 >= solid.r_theta**2 * abs(velocities[1]) ** 2 else "pitch"
+    heave, pitch = solid_energies(solid, mode[2:4], theta0)  # (ḣ, θ') of a two-dof body
+    return "heave" if heave >= pitch else "pitch"
 
 
 def in_vacuo_rates(solid: Solid) -> list[float]:
@@ -546,7 +548,7 @@ def _converge(fluid, solid: Solid, omega: float, velocity: float, counter) -> Ne
         point,
         kind=following_kind(following),
         boundary="onset" if root.crossing_rate > 0 else "restabilisation",
-        branch=_branch(mode, solid),
+        branch=_branch(mode, solid, fluid.theta0),
         frequency_following=following,
         mode=mode,
     )

@@ -19,6 +19,9 @@ energies near the body (as :func:`fsistab.eigen.label_mode`, units ``ρL²U∞²
 
     E_h = (m/4)|ḣ|²,   E_θ = (m/4) r_θ²|θ'|²,   E_f = ½ ∫_{|x - G| < L} |û|²,
 
+(with a static unbalance, ``E_h`` is the heave of the centre of mass and ``E_θ`` the rest,
+:func:`fsistab.coupled.solid_energies`, docs/model.md §3.1),
+
 the fluid share ``e_f = E_f/(E_h + E_θ + E_f)`` and the heave share of the solid energy
 ``s_h = E_h/(E_h + E_θ)``; the in-vacuo frequencies ``ω_h = Ω/U*`` and ``ω_θ = 1/U*`` (generic
 units, docs/model.md §2; for the cylinder ``ω_h = 2π/U*`` in its own U*, docs/model.md §10) and the wake
@@ -488,11 +491,11 @@ def single_dof_growth(fluid, solid, velocity: float, frequency: float, dof: str,
 def mode_energies(system, vector: np.ndarray) -> tuple[float, float, float]:
     """``(E_h, E_θ, E_f)`` of a coupled mode (units ``ρL²U∞²``, the fluid's within one body length
     of G), as :func:`fsistab.eigen.label_mode` and the module docstring."""
+    from fsistab.coupled import solid_energies
+
     solid, fluid = system.split(np.asarray(vector, dtype=complex))
-    m, r = system.solid.mass_ratio, system.solid.r_theta
-    heave = 0.25 * m * abs(solid[2]) ** 2
-    pitch = 0.25 * m * r**2 * abs(solid[3]) ** 2
-    return float(heave), float(pitch), float(0.5 * np.vdot(fluid, system.fluid.mff_near @ fluid).real)
+    heave, pitch = solid_energies(system.solid, solid[2:4], system.fluid.theta0)
+    return heave, pitch, float(0.5 * np.vdot(fluid, system.fluid.mff_near @ fluid).real)
 
 
 # --- one flow point --------------------------------------------------------------------------------

@@ -132,7 +132,10 @@ def track_branches(
                 sigma, q = np.conj(sigma), np.conj(q)
             solid, fluid = system.split(q)
             label, _ = label_mode(
-                solid, system.solid, 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
+                solid,
+                system.solid,
+                0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real),
+                system.fluid.theta0,
             )
             branch.parameters.append(parameter)
             branch.values.append(sigma)
