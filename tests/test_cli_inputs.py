@@ -63,7 +63,7 @@ MAP = {
     "--reduced-tolerance": "reduced-tolerance",
     "--method": "method",
 }
-THEODORSEN = {k: v for k, v in CASE.items() if k != "--body"} | SOLID
+THEODORSEN = CASE | SOLID
 THEODORSEN |= {"--mass-ratio": "positive", "--mass-ratio-range": "range", "--reduced-velocity-range": "range"}
 THEODORSEN |= {"--points": ("count", 2, 2000)}
 OPTIONS = {

@@ -443,10 +443,12 @@ def theodorsen(opts):
     """Analytic typical section with Theodorsen aerodynamics (docs/model.md §9): every flutter
     boundary (real roots of the 2×2 determinant) and the divergence along U* at one mass ratio, or
     the neutral curves U*(m) with --mass-ratio-range (compared with the last map of `fsistab
-    neutral` for the same Re and alpha0 with the same --cache, by either method). --Re, --alpha0
-    and --mesh matter for --slopes calibrated only (and --Re, --alpha0 for finding the viscous map)."""
-    opts.body = "plate"
+    neutral` for the same section, Re and alpha0 with the same --cache, by either method). The
+    section (--body, --body-file), --Re, --alpha0 and --mesh matter for --slopes calibrated only
+    (and for finding the viscous map)."""
     case = opts.case(elastic_axis=0.0)  # calibrated slopes about mid-chord, moved to the axis by the model
+    if "pitch" not in case.body.allowed_dofs:
+        raise InputError(f"the {case.kind} does not pitch: the typical section needs a pitching section")
     names = ("mass_ratio", "mass_range", "points", "velocity_range", "slopes", "lift_slope_alpha")
     names += ("moment_slope_alpha", "elastic_axis", "static_unbalance")
     settings = params.TheodorsenSettings(*(getattr(opts, name) for name in names))

@@ -179,7 +179,7 @@ THEODORSEN_OPTIONS = {
 # fmt: on
 
 # fmt: on
-THEODORSEN_CASE = {k: v for k, v in CASE_OPTIONS.items() if k not in ("body", *OUTLINE)}
+THEODORSEN_CASE = CASE_OPTIONS  # the section whose calibrated slopes and viscous map are used
 
 # fmt: off
 TRANSFER_OPTIONS = {
