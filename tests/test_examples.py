@@ -21,6 +21,7 @@ EXPECTED = {
     "plot_alpha0_study.py",
     "plot_wake_onset.py",
     "plot_limit_cycles.py",
+    "plot_typical_section.py",
 }
 
 
