@@ -244,13 +244,17 @@ def test_divergence_about_the_elastic_axis(pivoted, mid_chord):
     :meth:`fsistab.theodorsen.AirfoilSlopes.moment_about`), not the lift's — and the coupled system
     about the axis has a real eigenvalue crossing zero at the torsional divergence of that slope,
     ``U*_D = √(m r_θ² / (dC_M/dθ)_EA)``, with an unbalance. The two meshes are one translated, to
-    netgen's meshing of a moved domain."""
-    if pivoted.theta0 != 0:
-        pytest.skip("the divergence formula is at α0 = 0")
-    about_axis, mid = static_slopes(pivoted), static_slopes(mid_chord)
+    netgen's meshing of a moved domain. At α0 = 5° the moment is moved by the normal force's own
+    slope (the divergence formula holds at α0 = 0 only)."""
+    incidence = pivoted.theta0 != 0
+    mid = static_slopes(_operators(Plate(), 5.0) if incidence else mid_chord)
+    about_axis = static_slopes(pivoted)
     moved = AirfoilSlopes.from_static(mid).moment_about(AXIS)
     assert about_axis.lift == pytest.approx(mid.lift, rel=2e-3)
     assert about_axis.moment == pytest.approx(moved, rel=2e-3)
+    if incidence:  # the normal force's slope of the steady state at 5°, not dC_L/dθ − C_D
+        return
+    assert mid.normal == pytest.approx(mid.lift - mid.steady_drag, rel=1e-12)  # its value at θ₀ = 0
     without_drag = mid.moment - AXIS * mid.lift  # the thin-airfoil rule would be off by a C_D
     assert abs(without_drag - moved) > 3 * 2e-3 * moved
     solid = _solid(mass_ratio=1000.0)

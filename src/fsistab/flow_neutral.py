@@ -4,7 +4,7 @@ continuation (docs/model.md §8), at fixed solid parameters, through turning poi
 A dynamic neutral point at flow parameter ``p`` (``log Re`` or ``α0`` in degrees) solves the two
 real equations of the exact transfer (:mod:`fsistab.transfer`, docs/model.md §8)::
 
-    det T(iω; U*, p) / d0 = 0,        T = P(U*) + iω I - C G(iω; p),
+    det T(iω; U*, p) / d0 = 0,        T = P(U*) + iω M_s(θ₀) - C G(iω; p),
 
 in the unknowns ``y = (ω, log U*, p)``; ``d0`` is ``|det T|`` of the in-vacuo part at the start
 (a fixed scale). ``∂/∂ω`` and ``∂/∂ log U*`` are analytic (Jacobi's formula with ``dG/ds`` and the

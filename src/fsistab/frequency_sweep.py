@@ -67,6 +67,7 @@ import numpy.polynomial.polynomial as npoly
 from fsistab.coupled import solid_energies
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.map_roots import require_level_unbalance
 from fsistab.neutral_map import following_kind, following_ratio
 from fsistab.neutral_point import NeutralPoint, divergence_velocity
 from fsistab.operators import FluidOperators
@@ -151,6 +152,7 @@ def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: 
     omega = sample.s.imag
     if omega <= 0:
         raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
+    require_level_unbalance(solid, theta0)
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
     roots = sorted((u for u in _all_roots(loads, solid, omega) if u.real > 0), key=lambda u: u.real)
     slopes = []
@@ -561,6 +563,7 @@ def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np
     (:func:`fsistab.transfer_map._root_with_tangent`, docs/model.md §7–§8). Where the tangent is not
     defined (``F_m m`` and ``F_u u`` parallel: a fold of the curve in ω, where ``ω`` is stationary
     along it) its derivatives are infinite."""
+    require_level_unbalance(solid, theta0)
     omega = sample.s.imag
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
     m, u = solid.mass_ratio, 1.0 / solid.reduced_velocity

@@ -105,6 +105,17 @@ def second_order_loads(
     return value, rate
 
 
+def require_level_unbalance(solid: Solid, theta0: float) -> None:
+    """Refuse a static unbalance at a steady pitch ``θ₀ ≠ 0``: ``W`` and the polynomials here take
+    its linear coupling ``x_θ cos θ₀`` at ``θ₀ = 0`` (docs/model.md §3.1), while the exact transfer
+    function and the eigen-solver use ``M_s(θ₀)``; the library says so instead of mixing the two."""
+    if solid.static_unbalance and theta0 != 0.0:
+        raise InputError(
+            "a static unbalance is implemented at alpha0 = 0 in the maps and the frequency sweep "
+            f"(their coupling x_θ cos θ0 is taken at θ0 = 0; here θ0 = {math.degrees(theta0):g}°)"
+        )
+
+
 def _dof_indices(solid: Solid) -> list[int]:
     """Active dofs as indices into ``(h, θ)``."""
     return [i for i in (0, 1) if i in active_states(solid)]
@@ -192,6 +203,7 @@ def neutral_roots(
     :func:`roots_from_loads` of the sample's ``A(iω)``, ``dA/ds``."""
     if sample.frequency <= 0:
         raise InputError("neutral_roots is for ω > 0; divergence (ω = 0) is divergence_lines")
+    require_level_unbalance(solid, theta0)
     loads, rate = second_order_loads(sample, theta0, loads0)
     return roots_from_loads(loads, rate, sample.frequency, solid, mass_range)
 

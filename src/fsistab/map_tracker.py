@@ -22,6 +22,7 @@ from fsistab.map_roots import (
     NeutralRoot,
     _roots_on_tracks,
     log_step,
+    require_level_unbalance,
     resultant_tracks,
     second_order_loads,
 )
@@ -39,6 +40,7 @@ class RootTracker:
     ``loads0`` turn a sample's ``G`` into the loads ``A``."""
 
     def __init__(self, solid: Solid, wide: tuple[float, float], theta0: float, loads0: np.ndarray):
+        require_level_unbalance(solid, theta0)
         self.solid, self.wide = solid, wide
         self.theta0, self.loads0 = theta0, loads0
         self.roots: dict[float, list[NeutralRoot]] = {}

@@ -38,7 +38,7 @@ from fsistab.steady import (
 )
 
 SOLID_STATE = ("h", "theta", "hdot", "thetadot")
-NEAR_RADIUS = 1.0  # body lengths around G
+NEAR_RADIUS = 1.0  # body lengths around mid-chord (the centre of the plate and the cylinder)
 
 
 def rotation_matrix(theta: float) -> np.ndarray:
@@ -107,7 +107,8 @@ class FluidOperators:
       axes (units ``ρU∞²L``) with respect to the fluid and solid unknowns;
     * ``load_mass_f`` (3 × n), ``load_mass_s`` (3 × 4): the loads' inertia, ``L = -(Mf q̇) - ...``;
     * ``loads0``: steady ``(F_x, F_y, M)``; ``theta0``: steady pitch;
-    * ``mff_near``: velocity mass restricted to the disc ``|X| < NEAR_RADIUS`` (to label modes:
+    * ``mff_near``: velocity mass restricted to the disc of radius ``NEAR_RADIUS`` about mid-chord
+      (the frame's origin unless the section pitches about an elastic axis elsewhere; to label modes:
       global wake modes grow downstream, so whole-domain energies say little about the body).
     """
 
@@ -531,7 +532,9 @@ def _bilinear_matrices(fields: SteadyFields, terms=TERMS) -> tuple[sp.csr_matrix
     mass += mass_term * dx
     mass.Assemble()
     near = BilinearForm(space)
-    near += IfPos(NEAR_RADIUS**2 - x * x - y * y, 1.0, 0.0) * mass_term * dx
+    # about mid-chord, whichever point of the section is the frame's origin (docs/model.md §3.1)
+    centre = frame_offset(fields.steady.mesh_spec.body)
+    near += IfPos(NEAR_RADIUS**2 - (x - centre) ** 2 - y * y, 1.0, 0.0) * mass_term * dx
     near.Assemble()
     return tuple(_to_scipy(form.mat, n_all) for form in (jacobian, mass, near))
 

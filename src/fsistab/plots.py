@@ -1138,7 +1138,7 @@ def plot_study_coefficients(ds, path: Path, title: str = "") -> Path:
     x_dim, line_dim = _study_axis(ds)
     names = [
         ("lift_coefficient", "$C_L$"),
-        ("moment_coefficient", "$C_M$ (about G)"),
+        ("moment_coefficient", "$C_M$ (about the pitch axis)"),
         ("recirculation_length", "recirculation length / L"),
     ]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))

@@ -55,7 +55,7 @@ def steady(ds: xr.Dataset, p: dict) -> list:
         for label, key in [
             ("lift coefficient C_L", "lift_coefficient"),
             ("drag coefficient C_D", "drag_coefficient"),
-            ("moment coefficient C_M (about G, ccw +)", "moment_coefficient"),
+            ("moment coefficient C_M (about the pitch axis, ccw +)", "moment_coefficient"),
             ("recirculation length (from the rear)", "recirculation_length"),
         ]
     ]

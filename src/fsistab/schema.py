@@ -106,11 +106,16 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "path_iterations": Field("Newton iterations of each continuation step of the steady state"),
         # --- steady coefficients and slopes (docs/model.md §4, §9)
         "lift_coefficient": Field("lift coefficient C_L = L / (0.5 rho U^2 L s)"),
-        "moment_coefficient": Field("moment coefficient C_M about G, counter-clockwise positive"),
+        "moment_coefficient": Field(
+            "moment coefficient C_M about the pitch axis (G, or the elastic axis), counter-clockwise positive"
+        ),
         "drag_coefficient": Field("drag coefficient C_D = D / (0.5 rho U^2 L s)"),
         "recirculation_length": Field("length of the recirculation region behind the body (in L)"),
         "lift_slope_alpha": Field("static lift slope dC_L/dalpha, alpha = -theta", "rad-1"),
-        "moment_slope_alpha": Field("static moment slope d(-C_M)/dalpha about mid-chord", "rad-1"),
+        "moment_slope_alpha": Field(
+            "static moment slope d(-C_M)/dalpha about the pitch axis (mid-chord, or the elastic axis)",
+            "rad-1",
+        ),
         "drag_slope_theta": Field("static drag slope dC_D/dtheta", "rad-1"),
         # --- eigenvalues (docs/model.md §7)
         "mode": Field("index of the eigenmode, least stable first"),
@@ -221,7 +226,7 @@ VARIABLES: Mapping[str, Field] = MappingProxyType(
         "reduced": Field("1 where G comes from a certified reduced model or fit, 0 from a factorisation"),
         "sample": Field("index of the frequency sample"),
         "record": Field("index of the record"),
-        "load": _text("body-axis load: force_x, force_y, moment (about G, counter-clockwise +)"),
+        "load": _text("body-axis load: force_x, force_y, moment (about the pitch axis, counter-clockwise +)"),
         "reduced_frequency": Field("reduced frequency k = omega b / U, b = L/2"),
         "coefficient": _text("load coefficient: lift or moment"),
         "motion": _text("motion: heave or pitch"),

@@ -36,6 +36,7 @@ class StaticSlopes:
     moment: float  # dC_M/dθ (moment about G, counter-clockwise +)
     drag: float  # dC_D/dθ
     steady_drag: float = 0.0  # C_D of the steady state (moves a moment slope, docs/model.md §3.1)
+    normal: float | None = None  # d(2F_Y)/dθ, the body-axis normal force's slope (idem, any θ₀)
 
     @property
     def lift_slope_alpha(self) -> float:
@@ -76,4 +77,5 @@ def static_slopes(
         moment=float(d_moment),
         drag=float(d_drag),
         steady_drag=float(2 * (c * fx - s * fy)),
+        normal=float(2 * d_loads[1]),
     )

@@ -114,11 +114,14 @@ class AirfoilSlopes:
     moment: float = THIN_AIRFOIL_MOMENT_SLOPE
     source: str = "thin-airfoil"
     drag: float = 0.0  # the steady C_D (none in thin-airfoil theory)
+    normal: float | None = None  # d(2F_Y)/dθ of a viscous steady state, at its θ₀
 
     def __post_init__(self):
         object.__setattr__(self, "lift", _finite("lift slope dC_L/dθ", self.lift))
         object.__setattr__(self, "moment", _finite("moment slope dC_M/dθ", self.moment))
         object.__setattr__(self, "drag", _finite("steady drag coefficient", self.drag))
+        if self.normal is not None:
+            object.__setattr__(self, "normal", _finite("normal force slope d(2F_Y)/dθ", self.normal))
 
     @classmethod
     def thin_airfoil(cls) -> AirfoilSlopes:
@@ -139,13 +142,16 @@ class AirfoilSlopes:
             moment=slopes.moment,
             source=f"viscous Re={slopes.reynolds:g} alpha0={slopes.alpha0_deg:g}",
             drag=slopes.steady_drag,
+            normal=slopes.normal,
         )
 
     def moment_about(self, elastic_axis: float) -> float:
-        """``dC_M/dθ`` about the elastic axis ``X = a``: ``dC_M/dθ|_mid - a (dC_L/dθ - C_D)``, the
-        moment of the body-axis normal force, whose slope is the lift's less the steady drag turned
-        with the body (docs/model.md §3.1; thin airfoil ``C_D = 0``)."""
-        return self.moment - elastic_axis * (self.lift - self.drag)
+        """``dC_M/dθ`` about the elastic axis ``X = a``: ``dC_M/dθ|_mid - a d(2F_Y)/dθ``, the moment of
+        the body-axis normal force (docs/model.md §3.1). Its slope is the viscous steady state's own
+        when known (exact at any ``θ₀``); otherwise, at ``θ₀ = 0``, the lift's less the steady drag
+        turned with the body, ``dC_L/dθ - C_D`` (thin airfoil: ``C_D = 0``)."""
+        normal = self.lift - self.drag if self.normal is None else self.normal
+        return self.moment - elastic_axis * normal
 
     @property
     def lift_slope_alpha(self) -> float:
