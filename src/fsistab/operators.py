@@ -534,7 +534,8 @@ def _bilinear_matrices(fields: SteadyFields, terms=TERMS) -> tuple[sp.csr_matrix
     near = BilinearForm(space)
     # about mid-chord, whichever point of the section is the frame's origin (docs/model.md §3.1)
     centre = frame_offset(fields.steady.mesh_spec.body)
-    near += IfPos(NEAR_RADIUS**2 - (x - centre) ** 2 - y * y, 1.0, 0.0) * mass_term * dx
+    along = x - centre if centre else x
+    near += IfPos(NEAR_RADIUS**2 - along * along - y * y, 1.0, 0.0) * mass_term * dx
     near.Assemble()
     return tuple(_to_scipy(form.mat, n_all) for form in (jacobian, mass, near))
 
