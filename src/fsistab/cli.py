@@ -612,9 +612,12 @@ def lco(opts):
     if simulation.start is not None and not Path(simulation.start).is_file():
         raise InputError(f"--start: no such file {simulation.start}")
     check_execution(opts.workers, opts.scheduler)
+    from fsistab.lco import limit_cycles, threshold_sweep
+
+    if opts.thresholds:
+        threshold_sweep(settings, mass)  # the thresholds' search refuses bad input now, not after the marches
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports
-    from fsistab.lco import limit_cycles
 
     with _running() as progress, study_client(opts.workers, opts.scheduler) as client:
         ds = limit_cycles(
