@@ -584,12 +584,13 @@ def lco(opts):
     """Limit-cycle amplitudes past the threshold: one nonlinear march (as `fsistab simulate`) at each
     of --points U* over --reduced-velocity-range, the saturated amplitude and frequency of h and θ
     from their last --periods periods (saturated when the envelope changes by less than
-    --saturation-tolerance per period), the bifurcation diagram with the linear thresholds of the
-    same mesh, and whether the onset is supercritical (A² linear in U* − U*_c) or subcritical
-    (--hysteresis: a sweep by decreasing U* from saturated states). Each march is one task: in this
-    process by default, on a dask LocalCluster with --workers N or a scheduler with --scheduler;
-    finished marches are kept in OUT/lco_points and rerunning resumes. Exit status 1 when a march
-    failed."""
+    --saturation-tolerance per period; from the perturbed steady state also only once it has left
+    the start mode's linear transient), the bifurcation diagram with the linear onsets of the same
+    mesh, and whether the onset is supercritical (A² linear in U* − U*_c) or subcritical
+    (--hysteresis: a sweep by decreasing U*, each march from the last state of the one above). Each
+    march is one task: in this process by default, on a dask LocalCluster with --workers N or a
+    scheduler with --scheduler; finished marches are kept in OUT/lco_points and rerunning resumes.
+    Exit status 1 when a march of either sweep failed."""
     from fsistab.study import check_execution, study_client
 
     case = opts.case()
@@ -612,9 +613,12 @@ def lco(opts):
     if simulation.start is not None and not Path(simulation.start).is_file():
         raise InputError(f"--start: no such file {simulation.start}")
     check_execution(opts.workers, opts.scheduler)
+    from fsistab.lco import limit_cycles, threshold_sweep
+
+    if opts.thresholds:
+        threshold_sweep(settings, mass)  # the thresholds' search refuses bad input now, not after the marches
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports
-    from fsistab.lco import limit_cycles
 
     with _running() as progress, study_client(opts.workers, opts.scheduler) as client:
         ds = limit_cycles(

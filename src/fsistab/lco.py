@@ -10,20 +10,31 @@ over their last whole periods (:func:`saturation`):
   the least-squares slope of ``ln a_k`` against ``k`` over the last ``P`` periods;
 * the march is **saturated** when ``|r|`` is below the tolerance (``growing`` or ``decaying``
   otherwise; ``too short`` with fewer than ``P`` periods); the amplitude is the mean of the last
-  ``P`` period amplitudes, the angular frequency ``2πP`` over their span.
+  ``P`` period amplitudes, the angular frequency ``2πP`` over their span;
+* a march from the perturbed steady state is ``transient``, not saturated, when the envelope test
+  cannot tell a cycle from the linear transient (:func:`left_linear_transient`): the linear growth
+  per period ``|e^{σ₀T₀} − 1|`` of the start mode is below the tolerance (near a threshold σ₀ → 0 and
+  the linear transient passes the envelope test), or the amplitude is within a factor
+  ``START_FACTOR`` of the first whole period's (the march has not left its start).
 
 The bifurcation diagram is these amplitudes against U* with the linear thresholds of the same mesh
 (:func:`fsistab.workflows.critical_points`, docs/model.md §8). Near a supercritical (Hopf) onset
 ``A² ∝ U* − U*_c``: a straight line through the first saturated points past the threshold meets
 zero at ``U*_0 ≈ U*_c`` (:func:`onset_fit`). A subcritical onset shows as hysteresis: the sweep by
-decreasing U*, each march started from the saturated state of the one above, stays on a large
-cycle where the increasing sweep decays to the steady state.
+decreasing U*, each march started from the last state of the one above (a start that was not
+saturated is flagged, variable ``decreasing_start_state``), stays on a large cycle where the
+increasing sweep decays to the steady state (:func:`classify_onset`).
+
+Only the march's records up to the duration asked are read (the march cache is shared by every
+duration, docs/simulation.md); a march found run beyond it is not chained from, since its
+checkpoint holds the state at its own end.
 
 Execution: each U* of the increasing sweep is one task, in this process or on a
-``dask.distributed`` client (:func:`fsistab.study.study_client`); each finished point is saved as
-``out/lco_points/<tag>_<key>.nc`` (checksummed, with its identity), so that a rerun reads it back,
-and each march is checkpointed in the cache by :func:`fsistab.workflows.simulate` itself, so that
-an interrupted point resumes where it stopped. The decreasing sweep is sequential by nature.
+``dask.distributed`` client (:func:`fsistab.study.study_client`); each finished point is saved
+as ``out/lco_points/<tag>_<preset>_u<U*>_<key>.nc`` (checksummed, with its identity), so that a
+rerun reads it back, and each march is checkpointed in the cache by
+:func:`fsistab.workflows.simulate` itself, so that an interrupted point resumes where it stopped.
+The decreasing sweep is sequential by nature.
 """
 
 from __future__ import annotations
@@ -39,7 +50,11 @@ import xarray as xr
 from fsistab.params import Case, LcoSettings, Solid, body_velocity_scale
 from fsistab.progress import Progress
 
-STATES = ("saturated", "growing", "decaying", "too short")
+STATES = ("saturated", "growing", "decaying", "too short", "transient")
+
+# A march from the perturbed steady state whose amplitude stays within this factor of its first
+# whole period's has not left its start: it is no cycle, whatever its envelope (module docstring).
+START_FACTOR = 2.0
 
 
 @dataclass(frozen=True)
@@ -47,7 +62,8 @@ class Saturation:
     """The last whole periods of an oscillating signal (module docstring): ``amplitude`` (mean
     half peak-to-peak of the last ``periods`` periods, else half the range of the signal's second
     half), angular ``frequency`` (NaN without a whole period), ``mean`` level, ``change`` (relative
-    envelope change per period, NaN when too short), ``found`` whole periods in all, ``state``."""
+    envelope change per period, NaN when too short), ``found`` whole periods in all, ``state``,
+    ``first`` the first whole period's amplitude (NaN without one)."""
 
     amplitude: float
     frequency: float
@@ -56,6 +72,7 @@ class Saturation:
     periods: int
     found: int
     state: str
+    first: float = math.nan
 
     @property
     def saturated(self) -> bool:
@@ -89,17 +106,33 @@ def saturation(times, values, periods: int = 4, tolerance: float = 0.01) -> Satu
     times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
     crossings, amplitudes, level = period_amplitudes(times, values)
     found = len(amplitudes)
+    first = float(amplitudes[0]) if found else math.nan
     if found < periods or not np.all(amplitudes[-periods:] > 0):
         late = values[len(values) // 2 :]
         frequency = 2 * math.pi * found / (crossings[-1] - crossings[0]) if found else math.nan
         amplitude = 0.5 * float(np.ptp(late)) if len(late) else 0.0
-        return Saturation(amplitude, frequency, level, math.nan, periods, found, "too short")
+        return Saturation(amplitude, frequency, level, math.nan, periods, found, "too short", first)
     last = amplitudes[-periods:]
     slope = np.polyfit(np.arange(periods), np.log(last), 1)[0]
     change = float(math.expm1(slope))
     state = "saturated" if abs(change) < tolerance else ("growing" if change > 0 else "decaying")
     span = crossings[-1] - crossings[-1 - periods]
-    return Saturation(float(last.mean()), 2 * math.pi * periods / span, level, change, periods, found, state)
+    frequency = 2 * math.pi * periods / span
+    return Saturation(float(last.mean()), frequency, level, change, periods, found, state, first)
+
+
+def left_linear_transient(s: Saturation, growth_rate: float, frequency: float, tolerance: float) -> bool:
+    """Whether a march from the steady state plus a perturbation of the mode ``growth_rate +
+    i frequency`` can be called saturated (module docstring): the mode's linear growth per period
+    ``|e^{σ₀·2π/ω₀} − 1|`` must reach ``tolerance`` (below it the linear transient itself passes the
+    envelope test, as it does near a threshold), and the amplitude must have left the start, beyond
+    a factor :data:`START_FACTOR` of the first whole period's either way (a cycle reached from a small
+    perturbation has grown or decayed to it). docs/simulation.md, "Limit-cycle amplitudes"."""
+    if not (math.isfinite(growth_rate) and math.isfinite(frequency) and frequency > 0):
+        return True  # no start mode recorded: a given start state, judged by its envelope alone
+    linear = abs(math.expm1(growth_rate * 2 * math.pi / frequency))
+    ratio = s.amplitude / s.first if s.first > 0 else math.inf
+    return linear >= tolerance and not (1 / START_FACTOR < ratio < START_FACTOR)
 
 
 def envelope_growth(times, values) -> tuple[np.ndarray, np.ndarray]:
@@ -129,18 +162,24 @@ def onset_fit(velocities, amplitudes, saturated, threshold: float, points: int =
 
 
 def classify_onset(ds: xr.Dataset, threshold: float) -> str:
-    """``supercritical``, ``subcritical`` or ``undetermined`` (a stated rule): subcritical when the
-    decreasing sweep holds a saturated cycle at least five times the increasing sweep's amplitude
-    at the same U* (hysteresis); supercritical when the onset fit (:func:`onset_fit`) has a
-    positive slope and ``U*_0`` within the sweep's spacing of the threshold (at least 5 % of it)."""
+    """``supercritical``, ``subcritical`` or ``undetermined`` (a stated rule, docs/simulation.md,
+    "Limit-cycle amplitudes"): subcritical when, at a U* below the linear threshold where the
+    increasing sweep settled (``decaying``, or ``saturated``), the decreasing sweep holds a saturated
+    cycle at least five times the increasing sweep's amplitude (hysteresis: just above a
+    supercritical onset the increasing march is still ``growing``, which is no evidence of it);
+    supercritical when the onset fit (:func:`onset_fit`) has a positive slope and ``U*_0`` within
+    the sweep's spacing of the threshold (at least 5 % of it)."""
     name = _leading(ds)
+    prefix = name.removesuffix("_amplitude")
+    u = ds.reduced_velocity.values
     if f"decreasing_{name}" in ds:
         up, down = ds[name].values, ds[f"decreasing_{name}"].values
-        held = ds[f"decreasing_{name.replace('amplitude', 'saturated')}"].values.astype(bool)
-        if np.any(held & (down > 5 * np.abs(up)) & (down > 0)):
+        held = ds[f"decreasing_{prefix}_saturated"].values == 1
+        state = ds[f"{prefix}_state"].values.astype(str)
+        settled = (state == "decaying") | (state == "saturated")
+        if np.any(held & settled & (u < threshold) & (down > 5 * np.abs(up)) & (down > 0)):
             return "subcritical"
     slope, start = ds.attrs.get("onset_slope", math.nan), ds.attrs.get("onset_velocity", math.nan)
-    u = ds.reduced_velocity.values
     spacing = max(float(np.max(np.diff(u))) if len(u) > 1 else 0.0, 0.05 * abs(threshold))
     if math.isfinite(slope) and slope > 0 and abs(start - threshold) <= spacing:
         return "supercritical"
@@ -148,30 +187,36 @@ def classify_onset(ds: xr.Dataset, threshold: float) -> str:
 
 
 def _leading(ds: xr.Dataset) -> str:
-    """The amplitude variable of the diagram: the pitch's when the pitch moves, else the heave's."""
-    return "pitch_amplitude" if "pitch" in ds.attrs.get("dofs", "") else "heave_amplitude"
+    """The amplitude variable of the diagram: the pitch's when the pitch moves, else the heave's,
+    else (a fixed body) the lift coefficient's, as the diagram and the report choose."""
+    dofs = ds.attrs.get("dofs", "")
+    return next((f"{n}_amplitude" for n in ("pitch", "heave") if n in dofs), "lift_amplitude")
 
 
 # --- one march -------------------------------------------------------------------------------------
 
 
+def _moving(case: Case, solid: Solid, velocity: float) -> Solid:
+    """The solid at U* = ``velocity`` (body convention, docs/model.md §10)."""
+    return replace(solid, reduced_velocity=velocity / body_velocity_scale(case.kind))
+
+
 def point_identity(
     case: Case, solid: Solid, velocity: float, settings: LcoSettings, start: str | None
 ) -> str:
-    """The JSON text identifying one point's result (checked when it is read back)."""
-    from fsistab import __version__
-    from fsistab.mesh import spec_for
+    """The JSON text identifying one point's result (checked when it is read back): the march's own
+    identity (:func:`fsistab.workflows._simulation_identity`: flow, mesh and sponge, every solid
+    parameter, step, start), the duration read and the saturation test."""
+    from fsistab import __version__, workflows
 
     simulation = replace(settings.simulation, start=start)
     return json.dumps(
         {
             "case": case.tag,
-            "flow": [case.flow.reynolds, case.flow.alpha0_deg],
-            "mesh_key": spec_for(case).key(),
-            "solid": [solid.mass_ratio, solid.freq_ratio, solid.zeta_h, solid.zeta_theta, solid.r_theta],
-            "dofs": list(solid.dofs),
+            "preset": case.preset,
+            "march": workflows._simulation_identity(case, _moving(case, solid, velocity), simulation),
             "reduced_velocity": velocity,
-            "simulation": {**simulation.identity(), "duration": simulation.duration},
+            "duration": simulation.duration,
             "saturation": [settings.periods, settings.saturation_tolerance],
             "fsistab": __version__,
         },
@@ -195,7 +240,8 @@ def compute_point(
     out: Path,
     start: str | None = None,
 ) -> xr.Dataset:
-    """The march at U* = ``velocity`` (body convention) and its saturated amplitudes, saved to
+    """The march at U* = ``velocity`` (body convention) from ``start`` (None: the settings' own
+    start, ``--start`` or the perturbed steady state) and its saturated amplitudes, saved to
     :func:`point_path` (a task of :func:`limit_cycles`, in-process or on a dask worker).
     Idempotent: a finished point's file is read back (attribute ``from_file``)."""
     import time
@@ -203,15 +249,16 @@ def compute_point(
     from fsistab import workflows
     from fsistab.store import read_cached, write_dataset
 
+    start = settings.simulation.start if start is None else start
     identity = point_identity(case, solid, velocity, settings, start)
     path = point_path(out, identity, case, velocity)
     finished = read_cached(path, expect={"point_identity": identity})
     if finished is not None:
         return finished.assign_attrs(from_file=1)
     t0 = time.perf_counter()
-    moving = replace(solid, reduced_velocity=velocity / body_velocity_scale(case.kind))
     simulation = replace(settings.simulation, start=start)
     runs = Path(out) / "lco_runs" / path.stem
+    moving = _moving(case, solid, velocity)
     result = workflows.simulate(case, moving, simulation, cache_dir, runs, progress=lambda message: None)
     ds = point_dataset(result.dataset, velocity, settings)
     ds.attrs.update(point_identity=identity, point_seconds=time.perf_counter() - t0)
@@ -220,12 +267,20 @@ def compute_point(
 
 
 def point_dataset(series: xr.Dataset, velocity: float, settings: LcoSettings) -> xr.Dataset:
-    """The saturated oscillation of one march's time series (:func:`saturation` of the heave, the
-    pitch and the lift coefficient), as scalars."""
-    t = series.time.values
+    """The saturated oscillation of one march's time series up to the duration asked (the march
+    cache is shared by every duration, so its records may go further), by :func:`saturation` of
+    the heave, the pitch and the lift coefficient and, from a perturbed start, the test
+    :func:`left_linear_transient`, as scalars. ``march_end`` is where the records end."""
+    simulation = settings.simulation
+    t_all = series.time.values
+    kept = series.isel(time=t_all <= simulation.duration + 0.5 * simulation.time_step)
+    t = kept.time.values
+    mode = (series.attrs.get("start_growth_rate", math.nan), series.attrs.get("start_frequency", math.nan))
     data = {"reduced_velocity": velocity}
     for name, signal in (("heave", "heave"), ("pitch", "pitch"), ("lift", "lift_coefficient")):
-        s = saturation(t, series[signal].values, settings.periods, settings.saturation_tolerance)
+        s = saturation(t, kept[signal].values, settings.periods, settings.saturation_tolerance)
+        if s.saturated and not left_linear_transient(s, *mode, settings.saturation_tolerance):
+            s = replace(s, state="transient")
         data |= {
             f"{name}_amplitude": s.amplitude,
             f"{name}_frequency": s.frequency,
@@ -237,7 +292,8 @@ def point_dataset(series: xr.Dataset, velocity: float, settings: LcoSettings) ->
         }
     keep = ("ndof", "steps", "factorisations", "seconds_per_step", "checkpoint", "netcdf", "dofs")
     attrs = {k: series.attrs[k] for k in keep if k in series.attrs}
-    attrs["duration"] = float(t[-1])
+    attrs |= {k: float(v) for k, v in zip(("start_growth_rate", "start_frequency"), mode, strict=True)}
+    attrs |= {"duration": float(t[-1]), "march_end": float(t_all[-1])}
     return xr.Dataset({k: ((), v) for k, v in data.items()}, attrs=attrs)
 
 
@@ -287,39 +343,60 @@ def _run_increasing(case, solid, settings, cache_dir, out, client, say) -> list[
     return [results[u] for u in velocities]
 
 
+def _state(result: xr.Dataset) -> str:
+    """The state of the leading signal of one point (:func:`_leading`)."""
+    return str(result[_leading(result).replace("_amplitude", "_state")].item())
+
+
 def _outcome(result) -> str:
     if isinstance(result, str):
         return f"FAILED: {result}"
-    name = "pitch" if "pitch" in result.attrs.get("dofs", "") else "heave"
+    name = _leading(result).removesuffix("_amplitude")
     return (
         f"{name} amplitude {float(result[f'{name}_amplitude']):.4g}, "
         f"{result[f'{name}_state'].item()} (envelope {float(result[f'{name}_change']):+.2g} per period)"
     )
 
 
+def _chain_start(previous, settings: LcoSettings) -> tuple[str | None, str]:
+    """``(checkpoint, state)`` to start the next march of the decreasing sweep from, or ``(None,
+    reason)``: no point above, or a march above whose records go beyond the duration (an earlier,
+    longer run of the same march): its checkpoint holds the state at its own end, not at the
+    duration its amplitudes were read to (module docstring)."""
+    if isinstance(previous, str):
+        return None, "no state above to start from"
+    simulation = settings.simulation
+    end = float(previous.attrs.get("march_end", previous.attrs.get("duration", 0.0)))
+    if end > simulation.duration + 0.5 * simulation.time_step:
+        return None, (
+            f"the march above was run to t = {end:g} before, beyond --duration {simulation.duration:g}: "
+            f"its checkpoint holds the state at t = {end:g}; give --duration {end:g} to chain from it"
+        )
+    return str(previous.attrs["checkpoint"]), _state(previous)
+
+
 def _run_decreasing(case, solid, settings, cache_dir, out, top, client, say) -> list[xr.Dataset | str]:
-    """The decreasing sweep from the saturated march at the highest U* (``top``): each march starts
-    from the last state of the one above (its checkpoint)."""
+    """The decreasing sweep from the march at the highest U* (``top``): each march starts from the
+    last state of the one above (its checkpoint, :func:`_chain_start`), that march's state kept as
+    ``start_state`` (a start that was not saturated is so flagged)."""
     from fsistab.study import _one_line
 
     velocities = settings.velocities()
-    results: list[xr.Dataset | str] = [top]
+    results: list[xr.Dataset | str] = [top if isinstance(top, str) else top.assign(start_state="not chained")]
     for u in reversed(velocities[:-1]):
-        previous = results[-1]
-        if isinstance(previous, str):
-            results.append("no saturated state above to start from")
+        start, state = _chain_start(results[-1], settings)
+        if start is None:
+            results.append(state)
             continue
-        start = previous.attrs["checkpoint"]
         try:
             if client is None:
-                results.append(compute_point(case, solid, u, settings, cache_dir, out, start))
+                point = compute_point(case, solid, u, settings, cache_dir, out, start)
             else:
-                results.append(
-                    client.submit(compute_point, case, solid, u, settings, cache_dir, out, start).result()
-                )
+                point = client.submit(compute_point, case, solid, u, settings, cache_dir, out, start).result()
+            results.append(point.assign(start_state=state))
         except Exception as exc:
             results.append(_one_line(exc))
-        say(f"decreasing U* = {u:g}: {_outcome(results[-1])}")
+        say(f"decreasing U* = {u:g} (from a {state} state): {_outcome(results[-1])}")
     return results[::-1]
 
 
@@ -343,20 +420,101 @@ def _stack(velocities, results, prefix: str = "") -> dict:
     return data
 
 
-def _thresholds(case, solid, settings, mass_ratio, cache_dir, say) -> np.ndarray:
-    """The linear thresholds along U* over the sweep's range (widened by 20 % each way) at the
-    same mesh: :func:`fsistab.workflows.critical_points`."""
-    from fsistab import workflows
-    from fsistab.params import SweepSettings
+def threshold_sweep(settings: LcoSettings, mass_ratio: float):
+    """The :class:`fsistab.params.SweepSettings` of the linear thresholds beside the diagram: the
+    sweep's range widened by 20 % each way, at ``mass_ratio`` (built before any march, so that
+    bad input is refused before the work)."""
+    from fsistab.params import LCO_THRESHOLD_MARGIN, SweepSettings
 
     low, high = settings.velocity_range
-    sweep = SweepSettings((0.8 * low, 1.2 * high), 24, None, mass_ratio)
-    ds = workflows.critical_points(case, solid, sweep, cache_dir, None, progress=say)
-    return (
-        np.sort(ds.reduced_velocity.values[ds.kind.values != "divergence"])
-        if ds.sizes.get("threshold")
-        else np.zeros(0)
-    )
+    margin = LCO_THRESHOLD_MARGIN
+    return SweepSettings(((1 - margin) * low, (1 + margin) * high), 24, None, mass_ratio)
+
+
+def _thresholds(case, solid, sweep, cache_dir, say) -> tuple[np.ndarray, str]:
+    """``(onsets, problem)``: the linear onsets (``boundary`` onset, not divergence) along U* of
+    :func:`fsistab.workflows.critical_points` at the same mesh, or none and the one-line reason the
+    search failed (the marches' diagram is kept, not lost to it)."""
+    from fsistab import workflows
+    from fsistab.study import _one_line
+
+    try:
+        ds = workflows.critical_points(case, solid, sweep, cache_dir, None, progress=say)
+    except Exception as exc:  # reported in the diagram's onset, which stays undetermined
+        problem = f"threshold search failed: {_one_line(exc)}"
+        say(problem)
+        return np.zeros(0), problem
+    if not ds.sizes.get("threshold"):
+        return np.zeros(0), ""
+    keep = (ds.kind.values != "divergence") & (ds.boundary.values == "onset")
+    return np.sort(ds.reduced_velocity.values[keep]), ""
+
+
+def _attributes(case, solid, settings, mass_ratio, points, client) -> dict:
+    """The diagram's provenance: flow, mesh and sponge, every solid parameter
+    (:func:`fsistab.workflows._solid_attrs`), the march and saturation settings, and the counts of
+    both sweeps' marches (``points``, a failed one its error text)."""
+    from fsistab.workflows import _solid_attrs
+
+    simulation = settings.simulation
+    done = [r for r in points if not isinstance(r, str)]
+    shift = "default" if simulation.shift is None else f"{simulation.shift.real!r}{simulation.shift.imag:+}j"
+    return {
+        "body": case.kind,
+        "preset": case.preset,
+        **_solid_attrs(case, solid),
+        "mass_ratio": mass_ratio,
+        "dofs": ",".join(solid.dofs) or "none",
+        "time_step": simulation.time_step,
+        "duration": simulation.duration,
+        "perturbation": simulation.perturbation,
+        "shift": shift,
+        "start": "none" if simulation.start is None else str(simulation.start),
+        "step_tolerance": simulation.tolerance,
+        "max_step_iterations": simulation.max_iterations,
+        "periods": settings.periods,
+        "saturation_tolerance": settings.saturation_tolerance,
+        "hysteresis": int(settings.hysteresis),
+        "ndof": int(done[0].attrs.get("ndof", 0)) if done else 0,
+        "failed": len(points) - len(done),
+        "computed": sum(not r.attrs.get("from_file") for r in done),
+        "execution": "in-process" if client is None else "dask.distributed",
+        "saturation_rule": "saturated: |envelope change per period| < tolerance over the last periods and, "
+        f"from a perturbed start, the start mode's linear change per period >= tolerance and the "
+        f"amplitude beyond a factor {START_FACTOR:g} of the first period's (else transient)",
+        "conventions": "U* and m in the body's conventions (docs/model.md §2, §10); amplitudes: heave in L, "
+        "pitch in rad, half peak-to-peak; frequencies in U/L",
+    }
+
+
+def _onset(ds: xr.Dataset, critical: np.ndarray, problem: str) -> dict:
+    """The onset fit and class at the first linear threshold (:func:`onset_fit`,
+    :func:`classify_onset`), or why there is none."""
+    name = _leading(ds)
+    if problem or not len(critical) or name not in ds:
+        reason = problem or ("no threshold in the range" if not len(critical) else "no march finished")
+        onset = reason if reason == "no threshold in the range" else f"undetermined ({reason})"
+        return {"onset_slope": math.nan, "onset_velocity": math.nan, "onset": onset}
+    saturated = ds[name.replace("amplitude", "saturated")]
+    slope, start = onset_fit(ds.reduced_velocity, ds[name], saturated, critical[0])
+    onset = classify_onset(ds.assign_attrs(onset_slope=slope, onset_velocity=start), critical[0])
+    return {"onset_slope": slope, "onset_velocity": start, "onset": onset}
+
+
+def diagram_path(out: Path, case: Case, solid: Solid, settings: LcoSettings, thresholds: bool) -> Path:
+    """``out/lco_{tag}_{preset}_{key}.nc``: the key covers every march's identity, the U*, the
+    hysteresis sweep and the thresholds (runs that differ in any never overwrite each other)."""
+    from fsistab.store import cache_key
+
+    velocities = settings.velocities()
+    inputs = {
+        "tag": case.tag,
+        "velocities": list(velocities),
+        "settings": point_identity(case, solid, velocities[0], settings, settings.simulation.start),
+        "hysteresis": settings.hysteresis,
+        "thresholds": thresholds,
+    }
+    return Path(out) / f"lco_{case.tag}_{case.preset}_{cache_key('lco', inputs)[:10]}.nc"
 
 
 def limit_cycles(
@@ -374,72 +532,32 @@ def limit_cycles(
     and frequencies of heave, pitch and lift at each U* of ``settings`` (body conventions,
     ``mass_ratio`` the body's for the thresholds), the decreasing sweep's with ``hysteresis``,
     the linear thresholds of the same mesh (``thresholds``), the onset fit and class. Written to
-    ``out/lco_{tag}_{preset}_{key}.nc`` (path in attribute ``data``)."""
+    :func:`diagram_path` (path in attribute ``data``)."""
     import time
 
-    from fsistab.store import cache_key, write_dataset
+    from fsistab.store import write_dataset
 
     say = progress if progress is not None else (lambda message: None)
     t0 = time.perf_counter()
+    sweep = threshold_sweep(settings, mass_ratio) if thresholds else None  # refused before any march
     velocities = settings.velocities()
     say(
         f"{len(velocities)} marches of {settings.simulation.duration:g} time units, "
         f"U* from {velocities[0]:g} to {velocities[-1]:g}"
     )
     increasing = _run_increasing(case, solid, settings, cache_dir, out, client, say)
-    data = _stack(velocities, increasing)
+    data, decreasing = _stack(velocities, increasing), []
     if settings.hysteresis and len(velocities) > 1:
-        data |= _stack(
-            velocities,
-            _run_decreasing(case, solid, settings, cache_dir, out, increasing[-1], client, say),
-            "decreasing_",
-        )
-    critical = _thresholds(case, solid, settings, mass_ratio, cache_dir, say) if thresholds else np.zeros(0)
-    done = [r for r in increasing if not isinstance(r, str)]
-    first = done[0].attrs if done else {}
+        decreasing = _run_decreasing(case, solid, settings, cache_dir, out, increasing[-1], client, say)
+        data |= _stack(velocities, decreasing, "decreasing_")
+    critical, problem = np.zeros(0), ""
+    if sweep is not None:
+        critical, problem = _thresholds(case, solid, sweep, cache_dir, say)
     ds = xr.Dataset(data, coords={"reduced_velocity": np.array(velocities)})
     ds = ds.assign(threshold_velocity=("threshold", critical))
-    ds.attrs.update(
-        body=case.kind,
-        reynolds=case.flow.reynolds,
-        alpha0_deg=case.flow.alpha0_deg,
-        preset=case.preset,
-        mass_ratio=mass_ratio,
-        dofs=",".join(solid.dofs) or "none",
-        time_step=settings.simulation.time_step,
-        duration=settings.simulation.duration,
-        perturbation=settings.simulation.perturbation,
-        periods=settings.periods,
-        saturation_tolerance=settings.saturation_tolerance,
-        ndof=int(first.get("ndof", 0)),
-        failed=sum(isinstance(r, str) for r in increasing),
-        computed=sum(not isinstance(r, str) and not r.attrs.get("from_file") for r in increasing),
-        seconds=time.perf_counter() - t0,
-        execution="in-process" if client is None else "dask.distributed",
-        saturation_rule="saturated: |envelope change per period| < tolerance over the last periods",
-        conventions="U* and m in the body's conventions (docs/model.md §2, §10); amplitudes: heave in L, "
-        "pitch in rad, half peak-to-peak; frequencies in U/L",
-    )
-    name = _leading(ds)
-    if len(critical) and name in ds:
-        slope, start = onset_fit(
-            ds.reduced_velocity, ds[name], ds[name.replace("amplitude", "saturated")], critical[0]
-        )
-        ds.attrs.update(
-            onset_slope=slope,
-            onset_velocity=start,
-            onset=classify_onset(ds.assign_attrs(onset_slope=slope, onset_velocity=start), critical[0]),
-        )
-    else:
-        onset = "no threshold in the range" if not len(critical) else "undetermined (no march finished)"
-        ds.attrs.update(onset_slope=math.nan, onset_velocity=math.nan, onset=onset)
-    key = cache_key(
-        "lco",
-        {
-            "tag": case.tag,
-            "velocities": list(velocities),
-            "settings": point_identity(case, solid, 0.0, settings, None),
-        },
-    )[:10]
-    path = write_dataset(ds, Path(out) / f"lco_{case.tag}_{case.preset}_{key}.nc")
+    # the decreasing sweep's top is the increasing sweep's last march: counted once
+    ds.attrs.update(_attributes(case, solid, settings, mass_ratio, increasing + decreasing[:-1], client))
+    ds.attrs.update(thresholds=int(thresholds), seconds=time.perf_counter() - t0)
+    ds.attrs.update(_onset(ds, critical, problem))
+    path = write_dataset(ds, diagram_path(out, case, solid, settings, thresholds))
     return ds.assign_attrs(data=str(path))

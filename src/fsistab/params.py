@@ -884,8 +884,14 @@ class LcoSettings:
         return tuple(float(round(low + k * step, 12)) for k in range(self.points))
 
 
+# fsistab lco searches the linear thresholds beside its diagram over its range widened by this
+# fraction each way (fsistab.lco.threshold_sweep): the range is checked with it before any march.
+LCO_THRESHOLD_MARGIN = 0.2
+
+
 def _lco_range(pair) -> tuple[float, float]:
-    """``--reduced-velocity-range A B``: ``0 < A <= B`` (equal for one point), both finite."""
+    """``--reduced-velocity-range A B``: ``0 < A <= B`` (equal for one point), both finite, and
+    ``B`` widened by :data:`LCO_THRESHOLD_MARGIN` (the thresholds' search) within the bound."""
     try:
         low, high = (float(v) for v in pair)
     except (TypeError, ValueError):
@@ -894,8 +900,10 @@ def _lco_range(pair) -> tuple[float, float]:
         raise InputError(f"--reduced-velocity-range must be positive and finite, got {low:g} {high:g}")
     if high < low:
         raise InputError(f"--reduced-velocity-range is reversed: {low:g} > {high:g} (give A <= B)")
-    if high > MAX_REDUCED_VELOCITY:
+    top = MAX_REDUCED_VELOCITY / (1 + LCO_THRESHOLD_MARGIN)
+    if high > top:
         raise InputError(
-            f"--reduced-velocity-range must end at most at {MAX_REDUCED_VELOCITY:g}, got {high:g}"
+            f"--reduced-velocity-range must end at most at {top:g} (the thresholds are searched "
+            f"{LCO_THRESHOLD_MARGIN:.0%} beyond it), got {high:g}"
         )
     return low, high

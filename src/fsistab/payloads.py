@@ -431,6 +431,9 @@ def _lco_payload(ds):
                 point[f"decreasing_{name}"] = {
                     "amplitude": _finite_or_none([ds[f"decreasing_{name}_amplitude"].values[i]])[0],
                     "state": str(ds[f"decreasing_{name}_state"].values[i]),
+                    "start_state": str(ds["decreasing_start_state"].values[i])
+                    if "decreasing_start_state" in ds
+                    else None,
                 }
         points.append(point)
     return {

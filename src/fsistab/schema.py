@@ -80,10 +80,17 @@ def _limit_cycle_fields() -> dict[str, Field]:
             f"{name}_frequency": Field(f"angular frequency of the {what} over its last periods (U/L)"),
             f"{name}_mean": Field(f"mid-level of the {what} oscillation", unit),
             f"{name}_change": Field(f"relative change per period of the {what} envelope"),
-            f"{name}_saturated": Field(f"1 when the {what} envelope changes less than the tolerance"),
-            f"{name}_state": _text(f"the {what} march: saturated, growing, decaying or too short"),
+            f"{name}_saturated": Field(f"1 when the {what} oscillation is a limit cycle (saturated)"),
+            f"{name}_state": _text(
+                f"the {what} march: saturated, growing, decaying, too short or transient (the envelope "
+                "test cannot tell it from the start mode's linear transient)"
+            ),
             f"{name}_periods": Field(f"whole periods of the {what} in the march"),
         }
+    fields["start_state"] = _text(
+        "state of the leading signal of the march this one started from (the one above; 'not chained' "
+        "for the sweep's top)"
+    )
     fields |= {
         f"decreasing_{k}": Field(f"{v.long_name} (sweep by decreasing U*)", v.units)
         for k, v in fields.items()
