@@ -192,8 +192,8 @@ def test_mode_energies_of_a_known_vector():
     fluid = np.array([1.0, 2.0j])
     system = SimpleNamespace(
         split=lambda q: (solid_states, fluid),
-        solid=SimpleNamespace(mass_ratio=mass, r_theta=r),
-        fluid=SimpleNamespace(mff_near=np.diag([2.0, 0.5])),
+        solid=SimpleNamespace(mass_ratio=mass, r_theta=r, static_unbalance=0.0),
+        fluid=SimpleNamespace(mff_near=np.diag([2.0, 0.5]), theta0=0.0),
     )
     heave, pitch, fluid_energy = mode_energies(system, np.zeros(6))
     assert heave == pytest.approx(25 * 4.0)
