@@ -151,19 +151,12 @@ class Options(SimpleNamespace):
             elastic_axis=axis,
         )
 
-    def solid(
-        self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None, linearised=True
-    ) -> params.Solid:
+    def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:
         mass = getattr(self, "mass_ratio", None) if mass_ratio is None else mass_ratio
         velocity = getattr(self, "reduced_velocity", None) if reduced_velocity is None else reduced_velocity
         dofs = params.parse_dofs(getattr(self, "dofs", None), kind) if dofs is None else dofs
         spring = (self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta)
         typical = (getattr(self, "elastic_axis", 0.0), getattr(self, "static_unbalance", 0.0))
-        if linearised and typical[1] and getattr(self, "alpha0", 0.0):
-            raise InputError(
-                "a static unbalance is implemented at --alpha0 0 (the maps' linear coupling "
-                "x_θ cos α0 is taken at α0 = 0)"
-            )
         return params.solid_for(kind, mass, velocity, *spring, dofs, *typical)
 
 
@@ -454,7 +447,7 @@ def theodorsen(opts):
     settings = params.TheodorsenSettings(*(getattr(opts, name) for name in names))
     from fsistab import figures, reports, workflows
 
-    solid = opts.solid("plate", opts.mass_ratio, dofs=("heave", "pitch"), linearised=False)
+    solid = opts.solid("plate", opts.mass_ratio, dofs=("heave", "pitch"))
     section = workflows.typical_section(solid, settings)
     out, cache = _prepare(opts, [case] if settings.slopes == "calibrated" else [])
     with _running() as progress:

@@ -67,7 +67,7 @@ import numpy.polynomial.polynomial as npoly
 from fsistab.coupled import solid_energies
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
-from fsistab.map_roots import require_level_unbalance
+from fsistab.map_roots import linear_solid
 from fsistab.neutral_map import following_kind, following_ratio
 from fsistab.neutral_point import NeutralPoint, divergence_velocity
 from fsistab.operators import FluidOperators
@@ -152,7 +152,7 @@ def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: 
     omega = sample.s.imag
     if omega <= 0:
         raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
-    require_level_unbalance(solid, theta0)
+    solid = linear_solid(solid, theta0)  # W at the steady pitch (docs/model.md §3.1)
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
     roots = sorted((u for u in _all_roots(loads, solid, omega) if u.real > 0), key=lambda u: u.real)
     slopes = []
@@ -412,7 +412,8 @@ def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: f
     by_frequency, solid, say = samples.by_frequency, samples.solid, samples.say
     found = []
     for omega, velocity, a, b in starts:
-        closer = _follow(by_frequency[a], by_frequency[b], [], solid, relevant, strict=False)
+        linear = linear_solid(solid, samples.fluid.theta0)  # the cubic's roots: W at θ0
+        closer = _follow(by_frequency[a], by_frequency[b], [], linear, relevant, strict=False)
         if closer:
             omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
         try:
@@ -463,8 +464,9 @@ def sweep_thresholds(
         samples.add(*grid)
         _widen_band(samples, static, low, high)
         relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
+        linear = linear_solid(solid, fluid.theta0)  # the polynomials' W at the steady pitch
         intervals, unresolved = _bisect(
-            samples.by_frequency, samples.add, solid, relevant, sample_threads(threads)
+            samples.by_frequency, samples.add, linear, relevant, sample_threads(threads)
         )
         if unresolved:
             where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
@@ -563,7 +565,7 @@ def neutral_root(sample: TransferSample, solid: Solid, theta0: float, loads0: np
     (:func:`fsistab.transfer_map._root_with_tangent`, docs/model.md §7–§8). Where the tangent is not
     defined (``F_m m`` and ``F_u u`` parallel: a fold of the curve in ω, where ``ω`` is stationary
     along it) its derivatives are infinite."""
-    require_level_unbalance(solid, theta0)
+    solid = linear_solid(solid, theta0)  # W at the steady pitch (docs/model.md §3.1)
     omega = sample.s.imag
     loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
     m, u = solid.mass_ratio, 1.0 / solid.reduced_velocity

@@ -8,9 +8,9 @@ On the imaginary axis ``s = iω`` the solid velocities are eliminated from ``T(s
     ``S_h = s² + 2ζ_h Ω u s + Ω² u²``,   ``S_θ = s² + 2ζ_θ u s + u²``,
 
 with ``A(s)`` the 2 × 2 loads ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` of :func:`fsistab.transfer.aerodynamic_loads`
-(``det T = det X / (m² r_θ²)`` for both dofs; ``x_θ`` the static unbalance of docs/model.md §3.1,
-whose linear coupling ``x_θ cos α0`` is taken at ``α0 = 0``: the commands refuse an unbalance
-with ``α0 ≠ 0``). At a fixed frequency, ``F = det X`` is a polynomial
+(``det T = det X / (m² r_θ²)`` for both dofs; ``x_θ`` stands for the linear coupling
+``x_θ cos θ₀`` of the static unbalance at the steady pitch ``θ₀``, docs/model.md §3.1,
+:func:`linear_solid`). At a fixed frequency, ``F = det X`` is a polynomial
 of degree ≤ 2 in ``m`` whose coefficients are polynomials in ``u``: with ``m̂ = m ω²``, ``v = u/ω``
 
     ``F = P₂(v) m̂² + P₁(v) m̂ + P₀``,   ``P₂ = r_θ² ŝ_h ŝ_θ − x_θ²``,
@@ -31,7 +31,7 @@ Units: chord-based (plate) or diameter-based (cylinder) time ``L/U∞`` (docs/mo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.polynomial.polynomial as npoly
@@ -105,15 +105,14 @@ def second_order_loads(
     return value, rate
 
 
-def require_level_unbalance(solid: Solid, theta0: float) -> None:
-    """Refuse a static unbalance at a steady pitch ``θ₀ ≠ 0``: ``W`` and the polynomials here take
-    its linear coupling ``x_θ cos θ₀`` at ``θ₀ = 0`` (docs/model.md §3.1), while the exact transfer
-    function and the eigen-solver use ``M_s(θ₀)``; the library says so instead of mixing the two."""
-    if solid.static_unbalance and theta0 != 0.0:
-        raise InputError(
-            "a static unbalance is implemented at alpha0 = 0 in the maps and the frequency sweep "
-            f"(their coupling x_θ cos θ0 is taken at θ0 = 0; here θ0 = {math.degrees(theta0):g}°)"
-        )
+def linear_solid(solid: Solid, theta0: float) -> Solid:
+    """``solid`` with the static unbalance's linear coupling ``x_θ cos θ₀`` of ``M_s(θ₀)`` as its
+    unbalance (docs/model.md §3.1): the solid whose ``W`` and polynomials are those of the steady
+    pitch ``θ₀``. Only for ``W`` and the polynomials here: ``M_s(θ₀)`` itself is formed from the
+    true solid and ``θ₀`` (:func:`fsistab.coupled.solid_mass`)."""
+    if not solid.static_unbalance or theta0 == 0.0:
+        return solid
+    return replace(solid, static_unbalance=solid.static_unbalance * math.cos(theta0))
 
 
 def _dof_indices(solid: Solid) -> list[int]:
@@ -203,9 +202,8 @@ def neutral_roots(
     :func:`roots_from_loads` of the sample's ``A(iω)``, ``dA/ds``."""
     if sample.frequency <= 0:
         raise InputError("neutral_roots is for ω > 0; divergence (ω = 0) is divergence_lines")
-    require_level_unbalance(solid, theta0)
     loads, rate = second_order_loads(sample, theta0, loads0)
-    return roots_from_loads(loads, rate, sample.frequency, solid, mass_range)
+    return roots_from_loads(loads, rate, sample.frequency, linear_solid(solid, theta0), mass_range)
 
 
 def roots_from_loads(
@@ -346,6 +344,6 @@ def divergence_lines(
     for lam in lambdas:  # any m: the rate does not depend on where on the line
         m = 1.0
         u = 1.0 / divergence_velocity(lam, 1.0, m)  # u = 1/U*_D, λ the slope per unit r_θ² (see above)
-        _, _, f_u, f_s = characteristic_function(loads, rate, solid, 0.0, m, u)
+        _, _, f_u, f_s = characteristic_function(loads, rate, linear_solid(solid, theta0), 0.0, m, u)
         rates.append((f_u * u / f_s).real)
     return np.array(lambdas), np.array(rates)

@@ -21,8 +21,8 @@ from fsistab.map_roots import (
     AxisSample,
     NeutralRoot,
     _roots_on_tracks,
+    linear_solid,
     log_step,
-    require_level_unbalance,
     resultant_tracks,
     second_order_loads,
 )
@@ -40,8 +40,7 @@ class RootTracker:
     ``loads0`` turn a sample's ``G`` into the loads ``A``."""
 
     def __init__(self, solid: Solid, wide: tuple[float, float], theta0: float, loads0: np.ndarray):
-        require_level_unbalance(solid, theta0)
-        self.solid, self.wide = solid, wide
+        self.solid, self.wide = linear_solid(solid, theta0), wide  # W at θ0 (docs/model.md §3.1)
         self.theta0, self.loads0 = theta0, loads0
         self.roots: dict[float, list[NeutralRoot]] = {}
         self.tracks: dict[float, np.ndarray] = {}

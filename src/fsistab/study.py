@@ -270,8 +270,6 @@ class StudySettings:
         # the solid parameters, checked as every command checks them (the plate's conventions)
         springs = (self.freq_ratio, self.zeta_h, self.zeta_theta, self.r_theta)
         solid_for("plate", None, None, *springs, (), self.elastic_axis, self.static_unbalance)
-        if self.static_unbalance and any(self.alpha0):
-            raise InputError("a static unbalance is implemented at --alpha0 0 (docs/model.md §3.1)")
         if self.dofs is not None:
             object.__setattr__(self, "dofs", Solid(dofs=tuple(self.dofs)).dofs)
 
