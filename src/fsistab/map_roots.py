@@ -122,7 +122,8 @@ def _dof_indices(solid: Solid) -> list[int]:
 
 def _weights(solid: Solid, s: complex, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``W = [[S_h, x_θ s²], [x_θ s², r_θ² S_θ]]`` and its derivatives in ``u`` and ``s`` (2 × 2
-    each; the off-diagonal terms are the static unbalance's, docs/model.md §3.1, at ``α0 = 0``)."""
+    each; the off-diagonal terms are the static unbalance's, docs/model.md §3.1: ``x_θ cos θ₀`` for
+    the solid of :func:`linear_solid`)."""
     omega_h, r2, x = solid.freq_ratio, solid.r_theta**2, solid.static_unbalance
     zh, zt = solid.zeta_h, solid.zeta_theta
     w = np.array(
