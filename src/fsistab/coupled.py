@@ -68,6 +68,16 @@ def solid_mass(solid: Solid, theta: float = 0.0) -> np.ndarray:
     return mass
 
 
+def in_vacuo_rates(solid: Solid) -> list[float]:
+    """The undamped in-vacuo frequencies of heave and pitch with a static unbalance ``x_θ``, in units
+    of ``1/U*``, lower first (docs/model.md §3.1): the roots ``w`` of
+    ``(1 − x_θ²/r_θ²) w⁴ − (Ω² + 1) w² + Ω² = 0``."""
+    beta = 1 - solid.static_unbalance**2 / solid.r_theta**2
+    total, product = solid.freq_ratio**2 + 1, solid.freq_ratio**2
+    root = math.sqrt(total * total - 4 * beta * product)
+    return [math.sqrt((total - root) / (2 * beta)), math.sqrt((total + root) / (2 * beta))]
+
+
 def solid_energies(solid: Solid, velocities, theta: float = 0.0) -> tuple[float, float]:
     """``(E_h, E_θ)``: the kinetic energy of a mode's solid velocities ``(ḣ, θ')`` (complex
     amplitudes, units ``ρL²U∞²``, docs/model.md §3.1), split by König's theorem: the heave of the

@@ -64,7 +64,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.polynomial.polynomial as npoly
 
-from fsistab.coupled import solid_energies
+from fsistab.coupled import in_vacuo_rates, solid_energies
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
 from fsistab.map_roots import linear_solid
@@ -307,15 +307,6 @@ def _branch(mode: np.ndarray, solid: Solid, theta0: float) -> str:
     return "heave" if heave >= pitch else "pitch"
 
 
-def in_vacuo_rates(solid: Solid) -> list[float]:
-    """The undamped in-vacuo frequencies of heave and pitch with a static unbalance, in units of
-    ``1/U*`` (docs/model.md §3.1): the roots ``w`` of ``(1 − x_θ²/r_θ²) w⁴ − (Ω² + 1) w² + Ω² = 0``."""
-    beta = 1 - solid.static_unbalance**2 / solid.r_theta**2
-    total, product = solid.freq_ratio**2 + 1, solid.freq_ratio**2
-    root = math.sqrt(total * total - 4 * beta * product)
-    return [math.sqrt((total - root) / (2 * beta)), math.sqrt((total + root) / (2 * beta))]
-
-
 def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[float, float]:
     """Initial frequency band: the in-vacuo frequencies (``Ω/U*`` heave, ``1/U*`` pitch) of the
     active dofs over the velocity range, widened by ``BAND_MARGIN`` (the sweep widens it further
@@ -410,9 +401,9 @@ def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: f
     two crossings about to merge) is added to ``unresolved`` and reported, not fatal. The
     thresholds in ``[low, high]``, each once."""
     by_frequency, solid, say = samples.by_frequency, samples.solid, samples.say
+    linear = linear_solid(solid, samples.fluid.theta0)  # the cubics' roots: W at the steady pitch
     found = []
     for omega, velocity, a, b in starts:
-        linear = linear_solid(solid, samples.fluid.theta0)  # the cubic's roots: W at θ0
         closer = _follow(by_frequency[a], by_frequency[b], [], linear, relevant, strict=False)
         if closer:
             omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
@@ -458,13 +449,13 @@ def sweep_thresholds(
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     samples = _Samples(fluid, solid, counter, threads, say)
-    grid = _initial_grid(solid, low, high, wake_frequency)
+    linear = linear_solid(solid, fluid.theta0)  # the polynomials' W at the steady pitch (model §3.1)
+    grid = _initial_grid(linear, low, high, wake_frequency)
     with ThreadPoolExecutor(1) as pool:
         static = _StaticSample(fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
         samples.add(*grid)
         _widen_band(samples, static, low, high)
         relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
-        linear = linear_solid(solid, fluid.theta0)  # the polynomials' W at the steady pitch
         intervals, unresolved = _bisect(
             samples.by_frequency, samples.add, linear, relevant, sample_threads(threads)
         )

@@ -37,7 +37,7 @@ import numpy as np
 import numpy.polynomial.polynomial as npoly
 
 from fsistab.continuation import newton
-from fsistab.coupled import active_states
+from fsistab.coupled import active_states, in_vacuo_rates
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.neutral_point import DeterminantProblem, divergence_velocity
 from fsistab.params import Solid
@@ -273,11 +273,10 @@ def undamped_resonances(solid: Solid) -> list[float]:
     dofs = _dof_indices(solid)
     roots = []
     if dofs == [0, 1] and solid.static_unbalance:
-        # the coupled in-vacuo resonances, real roots of P₂ = r_θ² ŝ_h ŝ_θ − x_θ², both dofs undamped
+        # the coupled in-vacuo resonances, where P₂ = r_θ² ŝ_h ŝ_θ − x_θ² vanishes: v = 1/w
         if solid.zeta_h or solid.zeta_theta:
             return []  # no real root: with damping ŝ_h ŝ_θ is never real and positive
-        p2 = scaled_polynomials(np.eye(2), solid)[2].real
-        return sorted(float(v.real) for v in npoly.polyroots(p2) if abs(v.imag) < 1e-12 and v.real > 0)
+        return sorted(1.0 / w for w in in_vacuo_rates(solid))
     if 0 in dofs and solid.zeta_h == 0:
         roots.append(1.0 / solid.freq_ratio)
     if 1 in dofs and solid.zeta_theta == 0:
