@@ -468,6 +468,7 @@ def _attributes(case, solid, settings, mass_ratio, points, client) -> dict:
         "time_step": simulation.time_step,
         "duration": simulation.duration,
         "perturbation": simulation.perturbation,
+        "perturbation_of": simulation.perturbation_of,
         "shift": shift,
         "start": "none" if simulation.start is None else str(simulation.start),
         "step_tolerance": simulation.tolerance,

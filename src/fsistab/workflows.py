@@ -1079,7 +1079,7 @@ def _start(table, stepper, system, settings, case, identity, say):
         q0 = stepper.steady_point()  # no mode to add: no eigenvalue solve
     else:
         pair = _start_mode(system, settings, case, say)
-        q0 = perturbed_state(stepper, pair.vector, settings.perturbation)
+        q0 = perturbed_state(stepper, pair.vector, settings.perturbation, settings.perturbation_of)
         states["start_eigenvalue"] = np.array([pair.growth_rate, pair.frequency])
     start = MarchState(0.0, 0, q0)
     table.append(_sample_record(stepper.initial_sample(start)), state={"current_state": q0, **states})
@@ -1183,6 +1183,7 @@ def simulate(
         **(
             {} if eigenvalue is None else dict(start_growth_rate=eigenvalue[0], start_frequency=eigenvalue[1])
         ),
+        "perturbation_of": settings.perturbation_of,
         "ndof": system.size,
         "duration": float(state.time),
         "steps": state.step,
@@ -1191,7 +1192,7 @@ def simulate(
         "factorisations": stepper.counter.count,
         "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M at the steady state",
         "conventions": "time in L/U; heave in L, pitch in rad (counter-clockwise +); coefficients "
-        "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about G",
+        "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about the pitch axis",
         "checkpoint": str(path),
     }
     table.finish({"stop": "duration"})
