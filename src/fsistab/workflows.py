@@ -1035,7 +1035,22 @@ def _simulation_identity(case: Case, solid: Solid, settings) -> dict:
         "reduced_velocity": solid.reduced_velocity,
         "dofs": ",".join(solid.dofs) or "none",
         **settings.identity(),
+        **({} if settings.start is None else {"start": _start_fingerprint(settings.start)}),
     }
+
+
+def _start_fingerprint(path: str) -> str:
+    """``--start`` as its path and the SHA-256 of the file's bytes: a checkpoint marched further
+    later (the same path, another last state) is another start, so the march from it is another
+    march, never the cached one from the old state. An unreadable file keeps its path alone (it is
+    refused when read, :func:`_saved_state`)."""
+    import hashlib
+
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return str(path)
+    return f"{path} sha256:{digest}"
 
 
 def _start_mode(system, settings, case: Case, say):
