@@ -114,6 +114,7 @@ OPTIONS = {
         "--duration": "positive",
         "--time-step": "positive",
         "--perturbation": "damping",
+        "--perturbation-of": "scale",
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--snapshot-interval": "positive",
@@ -128,6 +129,7 @@ OPTIONS = {
         "--duration": "positive",
         "--time-step": "positive",
         "--perturbation": "damping",
+        "--perturbation-of": "scale",
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--periods": ("count", 2, 1000),
@@ -157,6 +159,7 @@ def _values(kind) -> st.SearchStrategy:
         "dofs": st.sampled_from(["twist", "heave,heave", ",", "pitch,twist", "heave;pitch"]),
         "phase": st.one_of(non_finite, text, st.floats(min_value=100.001, max_value=1e300).map(repr)),
         "complex": st.sampled_from(["abc", "nan", "inf+1j", "1+nanj", "1e5j", "", "j j"]),
+        "scale": st.sampled_from(["roll", "", "Pitch", "1", "heave,pitch"]),
         "tolerance": st.one_of(
             non_positive, non_finite, text, st.floats(min_value=0.5, max_value=1e300).map(repr)
         ),
@@ -326,6 +329,12 @@ def test_a_mesh_too_large_for_the_machine_is_refused_before_meshing(args, tmp_pa
         (["critical", "--sponge", "0.2"], "--sponge must be"),
         (["spectrum", "--sponge", "0.2,0.9"], "sponge zone"),
         (["neutral", "--sponge", "-1,0.25"], "sigma_max must be positive"),
+        (["simulate", "--dofs", "heave", "--perturbation-of", "pitch"], "pitch is not a degree of freedom"),
+        (
+            ["lco", "--body", "cylinder", "--reduced-velocity-range", "4", "5", "--perturbation-of", "pitch"],
+            "pitch is not a degree of freedom",
+        ),
+        (["simulate", "--perturbation-of", "pitch", "--perturbation", "2"], "at most 1 (radians)"),
     ],
 )
 def test_named_bad_values_are_refused_with_the_reason(args, reason, tmp_path):

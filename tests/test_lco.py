@@ -146,7 +146,7 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_points(tmp_path, 
     np.testing.assert_allclose(ds.heave_amplitude, 0.05 * ds.reduced_velocity, rtol=1e-3)
     assert list(ds.heave_state.values) == ["saturated"] * 3
     np.testing.assert_allclose(ds.heave_frequency, 0.8, rtol=1e-4)
-    assert ds.attrs["onset"] == "no threshold in the range"
+    assert ds.attrs["onset"] == "undetermined (thresholds not computed: --no-thresholds)"
     again = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
     assert len(calls) == 4 and again.attrs["computed"] == 0
     from fsistab.store import read_dataset
@@ -453,6 +453,35 @@ def test_a_point_identity_covers_the_sponge_and_the_typical_section():
         lco.point_identity(plate, replace_solid(solid, elastic_axis=-0.1), 4.0, settings, None),
     }
     assert len(identities) == 4
+
+
+def test_a_start_file_marched_further_is_another_start(tmp_path):
+    """``--start`` is identified by its bytes as well as its path: the checkpoint of a march run
+    further since (same path, another last state) gives another point identity, so the cached
+    march from the old state is never taken for the new one; the perturbation's scale is part of
+    the identity too (and absent at its default, so the keys of earlier marches stay theirs)."""
+    start = tmp_path / "given.nc"
+    start.write_bytes(b"state one")
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.0, dofs=("heave",))
+    settings = LcoSettings((4.0, 4.0), 1, SimulationSettings(100.0, 0.1))
+    first = lco.point_identity(case, solid, 4.0, settings, str(start))
+    assert lco.point_identity(case, solid, 4.0, settings, str(start)) == first
+    start.write_bytes(b"state two")
+    assert lco.point_identity(case, solid, 4.0, settings, str(start)) != first
+    default = lco.point_identity(case, solid, 4.0, settings, None)
+    assert "perturbation_of" not in default
+    heave = LcoSettings((4.0, 4.0), 1, SimulationSettings(100.0, 0.1, perturbation_of="heave"))
+    assert '"perturbation_of": "heave"' in lco.point_identity(case, solid, 4.0, heave, None)
+
+
+def test_without_thresholds_the_onset_says_why_it_is_undetermined(tmp_path, monkeypatch):
+    _fake_marches(monkeypatch, lambda velocity, start: _fake_series(velocity))
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.0, dofs=("heave",))
+    settings = LcoSettings((4.0, 5.0), 2, SimulationSettings(200.0, 0.1))
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out", thresholds=False)
+    assert ds.attrs["onset"] == "undetermined (thresholds not computed: --no-thresholds)"
 
 
 def replace_solid(solid, **changes):

@@ -19,6 +19,7 @@ import pytest
 from fsistab.bodies import Cylinder
 from fsistab.coupled import CoupledSystem
 from fsistab.eigen import eigenpairs_near
+from fsistab.errors import InputError
 from fsistab.forces import aerodynamic_coefficients
 from fsistab.mesh import mesh_spec
 from fsistab.operators import fluid_operators
@@ -67,6 +68,27 @@ def _fit(samples, signal) -> complex:
 
 def _fitted(system, pair, dt: float, steps: int, signal) -> complex:
     return _fit(_march(system, pair, dt, steps), signal)
+
+
+def test_a_start_scaled_on_the_heave_has_that_heave_amplitude(cylinder_60):
+    """``--perturbation-of heave``: the start's heave is ε exactly and the rest of the mode in its
+    proportion (the ratio of any entry to the heave unchanged); ``largest`` scales the largest entry
+    to ε; a solid without the named dof is refused."""
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", mass_ratio=10, reduced_velocity=5))
+    pair = min(eigenpairs_near(system, [0.1 + 0.75j], 2), key=lambda p: abs(p.value - 0.1 - 0.75j))
+    stepper = TimeStepper(system, 0.1)
+    q0 = stepper.steady_point()
+    names = system.state_labels()
+    h, eps = names.index("h"), 0.05
+    start = perturbed_state(stepper, pair.vector, eps, "heave") - q0
+    assert start[h] == pytest.approx(eps, rel=1e-12)
+    k = int(np.argmax(np.abs(pair.vector)))
+    assert start[k] == pytest.approx(eps * (pair.vector[k] / pair.vector[h]).real, rel=1e-9)
+    largest = perturbed_state(stepper, pair.vector, eps) - q0
+    assert np.max(np.abs(largest)) == pytest.approx(eps, rel=1e-12)
+    assert abs(largest[h]) < eps  # the wake mode's heave is not its largest entry
+    with pytest.raises(InputError, match="pitch is not a degree of freedom"):
+        perturbed_state(stepper, pair.vector, eps, "pitch")
 
 
 def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):

@@ -558,8 +558,10 @@ def simulate(opts):
     case = opts.case()
     solid = opts.solid(case.kind)
     shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
-    names = ("duration", "time_step", "perturbation", "start", "checkpoint_every", "snapshot_interval")
+    names = ("duration", "time_step", "perturbation", "perturbation_of", "start", "checkpoint_every")
+    names += ("snapshot_interval",)
     settings = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
+    settings.check_dofs(solid)
     if settings.start is not None and not Path(settings.start).is_file():
         raise InputError(f"--start: no such file {settings.start}")
     out, cache = _prepare(opts, [case])
@@ -594,12 +596,14 @@ def lco(opts):
         "duration",
         "time_step",
         "perturbation",
+        "perturbation_of",
         "start",
         "checkpoint_every",
         "tolerance",
         "max_iterations",
     )
     simulation = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
+    simulation.check_dofs(solid)
     settings = params.LcoSettings(
         opts.velocity_range, opts.points, simulation, opts.periods, opts.saturation_tolerance, opts.hysteresis
     )

@@ -468,6 +468,7 @@ def _attributes(case, solid, settings, mass_ratio, points, client) -> dict:
         "time_step": simulation.time_step,
         "duration": simulation.duration,
         "perturbation": simulation.perturbation,
+        "perturbation_of": simulation.perturbation_of,
         "shift": shift,
         "start": "none" if simulation.start is None else str(simulation.start),
         "step_tolerance": simulation.tolerance,
@@ -550,7 +551,7 @@ def limit_cycles(
     if settings.hysteresis and len(velocities) > 1:
         decreasing = _run_decreasing(case, solid, settings, cache_dir, out, increasing[-1], client, say)
         data |= _stack(velocities, decreasing, "decreasing_")
-    critical, problem = np.zeros(0), ""
+    critical, problem = np.zeros(0), "" if thresholds else "thresholds not computed: --no-thresholds"
     if sweep is not None:
         critical, problem = _thresholds(case, solid, sweep, cache_dir, say)
     ds = xr.Dataset(data, coords={"reduced_velocity": np.array(velocities)})

@@ -773,6 +773,8 @@ class TransferSettings:
 
 
 MAX_STEPS = 10_000_000  # steps of one simulation
+# what --perturbation measures: the start mode's largest entry, its heave or its pitch amplitude
+PERTURBATION_SCALES = ("largest", "heave", "pitch")
 
 
 @dataclass(frozen=True)
@@ -789,6 +791,7 @@ class SimulationSettings:
     perturbation: float = 1e-3
     shift: complex | None = None
     start: str | None = None
+    perturbation_of: str = "largest"
     checkpoint_every: int = 100
     snapshot_interval: float | None = None
     tolerance: float = 1e-9
@@ -804,9 +807,13 @@ class SimulationSettings:
         object.__setattr__(self, "duration", duration)
         object.__setattr__(self, "time_step", step)
         perturbation = _non_negative("--perturbation", self.perturbation)
+        if self.perturbation_of not in PERTURBATION_SCALES:
+            choices = " | ".join(PERTURBATION_SCALES)
+            raise InputError(f"--perturbation-of must be {choices}, got {self.perturbation_of!r}")
         if perturbation > 1:
+            unit = {"largest": "the mode's largest entry", "heave": "body lengths", "pitch": "radians"}
             raise InputError(
-                f"--perturbation must be at most 1 (the mode's largest entry), got {perturbation:g}"
+                f"--perturbation must be at most 1 ({unit[self.perturbation_of]}), got {perturbation:g}"
             )
         object.__setattr__(self, "perturbation", perturbation)
         if self.shift is not None:
@@ -840,7 +847,15 @@ class SimulationSettings:
             "shift": shift,
             "start": "none" if self.start is None else str(self.start),
             "tolerance": self.tolerance,
+            # only when not the default, so that the keys of earlier marches stay theirs
+            **({} if self.perturbation_of == "largest" else {"perturbation_of": self.perturbation_of}),
         }
+
+    def check_dofs(self, solid: Solid) -> None:
+        """Refuse, before any work, a start scaled on a degree of freedom the solid lacks."""
+        dof = self.perturbation_of
+        if dof != "largest" and dof not in solid.dofs:
+            raise InputError(f"--perturbation-of {dof}: the {dof} is not a degree of freedom (--dofs)")
 
 
 @dataclass(frozen=True)

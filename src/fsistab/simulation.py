@@ -34,7 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fsistab.coupled import CoupledResidual, CoupledSystem
-from fsistab.errors import ConvergenceError
+from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
@@ -282,11 +282,25 @@ class AndersonMixing:
         return q + update - (d_iterates + d_updates) @ gamma
 
 
-def perturbed_state(stepper: TimeStepper, mode: np.ndarray, amplitude: float) -> np.ndarray:
+def perturbed_state(
+    stepper: TimeStepper, mode: np.ndarray, amplitude: float, scale: str = "largest"
+) -> np.ndarray:
     """``q⁰ + ε Re(q̂)``: the steady state plus ``amplitude`` times the real part of the (coupled)
-    eigenvector ``mode``, scaled so that its largest entry has modulus one and is real."""
+    eigenvector ``mode``, scaled so that one entry is real and of modulus one: its largest
+    (``scale="largest"``), or its heave ``ĥ`` or pitch ``θ̂`` (``"heave"``, ``"pitch"``), so that
+    ``ε`` is then the start's heave amplitude in body lengths or pitch amplitude in radians (a
+    march started at a chosen amplitude: the envelope's growth rate σ(A), docs/model.md §12)."""
     mode = np.asarray(mode, dtype=complex)
-    peak = mode[np.argmax(np.abs(mode))]
+    if scale == "largest":
+        peak = mode[np.argmax(np.abs(mode))]
+    else:
+        names = stepper.system.state_labels()
+        state = "h" if scale == "heave" else "theta"
+        if state not in names:
+            raise InputError(f"--perturbation-of {scale}: the {scale} is not a degree of freedom (--dofs)")
+        peak = mode[names.index(state)]
+        if abs(peak) <= 1e-12 * float(np.max(np.abs(mode))):
+            raise InputError(f"--perturbation-of {scale}: the start mode has no {scale} component")
     return stepper.steady_point() + amplitude * (mode / peak).real
 
 

@@ -1035,7 +1035,22 @@ def _simulation_identity(case: Case, solid: Solid, settings) -> dict:
         "reduced_velocity": solid.reduced_velocity,
         "dofs": ",".join(solid.dofs) or "none",
         **settings.identity(),
+        **({} if settings.start is None else {"start": _start_fingerprint(settings.start)}),
     }
+
+
+def _start_fingerprint(path: str) -> str:
+    """``--start`` as its path and the SHA-256 of the file's bytes: a checkpoint marched further
+    later (the same path, another last state) is another start, so the march from it is another
+    march, never the cached one from the old state. An unreadable file keeps its path alone (it is
+    refused when read, :func:`_saved_state`)."""
+    import hashlib
+
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return str(path)
+    return f"{path} sha256:{digest}"
 
 
 def _start_mode(system, settings, case: Case, say):
@@ -1079,7 +1094,7 @@ def _start(table, stepper, system, settings, case, identity, say):
         q0 = stepper.steady_point()  # no mode to add: no eigenvalue solve
     else:
         pair = _start_mode(system, settings, case, say)
-        q0 = perturbed_state(stepper, pair.vector, settings.perturbation)
+        q0 = perturbed_state(stepper, pair.vector, settings.perturbation, settings.perturbation_of)
         states["start_eigenvalue"] = np.array([pair.growth_rate, pair.frequency])
     start = MarchState(0.0, 0, q0)
     table.append(_sample_record(stepper.initial_sample(start)), state={"current_state": q0, **states})
@@ -1183,6 +1198,7 @@ def simulate(
         **(
             {} if eigenvalue is None else dict(start_growth_rate=eigenvalue[0], start_frequency=eigenvalue[1])
         ),
+        "perturbation_of": settings.perturbation_of,
         "ndof": system.size,
         "duration": float(state.time),
         "steps": state.step,
@@ -1191,7 +1207,7 @@ def simulate(
         "factorisations": stepper.counter.count,
         "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M at the steady state",
         "conventions": "time in L/U; heave in L, pitch in rad (counter-clockwise +); coefficients "
-        "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about G",
+        "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about the pitch axis",
         "checkpoint": str(path),
     }
     table.finish({"stop": "duration"})
