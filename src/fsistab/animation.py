@@ -9,9 +9,13 @@ body fixed, the wake moving past it. The velocity relative to the moving body, `
 have ``ω_z − 2θ'`` (the frame's rotation ``θ'(−Y, X)``; the translation ``R(θ)ᵀ(−1, h')`` is
 uniform and adds none).
 
-The vorticity is sampled on a regular grid of the body's mode window (:class:`VorticityGrid`, the
-NGSolve point search done once): a frame is one small float32 array (no GridFunction is kept), and
-the colour scale, symmetric and the same for every frame, is chosen once all frames are known. The
+The vorticity of the P2 velocity is discontinuous between elements (the coarse wake's triangles
+would show as facets): it is projected onto continuous P1 (NGSolve's ``Set``, averaged at shared
+vertices; exact for a vorticity linear in space, and smoother to the eye than a P2 projection,
+whose local oscillations show as a texture) and sampled on a regular grid of the body's mode
+window (:class:`VorticityGrid`, the NGSolve point search done once). A frame is one small float32
+array (one velocity and one vorticity GridFunction are reused, none is kept per frame), and the
+colour scale, symmetric and the same for every frame, is chosen once all frames are known. The
 recorder (:class:`VorticityRecorder`) only sees the snapshots of the steps marched in its run: a
 march resumed from its checkpoint animates the time it adds.
 """
@@ -146,11 +150,27 @@ class VorticityRecorder:
             window = self.window or animation_window(steady.mesh_spec.body)
             self.grid = vorticity_grid(steady.mesh, window, self.nx)
             self._field = GridFunction(steady.space)
-            self._vorticity = vorticity(self._field.components[0])
+            self._vorticity = ContinuousVorticity(steady.mesh, self._field.components[0])
             flow = steady.flow
             self.title = f"{steady.mesh_spec.body.kind}, Re = {flow.reynolds:g}, α0 = {flow.alpha0_deg:g}°"
         self._field.vec.FV().NumPy()[:] = state
-        self.frames.append(Frame(int(index), float(time), self.grid.sample(self._vorticity)))
+        self.frames.append(Frame(int(index), float(time), self.grid.sample(self._vorticity.update())))
+
+
+class ContinuousVorticity:
+    """``ω_z`` of ``velocity`` (:func:`vorticity`) projected onto continuous P``order`` on ``mesh``
+    by NGSolve's ``Set`` (local projections averaged at shared degrees of freedom): :meth:`update`
+    recomputes it from the velocity's current values and returns the field."""
+
+    def __init__(self, mesh, velocity, order: int = 1):
+        from ngsolve import H1, GridFunction
+
+        self.source = vorticity(velocity)
+        self.field = GridFunction(H1(mesh, order=order))
+
+    def update(self):
+        self.field.Set(self.source)
+        return self.field
 
 
 def chain(*callbacks: Callable | None) -> Callable:
@@ -179,7 +199,8 @@ def colour_limit(frames: Sequence[Frame], quantile: float = COLOUR_QUANTILE) -> 
 def frame_title(case: str, time: float, heave: float, pitch: float) -> str:
     """The title of a frame: the case, the simulated time and the body's ``h`` (body lengths) and
     ``θ`` (degrees, counter-clockwise +) at that time (docs/model.md §3)."""
-    return f"{case}: t = {time:.2f}, h = {heave:+.4f}, θ = {np.degrees(pitch):+.3f}°"
+    h, theta = round(heave, 4) + 0.0, round(float(np.degrees(pitch)), 3) + 0.0  # no "-0.000"
+    return f"{case}: t = {time:.2f}, h = {h:+.4f}, θ = {theta:+.3f}°"
 
 
 def solid_at(ds, time: float) -> tuple[float, float]:
@@ -188,10 +209,42 @@ def solid_at(ds, time: float) -> tuple[float, float]:
     return float(step["heave"]), float(step["pitch"])
 
 
-def _writer(fmt: str, fps: float):
-    from matplotlib.animation import FFMpegWriter, PillowWriter
+def _gif_writer(fps: float):
+    """A matplotlib movie writer of GIFs by Pillow (as ``PillowWriter``) whose frames are reduced to
+    the first frame's palette of 256 colours as they come, without dithering: the smooth colour
+    fields stay smooth (dithering speckles them and defeats GIF's compression) and a frame is held
+    as one byte per pixel until the file is written."""
+    from io import BytesIO
 
-    return PillowWriter(fps=fps) if fmt == "gif" else FFMpegWriter(fps=fps)
+    from matplotlib.animation import AbstractMovieWriter
+    from PIL import Image
+
+    class GifWriter(AbstractMovieWriter):
+        def setup(self, fig, outfile, dpi=None):
+            super().setup(fig, outfile, dpi=dpi)
+            self.images = []
+
+        def grab_frame(self, **savefig_kwargs):
+            buffer = BytesIO()
+            self.fig.savefig(buffer, **{**savefig_kwargs, "format": "rgba", "dpi": self.dpi})
+            rgb = Image.frombuffer("RGBA", self.frame_size, buffer.getbuffer(), "raw", "RGBA", 0, 1)
+            rgb = rgb.convert("RGB")
+            palette = {"palette": self.images[0]} if self.images else {"colors": 256}
+            self.images.append(rgb.quantize(dither=Image.Dither.NONE, **palette))
+
+        def finish(self):
+            duration = int(1000 / self.fps)
+            self.images[0].save(
+                self.outfile, save_all=True, append_images=self.images[1:], duration=duration, loop=0
+            )
+
+    return GifWriter(fps=fps)
+
+
+def _writer(fmt: str, fps: float):
+    from matplotlib.animation import FFMpegWriter
+
+    return _gif_writer(fps) if fmt == "gif" else FFMpegWriter(fps=fps)
 
 
 def write_vorticity_animation(
