@@ -130,11 +130,28 @@ class Frame(NamedTuple):
     vorticity: np.ndarray
 
 
+class ContinuousVorticity:
+    """``ω_z`` of ``velocity`` (:func:`vorticity`) projected onto continuous P``order`` on ``mesh``
+    by NGSolve's ``Set`` (local projections averaged at shared degrees of freedom): :meth:`update`
+    recomputes it from the velocity's current values and returns the field."""
+
+    def __init__(self, mesh, velocity, order: int = 1):
+        from ngsolve import H1, GridFunction
+
+        self.source = vorticity(velocity)
+        self.field = GridFunction(H1(mesh, order=order))
+
+    def update(self):
+        self.field.Set(self.source)
+        return self.field
+
+
 class VorticityRecorder:
     """The snapshot callback of :func:`fsistab.workflows.simulate` that keeps ``ω_z`` of each state
     on a :class:`VorticityGrid` of ``window`` (the body's :func:`animation_window` when None) as a
-    :class:`Frame` (a float32 array of about ``nx² / 2`` values; the grid and one GridFunction are
-    made at the first snapshot). ``title`` names the case (body, Re, α0) once a state was seen."""
+    :class:`Frame` (a float32 array of about ``nx² / 2`` values; the grid, a velocity field and its
+    :class:`ContinuousVorticity` are made at the first snapshot and reused). ``title`` names the
+    case (body, Re, α0) once a state was seen."""
 
     def __init__(self, window=None, nx: int = GRID_POINTS):
         self.window, self.nx = window, nx
@@ -155,22 +172,6 @@ class VorticityRecorder:
             self.title = f"{steady.mesh_spec.body.kind}, Re = {flow.reynolds:g}, α0 = {flow.alpha0_deg:g}°"
         self._field.vec.FV().NumPy()[:] = state
         self.frames.append(Frame(int(index), float(time), self.grid.sample(self._vorticity.update())))
-
-
-class ContinuousVorticity:
-    """``ω_z`` of ``velocity`` (:func:`vorticity`) projected onto continuous P``order`` on ``mesh``
-    by NGSolve's ``Set`` (local projections averaged at shared degrees of freedom): :meth:`update`
-    recomputes it from the velocity's current values and returns the field."""
-
-    def __init__(self, mesh, velocity, order: int = 1):
-        from ngsolve import H1, GridFunction
-
-        self.source = vorticity(velocity)
-        self.field = GridFunction(H1(mesh, order=order))
-
-    def update(self):
-        self.field.Set(self.source)
-        return self.field
 
 
 def chain(*callbacks: Callable | None) -> Callable:
