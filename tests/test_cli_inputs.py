@@ -118,6 +118,7 @@ OPTIONS = {
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--snapshot-interval": "positive",
+        "--animation": "animation",
     },
     "lco": CASE
     | SOLID
@@ -170,6 +171,7 @@ def _values(kind) -> st.SearchStrategy:
             st.sampled_from(["1", "2", "-1", "abc", "2.5", "nan"]), st.integers(min_value=10_001).map(str)
         ),
         "method": st.sampled_from(["fast", "", "Transfer", "1"]),
+        "animation": st.sampled_from(["webm", "", "GIF", "png", "1"]),
         "parameter": st.sampled_from(["mach", "", "Re", "alpha"]),
         "elastic-axis": st.one_of(non_finite, text, st.floats(min_value=0.5001, max_value=1e300).map(repr)),
         "unbalance": st.one_of(non_finite, text, st.floats(min_value=0.289, max_value=1e300).map(repr)),
@@ -319,6 +321,7 @@ def test_a_mesh_too_large_for_the_machine_is_refused_before_meshing(args, tmp_pa
         (["theodorsen", "--lift-slope-alpha", "6"], "need --slopes given"),
         (["theodorsen", "--elastic-axis", "0.7"], "elastic axis"),
         (["critical", "--dofs", "none"], "at least one solid degree of freedom"),
+        (["simulate", "--animation", "gif"], "--animation needs --snapshot-interval"),
         (["critical", "--method", "guess"], "--method must be one of transfer, tracking"),
         (["spectrum", "--body", "cylinder", "--dofs", "pitch"], "no pitch"),
         (["spectrum", "--body", "cylinder", "--zeta-theta", "-1"], "pitch damping ratio"),  # unused, refused

@@ -554,7 +554,8 @@ def simulate(opts):
     (docs/model.md §12): BDF2, monolithic, from the steady state plus --perturbation times the
     eigenmode nearest --shift (or from --start). Writes the time series of h, θ, their rates and the
     load coefficients (NetCDF); checkpoints so that rerunning the same command resumes (also with a
-    longer --duration)."""
+    longer --duration). With --animation, an animation of the vorticity near the body, one frame
+    per snapshot of the steps marched in this run."""
     case = opts.case()
     solid = opts.solid(case.kind)
     shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
@@ -564,13 +565,24 @@ def simulate(opts):
     settings.check_dofs(solid)
     if settings.start is not None and not Path(settings.start).is_file():
         raise InputError(f"--start: no such file {settings.start}")
+    if opts.animation is not None:
+        from fsistab import animation
+
+        animation.check_animation(opts.animation, settings.snapshot_interval)
     out, cache = _prepare(opts, [case])
     from fsistab import reports, vtk, workflows
 
     write, paths = vtk.snapshot_writer(out / f"simulate_{case.tag}_vtk", f"simulate_{case.tag}")
+    frames = None if opts.animation is None else animation.VorticityRecorder()
+    snapshot = write if frames is None else animation.chain(write, frames)
     with _running() as progress:
-        result = workflows.simulate(case, solid, settings, cache, out, progress, snapshot=write)
+        result = workflows.simulate(case, solid, settings, cache, out, progress, snapshot=snapshot)
     ds = result.dataset.assign_attrs(snapshots=json.dumps(paths))
+    if frames is not None:
+        target = animation.animation_path(out, case.tag, opts.animation)
+        written = animation.write_vorticity_animation(frames, result.dataset, target)
+        count = len(frames.frames)
+        ds = ds.assign_attrs(animation="" if written is None else str(written), animation_frames=count)
     _finish("simulate", ds, opts.as_json, reports.simulate)
 
 

@@ -236,6 +236,9 @@ SIMULATE_OPTIONS = {
                                 "from the last one)", 100),
     "snapshot_interval": option(float | None, "--snapshot-interval", "write the velocity and pressure as "
                                  "VTK every this much simulated time"),
+    "animation": option(str | None, "--animation", "also animate the vorticity near the body, one frame per "
+                         "snapshot (needs --snapshot-interval) of the steps marched in this run: gif, or mp4 "
+                         "(needs ffmpeg); written as simulate_<tag>_vorticity.<format> in --out"),
 }
 # fmt: on
 
@@ -245,7 +248,7 @@ LCO_OPTIONS = {
                                                      help="U* of the first and last march (body "
                                                      "convention)")], ...),
     "points": option(int, "--points", "marches, at equally spaced U* (1: the first U* only)", 5),
-    **{k: v for k, v in SIMULATE_OPTIONS.items() if k != "snapshot_interval"},
+    **{k: v for k, v in SIMULATE_OPTIONS.items() if k not in ("snapshot_interval", "animation")},
     "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
                          "entry of its update is below this", 1e-9),
     "max_iterations": option(int, "--max-step-iterations", "chord iterations allowed per step before the "

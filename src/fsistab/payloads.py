@@ -411,6 +411,8 @@ def _simulate_payload(ds):
         "last": last,
         "checkpoint": a["checkpoint"],
         "vtk": json.loads(a.get("snapshots", "[]")),
+        "animation": a.get("animation") or None,
+        "animation_frames": int(a.get("animation_frames", 0)),
     }
 
 

@@ -418,6 +418,10 @@ def simulate(ds: xr.Dataset, p: dict) -> list:
     lines.append(f"{p['ndof']} unknowns, {p['factorisations']} factorisations{speed}; data {p['data']}")
     if p["vtk"]:
         lines.append(f"{_plural(len(p['vtk']), 'snapshot')}: {p['vtk'][0]} ...")
+    if p["animation"]:
+        lines.append(f"vorticity animation ({_plural(p['animation_frames'], 'frame')}): {p['animation']}")
+    elif "animation" in a:
+        lines.append("no vorticity animation: no snapshot time among the steps marched in this run")
     return lines
 
 
