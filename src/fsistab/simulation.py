@@ -195,7 +195,26 @@ class TimeStepper:
         return equations
 
     def step(self, state: MarchState) -> tuple[MarchState, Sample]:
-        """One step from ``state``: BDF2, or BDF1 without a previous state."""
+        """One step from ``state``: BDF2, or BDF1 without a previous state. A step whose chord
+        iteration does not converge on an iteration matrix made elsewhere is tried once more on
+        one rebuilt at the step's start (:meth:`refresh`): a start far from the steady state (a
+        finite-amplitude perturbation) needs it before its first step."""
+        try:
+            q, iterations, change = self._converge(state)
+        except ConvergenceError:
+            if self._last_refresh == self.steps:
+                raise
+            self.refresh(state.current)
+            q, iterations, change = self._converge(state)
+        # the loads are those of the last evaluation, at most the tolerance away from q
+        new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
+        self.steps += 1
+        if 0 < self.refresh_after < iterations and self.steps - self._last_refresh >= self.refresh_every:
+            self.refresh(q)
+        return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
+
+    def _converge(self, state: MarchState) -> tuple[np.ndarray, int, float]:
+        """The chord iteration of one step (Anderson-mixed): ``(q, iterations, last update)``."""
         order = 1 if state.previous is None else 2
         equations = self._equations(order, state.current, state.previous)
         solver = self._solver(order)
@@ -211,12 +230,7 @@ class TimeStepper:
             update = solver.solve(-equations(q), refine=False)
             change, iterations = float(np.max(np.abs(update))), iterations + 1
             q = mixing.next(q, update)
-        # the loads are those of the last evaluation, at most the tolerance away from q
-        new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
-        self.steps += 1
-        if 0 < self.refresh_after < iterations and self.steps - self._last_refresh >= self.refresh_every:
-            self.refresh(q)
-        return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
+        return q, iterations, change
 
     def refresh(self, q: np.ndarray) -> None:
         """Linearise the fluid block at the fluid state of ``q`` instead of the steady state:
@@ -285,23 +299,29 @@ class AndersonMixing:
 def perturbed_state(
     stepper: TimeStepper, mode: np.ndarray, amplitude: float, scale: str = "largest"
 ) -> np.ndarray:
-    """``q⁰ + ε Re(q̂)``: the steady state plus ``amplitude`` times the real part of the (coupled)
-    eigenvector ``mode``, scaled so that one entry is real and of modulus one: its largest
-    (``scale="largest"``), or its heave ``ĥ`` or pitch ``θ̂`` (``"heave"``, ``"pitch"``), so that
-    ``ε`` is then the start's heave amplitude in body lengths or pitch amplitude in radians (a
-    march started at a chosen amplitude: the envelope's growth rate σ(A), docs/model.md §12)."""
+    """The start of a march from the (coupled) eigenvector ``mode``, docs/model.md §12.
+
+    ``scale="largest"``: ``q⁰ + ε Re(q̂)``, the steady state plus ``amplitude`` times the real part
+    of the mode scaled so that its largest entry is real and of modulus one (a small perturbation
+    that grows at the eigenvalue). ``"heave"`` or ``"pitch"``: the body *released* from the mode's
+    solid state ``(ĥ, θ̂, ḣ̂, θ̂')`` scaled so that its heave (body lengths) or pitch (radians) is
+    ``amplitude``, the fluid at its steady state (the wall moving with the body): a start at a
+    chosen finite amplitude, for the envelope's growth rate σ(A). The whole mode scaled so is no
+    start there: its fluid part is the solid's amplitude over the mode's solid share (a hundred
+    times or more near a plate's edges or in a cylinder's wake), far outside the linear range."""
     mode = np.asarray(mode, dtype=complex)
     if scale == "largest":
-        peak = mode[np.argmax(np.abs(mode))]
-    else:
-        names = stepper.system.state_labels()
-        state = "h" if scale == "heave" else "theta"
-        if state not in names:
-            raise InputError(f"--perturbation-of {scale}: the {scale} is not a degree of freedom (--dofs)")
-        peak = mode[names.index(state)]
-        if abs(peak) <= 1e-12 * float(np.max(np.abs(mode))):
-            raise InputError(f"--perturbation-of {scale}: the start mode has no {scale} component")
-    return stepper.steady_point() + amplitude * (mode / peak).real
+        return stepper.steady_point() + amplitude * (mode / mode[np.argmax(np.abs(mode))]).real
+    names = stepper.system.state_labels()
+    state = "h" if scale == "heave" else "theta"
+    if state not in names:
+        raise InputError(f"--perturbation-of {scale}: the {scale} is not a degree of freedom (--dofs)")
+    peak = mode[names.index(state)]
+    if abs(peak) <= 1e-12 * float(np.max(np.abs(mode))):
+        raise InputError(f"--perturbation-of {scale}: the start mode has no {scale} component")
+    start = stepper.steady_point()
+    start[: len(names)] += amplitude * (mode[: len(names)] / peak).real
+    return start
 
 
 def march(
