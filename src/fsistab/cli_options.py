@@ -223,11 +223,12 @@ SENSITIVITY_OPTIONS = sweep_options(
 SIMULATE_OPTIONS = {
     "duration": option(float, "--duration", "simulated time, in the body's time unit L/U", 100.0),
     "time_step": option(float, "--time-step", "time step of the BDF2 march, in L/U", 0.05),
-    "perturbation": option(float, "--perturbation", "amplitude of the eigenmode added to the steady state "
-                            "(of the entry --perturbation-of names)", 1e-3),
-    "perturbation_of": option(str, "--perturbation-of", "what --perturbation measures: the mode's largest "
-                               "entry, its heave (body lengths) or its pitch (radians): largest | heave "
-                               "| pitch", "largest"),
+    "perturbation": option(float, "--perturbation", "size of the start: the eigenmode's largest entry, "
+                            "or the released body's heave or pitch (--perturbation-of)", 1e-3),
+    "perturbation_of": option(str, "--perturbation-of", "largest: the steady state plus the eigenmode "
+                               "scaled on its largest entry; heave | pitch: the body released from the "
+                               "mode's solid state with that heave (body lengths) or pitch (radians), "
+                               "the fluid steady", "largest"),
     "shift": option(str | None, "--shift", "start from the eigenmode nearest this complex shift "
                      "(default: the body's spectrum shift)"),
     "start": option(str | None, "--start", "start from the last state of this simulation checkpoint "

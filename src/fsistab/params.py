@@ -781,7 +781,9 @@ PERTURBATION_SCALES = ("largest", "heave", "pitch")
 class SimulationSettings:
     """``fsistab simulate`` (docs/model.md §11): march for ``duration`` with steps ``time_step`` (the
     body's time unit ``L/U∞``) from the steady state plus ``perturbation`` times the eigenmode
-    nearest ``shift`` (the body's spectrum shift when None), or from the state saved in ``start``
+    nearest ``shift`` (the body's spectrum shift when None; ``perturbation_of`` ``heave`` or
+    ``pitch``: the body released from the mode's solid state with that heave or pitch, the fluid
+    steady, :func:`fsistab.simulation.perturbed_state`), or from the state saved in ``start``
     (a simulation checkpoint); a checkpoint every ``checkpoint_every`` steps; VTK snapshots every
     ``snapshot_interval`` of simulated time (None: none); each step's chord iteration stopped at an
     update below ``tolerance`` (largest entry) or failed after ``max_iterations``."""
