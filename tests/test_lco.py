@@ -355,6 +355,21 @@ def test_a_slow_linear_transient_from_the_perturbation_is_never_a_limit_cycle():
     assert lco.left_linear_transient(steady, math.nan, math.nan, 0.01)  # a given start: envelope only
 
 
+def test_a_body_released_near_its_cycle_is_judged_by_its_envelope():
+    """Released at 0.06 (``--perturbation-of heave``) with a cycle of 0.05: the amplitude stays
+    within a factor 2 of the first period's, which from a small perturbation would mean the march
+    has not left its start; from a finite-amplitude release it is saturated by the envelope test."""
+    t = np.arange(0.0, 200.0, 0.1)
+    settings = LcoSettings((5.0, 5.0), 1, SimulationSettings(200.0, 0.1, 0.06, perturbation_of="heave"))
+    envelope = 0.05 + 0.01 * np.exp(-0.1 * t)
+    released = _fake_series(5.0).assign(heave=("time", envelope * np.sin(0.8 * t)))
+    attrs = {"start_growth_rate": 0.1, "start_frequency": 0.8}
+    point = lco.point_dataset(released.assign_attrs(attrs, perturbation_of="heave"), 5.0, settings)
+    assert point.heave_state.item() == "saturated"
+    point = lco.point_dataset(released.assign_attrs(attrs), 5.0, settings)
+    assert point.heave_state.item() == "transient"
+
+
 def replace_amplitude(s, amplitude):
     from dataclasses import replace
 

@@ -270,12 +270,16 @@ def point_dataset(series: xr.Dataset, velocity: float, settings: LcoSettings) ->
     """The saturated oscillation of one march's time series up to the duration asked (the march
     cache is shared by every duration, so its records may go further), by :func:`saturation` of
     the heave, the pitch and the lift coefficient and, from a perturbed start, the test
-    :func:`left_linear_transient`, as scalars. ``march_end`` is where the records end."""
+    :func:`left_linear_transient` (not for a body released at a finite amplitude,
+    ``--perturbation-of heave|pitch``: no linear transient, judged by its envelope alone, as a given
+    start), as scalars. ``march_end`` is where the records end."""
     simulation = settings.simulation
     t_all = series.time.values
     kept = series.isel(time=t_all <= simulation.duration + 0.5 * simulation.time_step)
     t = kept.time.values
     mode = (series.attrs.get("start_growth_rate", math.nan), series.attrs.get("start_frequency", math.nan))
+    if series.attrs.get("perturbation_of", "largest") != "largest":
+        mode = (math.nan, math.nan)  # a body released at a finite amplitude: judged by its envelope
     data = {"reduced_velocity": velocity}
     for name, signal in (("heave", "heave"), ("pitch", "pitch"), ("lift", "lift_coefficient")):
         s = saturation(t, kept[signal].values, settings.periods, settings.saturation_tolerance)
