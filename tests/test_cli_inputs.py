@@ -118,6 +118,8 @@ OPTIONS = {
         "--shift": "complex",
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--snapshot-interval": "positive",
+        "--step-tolerance": "reduced-tolerance",
+        "--max-step-iterations": ("count", 1, 1000),
         "--animation": "animation",
     },
     "lco": CASE
@@ -135,6 +137,7 @@ OPTIONS = {
         "--checkpoint-every": ("count", 1, 10_000_000),
         "--periods": ("count", 2, 1000),
         "--max-step-iterations": ("count", 1, 1000),
+        "--step-tolerance": "reduced-tolerance",
         "--saturation-tolerance": "tolerance",
         "--workers": ("count", 1, 256),
     },

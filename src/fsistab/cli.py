@@ -560,7 +560,7 @@ def simulate(opts):
     solid = opts.solid(case.kind)
     shift = None if opts.shift is None else params.parse_complex("shift", opts.shift)
     names = ("duration", "time_step", "perturbation", "perturbation_of", "start", "checkpoint_every")
-    names += ("snapshot_interval",)
+    names += ("snapshot_interval", "tolerance", "max_iterations")
     settings = params.SimulationSettings(shift=shift, **{name: getattr(opts, name) for name in names})
     settings.check_dofs(solid)
     if settings.start is not None and not Path(settings.start).is_file():

@@ -235,6 +235,10 @@ SIMULATE_OPTIONS = {
                      "(same mesh, flow and dofs; e.g. a saturated state at another U*) instead"),
     "checkpoint_every": option(int, "--checkpoint-every", "steps between checkpoints (a rerun resumes "
                                 "from the last one)", 100),
+    "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
+                         "entry of its update is below this", 1e-9),
+    "max_iterations": option(int, "--max-step-iterations", "chord iterations allowed per step before the "
+                              "march fails (a large-amplitude cycle needs more than a small one)", 30),
     "snapshot_interval": option(float | None, "--snapshot-interval", "write the velocity and pressure as "
                                  "VTK every this much simulated time"),
     "animation": option(str | None, "--animation", "also animate the vorticity near the body, one frame per "
@@ -250,10 +254,6 @@ LCO_OPTIONS = {
                                                      "convention)")], ...),
     "points": option(int, "--points", "marches, at equally spaced U* (1: the first U* only)", 5),
     **{k: v for k, v in SIMULATE_OPTIONS.items() if k not in ("snapshot_interval", "animation")},
-    "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "
-                         "entry of its update is below this", 1e-9),
-    "max_iterations": option(int, "--max-step-iterations", "chord iterations allowed per step before the "
-                              "march fails (a large-amplitude cycle needs more than a small one)", 30),
     "periods": option(int, "--periods", "whole periods over which the saturation is judged and the "
                        "amplitude taken", 4),
     "saturation_tolerance": option(float, "--saturation-tolerance", "saturated when the envelope changes "
