@@ -837,7 +837,7 @@ class SimulationSettings:
             object.__setattr__(self, "snapshot_interval", interval)
         tolerance = _positive("--step-tolerance", self.tolerance)
         if tolerance >= 1e-2:
-            raise InputError(f"--step-tolerance must be below 0.01 (an update's largest entry), got {tolerance:g}")
+            raise InputError(f"--step-tolerance must be below 0.01, got {tolerance:g}")
         object.__setattr__(self, "tolerance", tolerance)
         iterations = _count("the step iterations", self.max_iterations, 1, 1000)
         object.__setattr__(self, "max_iterations", iterations)
