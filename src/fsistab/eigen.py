@@ -141,8 +141,7 @@ def _labelled(system: CoupledSystem, sigma: complex, vector: np.ndarray, residua
     """The normalised, labelled :class:`Eigenpair` of ``(σ, q)``."""
     vector = _normalise(system, vector)
     solid, fluid = system.split(vector)
-    fluid_energy = 0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real)
-    label, fraction = label_mode(solid, system.solid, fluid_energy, system.fluid.theta0)
+    label, fraction = label_mode(solid, system.solid, system.fluid.near_energy(fluid), system.fluid.theta0)
     return Eigenpair(sigma, vector, residual, label, solid, fraction, shift)
 
 

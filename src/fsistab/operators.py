@@ -137,6 +137,11 @@ class FluidOperators:
     def reynolds(self) -> float:
         return self.steady.flow.reynolds
 
+    def near_energy(self, fluid: np.ndarray) -> float:
+        """``½ Re(q_fᴴ M_near q_f)``: a mode's fluid kinetic energy within ``NEAR_RADIUS`` of
+        mid-chord (units ``ρL²U∞²``), the fluid share of the mode labels (docs/model.md §7)."""
+        return 0.5 * float(np.vdot(fluid, self.mff_near @ fluid).real)
+
 
 def free_dof_indices(space) -> np.ndarray:
     """Indices of the fluid unknowns: free dofs of the space, in dof order."""

@@ -493,7 +493,7 @@ def mode_energies(system, vector: np.ndarray) -> tuple[float, float, float]:
 
     solid, fluid = system.split(np.asarray(vector, dtype=complex))
     heave, pitch = solid_energies(system.solid, solid[2:4], system.fluid.theta0)
-    return heave, pitch, float(0.5 * np.vdot(fluid, system.fluid.mff_near @ fluid).real)
+    return heave, pitch, system.fluid.near_energy(fluid)
 
 
 # --- one flow point --------------------------------------------------------------------------------

@@ -131,12 +131,7 @@ def track_branches(
             if sigma.imag < 0:
                 sigma, q = np.conj(sigma), np.conj(q)
             solid, fluid = system.split(q)
-            label, _ = label_mode(
-                solid,
-                system.solid,
-                0.5 * float(np.vdot(fluid, system.fluid.mff_near @ fluid).real),
-                system.fluid.theta0,
-            )
+            label, _ = label_mode(solid, system.solid, system.fluid.near_energy(fluid), system.fluid.theta0)
             branch.parameters.append(parameter)
             branch.values.append(sigma)
             branch.labels.append(label)
