@@ -186,11 +186,17 @@ def classify_onset(ds: xr.Dataset, threshold: float) -> str:
     return "undetermined"
 
 
-def _leading(ds: xr.Dataset) -> str:
-    """The amplitude variable of the diagram: the pitch's when the pitch moves, else the heave's,
-    else (a fixed body) the lift coefficient's, as the diagram and the report choose."""
+def signals(ds: xr.Dataset) -> list[str]:
+    """The signals of a diagram, the leading one first: the pitch when it moves, the heave when it
+    moves, else (a fixed body) the lift coefficient (the diagram, the report and the onset read
+    the first)."""
     dofs = ds.attrs.get("dofs", "")
-    return next((f"{n}_amplitude" for n in ("pitch", "heave") if n in dofs), "lift_amplitude")
+    return [n for n in ("pitch", "heave") if n in dofs] or ["lift"]
+
+
+def _leading(ds: xr.Dataset) -> str:
+    """The amplitude variable of the leading signal (:func:`signals`)."""
+    return f"{signals(ds)[0]}_amplitude"
 
 
 # --- one march -------------------------------------------------------------------------------------

@@ -1366,8 +1366,10 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
     amplitudes of the moving degrees of freedom against U* (filled: saturated; open: not; triangles
     down: the sweep by decreasing U*), the linear thresholds dashed; beside it the frequency of the
     leading signal with the in-vacuo natural frequency."""
+    from fsistab.lco import signals
+
     u = ds.reduced_velocity.values
-    names = [n for n in ("pitch", "heave") if n in ds.attrs.get("dofs", "")] or ["lift"]
+    names = signals(ds)
     fig, (ax_amp, ax_freq) = plt.subplots(1, 2, figsize=(10.0, 3.8))
     fig.subplots_adjust(wspace=0.3)
     for name, colour in zip(names, ("tab:blue", "tab:orange"), strict=False):

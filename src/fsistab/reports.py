@@ -426,8 +426,10 @@ def simulate(ds: xr.Dataset, p: dict) -> list:
 
 
 def lco(ds: xr.Dataset, p: dict) -> list:
+    from fsistab.lco import signals
+
     a = ds.attrs
-    names = [n for n in ("pitch", "heave") if n in a["dofs"]] or ["lift"]
+    names = signals(ds)
     rows = []
     for point in p["points"]:
         if point["error"]:
