@@ -11,8 +11,9 @@ time series of the march with the largest amplitude.
 Command-line equivalent::
 
     fsistab lco --body cylinder --Re 150 --mass-ratio 2.546479 --dofs heave --zeta-h 0 \\
-        --mesh coarse --reduced-velocity-range 3 8 --points 6 --duration 100 --time-step 0.1 \\
-        --shift 0.15+0.66j --perturbation-of heave --perturbation 0.1 --workers 2
+        --mesh coarse --reduced-velocity-range 3 8 --points 6 --duration 80 --time-step 0.1 \\
+        --shift 0.15+0.66j --perturbation-of heave --perturbation 0.1 --step-tolerance 1e-7 \\
+        --max-step-iterations 60 --workers 2
 
 Mesh: ``--mesh`` preset (default coarse). Reference: the amplitude curve of the same case by
 Borazjani et al. (2008) and Ahn & Kallinderis (2006); the comparison, its source and its errors
@@ -40,7 +41,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--format", default="png", choices=("png", "pdf", "svg"), help="figure format")
     parser.add_argument("--range", type=float, nargs=2, default=(3.0, 8.0), help="first and last U*")
     parser.add_argument("--points", type=int, default=6, help="marches, equally spaced in U*")
-    parser.add_argument("--duration", type=float, default=100.0, help="simulated time of each march")
+    parser.add_argument("--duration", type=float, default=80.0, help="simulated time of each march")
     parser.add_argument("--workers", type=int, default=None, help="dask LocalCluster workers")
     return parser.parse_args(argv)
 
@@ -56,7 +57,9 @@ def run(args: argparse.Namespace) -> None:
 
     case = Case.create("cylinder", REYNOLDS, 0.0, args.mesh)
     solid = solid_for("cylinder", MASS_RATIO, args.range[0], zeta_h=0.0, dofs=("heave",))
-    march = SimulationSettings(args.duration, 0.1, 0.1, 0.15 + 0.66j, perturbation_of="heave")
+    march = SimulationSettings(
+        args.duration, 0.1, 0.1, 0.15 + 0.66j, perturbation_of="heave", tolerance=1e-7, max_iterations=60
+    )
     settings = LcoSettings(tuple(args.range), args.points, march)
     args.out.mkdir(parents=True, exist_ok=True)
     with study_client(args.workers, None) as client:
