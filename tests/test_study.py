@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -26,6 +27,7 @@ from typer.testing import CliRunner
 from fsistab import study
 from fsistab.cli import app
 from fsistab.errors import ConvergenceError, InputError
+from fsistab.operators import FluidOperators
 from fsistab.params import Case, MapSettings, Solid
 from fsistab.study import (
     CLASSES,
@@ -190,10 +192,12 @@ def test_mode_energies_of_a_known_vector():
     mass, r = 100.0, 0.3
     solid_states = np.array([0.1, 0.2j, 2.0, 1.0 + 1.0j])
     fluid = np.array([1.0, 2.0j])
+    operators = SimpleNamespace(mff_near=np.diag([2.0, 0.5]), theta0=0.0)
+    operators.near_energy = partial(FluidOperators.near_energy, operators)  # the method under test
     system = SimpleNamespace(
         split=lambda q: (solid_states, fluid),
         solid=SimpleNamespace(mass_ratio=mass, r_theta=r, static_unbalance=0.0),
-        fluid=SimpleNamespace(mff_near=np.diag([2.0, 0.5]), theta0=0.0),
+        fluid=operators,
     )
     heave, pitch, fluid_energy = mode_energies(system, np.zeros(6))
     assert heave == pytest.approx(25 * 4.0)
