@@ -197,8 +197,8 @@ class TimeStepper:
     def step(self, state: MarchState) -> tuple[MarchState, Sample]:
         """One step from ``state``: BDF2, or BDF1 without a previous state. A step whose chord
         iteration does not converge on an iteration matrix made elsewhere is tried once more on
-        one rebuilt at the step's start (:meth:`refresh`): a start far from the steady state (a
-        finite-amplitude perturbation) needs it before its first step."""
+        one rebuilt at the step's start (:meth:`refresh`): a start whose flow is far from the steady
+        state (a mode at a large amplitude, a saved state) may need it before its first step."""
         try:
             q, iterations, change = self._converge(state)
         except ConvergenceError:
@@ -307,8 +307,9 @@ def perturbed_state(
     solid state ``(ĥ, θ̂, ḣ̂, θ̂')`` scaled so that its heave (body lengths) or pitch (radians) is
     ``amplitude``, the fluid at its steady state (the wall moving with the body): a start at a
     chosen finite amplitude, for the envelope's growth rate σ(A). The whole mode scaled so is no
-    start there: its fluid part is the solid's amplitude over the mode's solid share (a hundred
-    times or more near a plate's edges or in a cylinder's wake), far outside the linear range."""
+    start there: its fluid part is the solid's amplitude over the mode's solid share (many times
+    the solid's amplitude near a plate's edges or in a cylinder's wake), far outside the linear
+    range."""
     mode = np.asarray(mode, dtype=complex)
     if scale == "largest":
         return stepper.steady_point() + amplitude * (mode / mode[np.argmax(np.abs(mode))]).real
