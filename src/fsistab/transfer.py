@@ -397,13 +397,41 @@ def viscous_theodorsen_dataset(
     for the same mesh and flow are reused: an interrupted run resumes, a repeated one factorises
     nothing but the slopes."""
     from fsistab.slopes import static_slopes
-    from fsistab.theodorsen import AirfoilSlopes, TypicalSection, load_matrices, theodorsen_function
 
     omega = np.asarray(frequencies, dtype=float)
     if omega.ndim != 1 or len(omega) == 0 or np.any(~np.isfinite(omega)) or np.any(omega <= 0):
         raise InputError("the frequencies must be positive finite numbers")
     counter = counter if counter is not None else FactorCounter()
     identity = flow_identity(fluid)
+    samples = _transfer_samples(fluid, omega, counter, progress, samples_path, identity)
+    viscous = np.array(
+        [
+            aerodynamic_loads(g, fluid.theta0, fluid.loads0, 1j * w)
+            for g, w in zip(samples, omega, strict=True)
+        ]
+    )
+    static = static_slopes(fluid, counter)
+    attrs = {
+        **identity,
+        "ndof_fluid": fluid.n_fluid,
+        "factorisations": counter.count,
+        "lift_slope_alpha": static.lift_slope_alpha,
+        "moment_slope_alpha": static.moment_slope_alpha,
+    }
+    return _viscous_theodorsen(omega, samples, viscous, _theodorsen_loads(omega, static), attrs)
+
+
+def _transfer_samples(
+    fluid: FluidOperators,
+    omega: np.ndarray,
+    counter: FactorCounter,
+    progress: Progress,
+    samples_path: Path | None,
+    identity: dict,
+) -> np.ndarray:
+    """``G(iω)`` at each of ``omega`` (:func:`exact_transfer`, one factorisation each). With
+    ``samples_path``, every sample is added to that NetCDF as soon as it is computed (atomically)
+    and samples already there for the same mesh and flow (``identity``) are reused."""
     # finished samples (checksummed; a damaged file is reported and recomputed, another flow's refused)
     table = None if samples_path is None else ResumableTable(samples_path, identity)
     stored = {float(r["frequency"]): r["transfer"] for r in table.records} if table is not None else {}
@@ -416,14 +444,15 @@ def viscous_theodorsen_dataset(
         samples.append(stored[float(w)])
         if progress:
             progress(f"G(iω): {i + 1}/{len(omega)} frequencies ({fluid.n_fluid} fluid unknowns)")
-    samples = np.array(samples)
-    viscous = np.array(
-        [
-            aerodynamic_loads(g, fluid.theta0, fluid.loads0, 1j * w)
-            for g, w in zip(samples, omega, strict=True)
-        ]
-    )
-    static = static_slopes(fluid, counter)
+    return np.array(samples)
+
+
+def _theodorsen_loads(omega: np.ndarray, static) -> dict[str, np.ndarray]:
+    """Theodorsen's loads ``(C_L, C_M)`` per unit ``(ĥ, θ̂)`` at ``s = iω``, ``s² L₂ + s L₁ + L₀``
+    (docs/model.md §9, ``a = 0``, ``k = ω/2``): with thin-airfoil slopes (``thin_airfoil``) and with
+    the viscous static slopes ``static`` of the steady state (``calibrated``)."""
+    from fsistab.theodorsen import AirfoilSlopes, TypicalSection, load_matrices, theodorsen_function
+
     models = {}
     for name, slopes in (
         ("thin_airfoil", AirfoilSlopes.thin_airfoil()),
@@ -432,6 +461,15 @@ def viscous_theodorsen_dataset(
         l2, l1, l0 = load_matrices(TypicalSection.create(slopes=slopes), theodorsen_function(omega / 2))
         s = (1j * omega)[:, None, None]
         models[name] = s * s * l2 + s * l1 + l0
+    return models
+
+
+def _viscous_theodorsen(
+    omega: np.ndarray, samples: np.ndarray, viscous: np.ndarray, models: dict, attrs: dict
+) -> xr.Dataset:
+    """The dataset of :func:`viscous_theodorsen_dataset`: ``G``, the viscous loads and Theodorsen's
+    (``models``), complex values with a ``part`` dimension (real, imag); ``attrs`` and the
+    conventions."""
     loads_dims = ("frequency", "coefficient", "motion")
     return xr.Dataset(
         {
@@ -450,11 +488,7 @@ def viscous_theodorsen_dataset(
             "part": ["real", "imag"],
         },
         attrs={
-            **identity,
-            "ndof_fluid": fluid.n_fluid,
-            "factorisations": counter.count,
-            "lift_slope_alpha": static.lift_slope_alpha,
-            "moment_slope_alpha": static.moment_slope_alpha,
+            **attrs,
             "conventions": (
                 "transfer: body-axis loads (F_x, F_y, M) [rho U^2 L] per unit (h, theta, hdot, thetadot) "
                 "~ e^{st}, "

@@ -405,10 +405,36 @@ def transfer_neutral_map(
     # finished samples (checksummed; a damaged file is reported and recomputed, another flow's refused)
     store = SampleStore.at(samples_path, fluid)
     resonances = _resonance_models(fluid, samples_path, resonance_blocks, say) if exact else None
-    reused = store.reused_factorisations + sum(len(m.models) for m in (reduced, resonances) if m is not None)
-    for models in (reduced, resonances):
+    reused = _reused_factorisations(store, (reduced, resonances))
+    sources = _map_sources(fluid, store, reduced, resonances, counter, threads, client, say)
+    tracker = RootTracker(template, policy.wide, fluid.theta0, fluid.loads0)
+    engine = MapEngine(policy, sources, store, tracker, counter, say)
+    run = _run_engine(engine, sources, initial_frequencies(policy.omega_range, initial, wake_frequency))
+    spent = counter.count - start
+    return _transfer_map(run, sources, policy, template, fluid, (spent, spent + reused))
+
+
+def _reused_factorisations(store: SampleStore, saved: Sequence[ReducedModels | None]) -> int:
+    """The factorisations behind the saved samples and models this run reuses (one per exact
+    sample, one per model): with this run's, the map's ``factorisations_total``. Counted before the
+    models lost from a damaged file are rebuilt where they were
+    (:meth:`fsistab.reduced_model.ReducedModels.restore`): those are this run's."""
+    reused = store.reused_factorisations + sum(len(m.models) for m in saved if m is not None)
+    for models in saved:
         if models is not None:
             models.restore()  # those lost from a damaged file, rebuilt where they were
+    return reused
+
+
+def _map_sources(
+    fluid, store: SampleStore, reduced, resonances, counter: FactorCounter, threads, client, say
+) -> MapSources:
+    """Where the samples come from (:mod:`fsistab.map_sources`): exact samples, ``threads`` at a time
+    in this process or, with ``client``, on its ``dask.distributed`` workers
+    (:class:`fsistab.map_distributed.DistributedExactSource`: the same samples, bit for bit, hence the
+    same map); the reduced models at sharp resonances and at ``s = 0`` (``resonances``, their
+    factorisations charged to ``counter``); certified rational fits of the saved samples; and with
+    ``reduced``, reduced models certified on intervals, built near exact samples."""
     exact_source = (
         ExactSource(fluid, counter, threads)
         if client is None
@@ -421,15 +447,16 @@ def transfer_neutral_map(
         ReducedSource(reduced, store, say) if reduced is not None else None,
     )
     sources.resonances.charge(counter)
-    tracker = RootTracker(template, policy.wide, fluid.theta0, fluid.loads0)
+    return sources
+
+
+def _run_engine(engine: MapEngine, sources: MapSources, frequencies):
+    """The map engine's loop from ``frequencies``; what the exact source holds (operators on dask
+    workers) freed however the loop ends."""
     try:
-        run = MapEngine(policy, sources, store, tracker, counter, say).run(
-            initial_frequencies(policy.omega_range, initial, wake_frequency)
-        )
+        return engine.run(frequencies)
     finally:
-        exact_source.release()
-    spent = counter.count - start
-    return _transfer_map(run, sources, policy, template, fluid, (spent, spent + reused))
+        sources.exact.release()
 
 
 def _transfer_map(run, sources: MapSources, policy, template: Solid, fluid, factorisations) -> TransferMap:

@@ -417,10 +417,8 @@ def stability_map(
     ``client``: a ``dask.distributed`` client (:func:`fsistab.study.study_client`) whose workers
     factorise the transfer map's exact samples (:mod:`fsistab.map_distributed`): the same map.
     """
-    from fsistab.critical import wake_mode_near
     from fsistab.linalg import FactorCounter
     from fsistab.neutral_map import neutral_map_dataset
-    from fsistab.reduced_model import ReducedModels
     from fsistab.store import write_dataset
 
     if client is not None and settings.method != "transfer":
@@ -435,49 +433,86 @@ def stability_map(
     )
     counter = FactorCounter()
     _, fluid = _fluid(case, cache_dir, say)
+    wake = _map_wake_frequency(fluid, settings, counter, say)
+    reduced = _map_reduced_models(case, fluid, settings, out, counter, say)
+    attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
+    result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say, client)
+    # the reduced models of the map, or with exact samples those built at sharp resonances and s = 0
+    models = len(reduced.models) if reduced else tmap.resonance_models if tmap is not None else 0
+    ds = neutral_map_dataset(result, _map_attrs(attrs, settings, tmap, models))
+    ds = _map_counts(_map_details(ds, result, tmap, settings), case, tmap, counter.count, models)
+    data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
+    write_dataset(ds, stored_map_path(cache_dir, case.tag))
+    _write_divergence(result, case, template, out)
+    return ds.assign_attrs(data=str(data_path))
+
+
+def _map_wake_frequency(fluid, settings: MapSettings, counter, say) -> float | None:
+    """The frequency of the fixed body's wake mode nearest ``settings.wake_frequency`` (None if not
+    given): the map's guess (transfer: initial frequencies around it and a wider default range;
+    continuation: a VIV sweep, :func:`fsistab.neutral.map_seeds`)."""
+    from fsistab.critical import wake_mode_near
+
     wake = settings.wake_frequency
     if wake is not None:
         say("wake mode of the fixed body")
         wake = wake_mode_near(fluid, wake, counter=counter).frequency
-    reduced = None
+    return wake
+
+
+def _map_reduced_models(case: Case, fluid, settings: MapSettings, out: Path, counter, say):
+    """The transfer map's reduced fluid models (``settings.krylov_blocks`` Krylov blocks), saved in
+    ``reduced_{tag}_models.nc`` and reused by a rerun; None with exact samples or by continuation."""
+    from fsistab.reduced_model import ReducedModels
+
     blocks = settings.krylov_blocks(fluid.n_fluid)
-    if settings.method == "transfer" and blocks:
-        reduced = ReducedModels(
-            fluid,
-            tolerance=settings.reduced_tolerance,
-            blocks=blocks,
-            path=out / f"reduced_{case.tag}_models.nc",
-            counter=counter,
-            progress=say,
-        )
-    attrs = {**_solid_attrs(case, template), "wake_frequency": math.nan if wake is None else wake}
-    result, tmap = _trace_map(case, template, settings, fluid, out, attrs, reduced, counter, say, client)
+    if settings.method != "transfer" or not blocks:
+        return None
+    return ReducedModels(
+        fluid,
+        tolerance=settings.reduced_tolerance,
+        blocks=blocks,
+        path=out / f"reduced_{case.tag}_models.nc",
+        counter=counter,
+        progress=say,
+    )
+
+
+def _map_attrs(attrs: dict, settings: MapSettings, tmap, models: int) -> dict:
+    """The map dataset's attributes: what it depends on, its method and (transfer) its sampling."""
     map_attrs = {**attrs, "method": settings.method}
-    # the reduced models of the map, or with exact samples those built at sharp resonances and s = 0
-    models = len(reduced.models) if reduced else tmap.resonance_models if tmap is not None else 0
     if tmap is not None:
         map_attrs["frequencies"] = len(tmap.frequencies)
         map_attrs["unresolved_intervals"] = len(tmap.unresolved)
         map_attrs["reduced_models"] = models
         map_attrs["rational_fits"] = tmap.rational_fits  # fsistab.rational_fit: below min_step
         map_attrs["interpolated_frequencies"] = tmap.interpolated
-    ds = _map_details(neutral_map_dataset(result, map_attrs), result, tmap, settings)
-    ds.attrs["factorisations_this_run"] = counter.count
+    return map_attrs
+
+
+def _map_counts(ds: xr.Dataset, case: Case, tmap, this_run: int, models: int) -> xr.Dataset:
+    """The map's costs (``this_run`` factorisations, and over every run that built its samples and
+    models: a resumed map counts them all), its mesh's Reynolds number and the divergence law's
+    coefficient ``U*_D/√m``."""
+    ds.attrs["factorisations_this_run"] = this_run
     ds.attrs["mesh_reynolds"] = case.fitted_reynolds
-    # over every run that built the map's samples and models (a resumed map counts them all)
     earlier = tmap.factorisations_total - tmap.factorisations if tmap is not None else 0
-    ds.attrs["factorisations_total"] = earlier + counter.count
+    ds.attrs["factorisations_total"] = earlier + this_run
     ds.attrs["reduced_models"] = models
     ds.attrs["divergence_coefficient"] = divergence_coefficient(ds)
-    data_path = write_dataset(ds, out / f"neutral_{case.tag}_map.nc")
-    write_dataset(ds, stored_map_path(cache_dir, case.tag))
+    return ds
+
+
+def _write_divergence(result, case: Case, template: Solid, out: Path) -> None:
+    """``neutral_{tag}_divergence.nc``: the divergence curve ``U*_D(m)`` of the map (docs/model.md §8)."""
+    from fsistab.store import write_dataset
+
     divergence = xr.Dataset(
         {"reduced_velocity": ("mass_ratio", result.divergence_velocities)},
         coords={"mass_ratio": result.divergence_mass_ratios},
         attrs={**_solid_attrs(case, template), "moment_slope": result.moment_slope},
     )
     write_dataset(divergence, out / f"neutral_{case.tag}_divergence.nc")
-    return ds.assign_attrs(data=str(data_path))
 
 
 def shading_velocities(curve_velocities, divergence_velocities, points: int = 150) -> np.ndarray:
