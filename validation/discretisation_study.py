@@ -318,8 +318,8 @@ def main() -> None:
         for name, variant in VARIANTS.items():
             print(name, variant)
         return
-    known = [(variant in VARIANTS and outlet in OUTLETS) for variant, outlet in map(split_variant, args.variants)]
-    unknown = [v for v, ok in zip(args.variants, known, strict=True) if not ok]
+    parts = {name: split_variant(name) for name in args.variants}
+    unknown = [name for name, (v, outlet) in parts.items() if v not in VARIANTS or outlet not in OUTLETS]
     if unknown:
         parser.error(f"unknown variants {unknown}; --list shows them")
     SetNumThreads(args.threads)
