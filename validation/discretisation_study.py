@@ -17,6 +17,8 @@ variant already there is skipped, so a rerun resumes), with wall and CPU times a
 With ``--wake-onset`` the script computes instead the fixed plate's critical Reynolds number of the
 wake mode on each variant's mesh (``fsistab.onset``; one JSON line per variant in ``--out``).
 
+A variant named ``VARIANT+gradient`` is ``VARIANT`` with the gradient outlet (docs/model.md §4).
+
 Usage: python validation/discretisation_study.py [VARIANT ...] [--out FILE] [--cache DIR]
        python validation/discretisation_study.py VARIANT --wake-onset --out FILE
        python validation/discretisation_study.py --list
@@ -44,7 +46,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.neutral_point import divergence_velocity
 from fsistab.operators import fluid_operators
-from fsistab.params import Domain, Flow, Solid, Sponge, default_sponge
+from fsistab.params import OUTLETS, Domain, Flow, Solid, Sponge, default_sponge
 from fsistab.slopes import static_slopes
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
@@ -156,14 +158,29 @@ VARIANTS = {
     "quick-near-sponge": ("medium", {**QUICK, "wake_half_width": 0.6}, (20, 160, 20)),
     # the `quick` preset: `medium` (far2-layer) with 0.1-chord wake elements
     "far2-wake0.1-layer": ("medium", {**BAND20, "far": 2.0, "wake": 0.1}, (80, 160, 80)),
+    # the wake mode's convergence (issue: the wake mode at Re 2900): the default (far2-layer)
+    # with its domain and band 2 and 4 times longer, its wake box twice as long, no layers
+    "far2-dom320-layer": ("medium", {**BAND20, "far": 2.0, "middle_band": (320, 20)}, (80, 320, 80)),
+    "far2-dom640-layer": ("medium", {**BAND20, "far": 2.0, "middle_band": (640, 20)}, (80, 640, 80)),
+    "far2-wake40-layer": ("medium", {**BAND20, "far": 2.0, "wake_length": 40.0}, (80, 160, 80)),
+    "far2-bare": ("medium", {**BAND20, "far": 2.0}, (80, 160, 80)),
 }
+
+
+def split_variant(name: str) -> tuple[str, str]:
+    """``(variant, outlet)`` of a name ``VARIANT`` or ``VARIANT+OUTLET`` (docs/model.md §4, "Outlet":
+    ``far2-layer+gradient`` is the default mesh with the gradient outlet)."""
+    variant, _, outlet = name.partition("+")
+    return variant, outlet or "stress"
 
 
 def variant_spec(name: str, reynolds: float = REYNOLDS):
     """The mesh of a variant, fitted to ``reynolds``: its preset's sizes before the study (``BASE``)
     with the variant's overrides; the outlet sponge (:class:`fsistab.params.Sponge`, the `medium`
     preset's) only on the ``-sponge`` variants, with the far-field layer of the `medium` preset
-    (:func:`fsistab.params.default_sponge`) on the ``-layer`` ones."""
+    (:func:`fsistab.params.default_sponge`) on the ``-layer`` ones; the outlet condition after a
+    ``+`` (:func:`split_variant`)."""
+    name, outlet = split_variant(name)
     preset, sizes, (up, down, lateral) = VARIANTS[name]
     sponge = {"-sponge": Sponge(), "-layer": default_sponge(Plate(), "medium")}.get(name[name.rfind("-") :])
     return mesh_spec(
@@ -172,6 +189,7 @@ def variant_spec(name: str, reynolds: float = REYNOLDS):
         reynolds,
         Domain(up, down, lateral),
         sponge=sponge,
+        outlet=outlet,
         **{**BASE.get(preset, {}), **sizes},
     )
 
@@ -221,7 +239,7 @@ def run_variant(
 ) -> dict:
     """The quantities of the module docstring on one variant at ``reynolds`` (the wake mode near
     11.2i only at Re 2900, where it is near neutral)."""
-    preset, sizes, (up, down, lateral) = VARIANTS[name]
+    preset, sizes, (up, down, lateral) = VARIANTS[split_variant(name)[0]]
     spec = variant_spec(name, reynolds)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     steady = solve_steady(spec, Flow(reynolds), cache_dir=cache)
@@ -268,7 +286,6 @@ def wake_onset(name: str, cache: Path) -> dict:
     to Re 2900): :func:`fsistab.onset.critical_onset` from Re = 2900 and the eigenvalue near 11.2i."""
     from fsistab.onset import critical_onset
 
-    preset, sizes, (up, down, lateral) = VARIANTS[name]
     spec = variant_spec(name)
     wall0 = time.perf_counter()
     result = critical_onset(spec, Flow(REYNOLDS), "reynolds", REYNOLDS, 11.2j, cache_dir=cache)
@@ -301,7 +318,8 @@ def main() -> None:
         for name, variant in VARIANTS.items():
             print(name, variant)
         return
-    unknown = [v for v in args.variants if v not in VARIANTS]
+    parts = {name: split_variant(name) for name in args.variants}
+    unknown = [name for name, (v, outlet) in parts.items() if v not in VARIANTS or outlet not in OUTLETS]
     if unknown:
         parser.error(f"unknown variants {unknown}; --list shows them")
     SetNumThreads(args.threads)

@@ -149,6 +149,7 @@ class Options(SimpleNamespace):
             **outline,
             mesh_reynolds=mesh_reynolds,
             elastic_axis=axis,
+            outlet=getattr(self, "outlet", "stress"),
         )
 
     def solid(self, kind: str, mass_ratio=None, reduced_velocity=None, dofs=None) -> params.Solid:

@@ -38,6 +38,8 @@ CASE_OPTIONS = {
                       "on its own domain), none, SIGMA_MAX,ZONE (e.g. 0.2,0.25), or SIGMA_MAX,ZONE,FAR_SIGMA,"
                       "FAR_RAMP with a far-field layer outside the middle box and band "
                       "(e.g. 0.2,0.25,0.2,10)", "preset"),
+    "outlet": option(str, "--outlet", "outflow condition: stress (symmetric stress-free, σN = 0) or "
+                      "gradient (Re⁻¹∂U/∂n = PN)", "stress"),
 }
 
 OUTPUT_OPTIONS = {

@@ -44,7 +44,7 @@ def reaction_loads(steady: SteadyState) -> dict[str, float]:
 
     Dimensionless with ``ρ U∞² L s`` (multiply by 2 for coefficients).
     """
-    problem = SteadyProblem.on(steady.mesh, steady.space)
+    problem = SteadyProblem.on(steady.mesh, steady.space, outlet=steady.mesh_spec.outlet)
     problem.set_flow(steady.flow)
     residual = steady.state.vec.CreateVector()
     problem.form.Apply(steady.state.vec, residual)

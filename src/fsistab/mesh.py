@@ -26,7 +26,15 @@ from fsistab import store
 from fsistab.bodies import WALL, Body
 from fsistab.errors import CacheError, InputError
 from fsistab.geometry import fluid_half_geometry, wall_projection
-from fsistab.params import Domain, Sponge, _positive, default_domain, default_sponge, preset_message
+from fsistab.params import (
+    Domain,
+    Sponge,
+    _positive,
+    check_outlet,
+    default_domain,
+    default_sponge,
+    preset_message,
+)
 
 PRESETS = ("coarse", "quick", "fast", "medium", "fine")
 
@@ -165,15 +173,18 @@ class MeshSpec:
     """Everything a mesh depends on: body, domain, local sizes (and the preset it came from); and
     the outlet ``sponge`` of the linear operators on it (:class:`fsistab.params.Sponge`), which is
     not part of the mesh (:meth:`key`) nor of the steady state, but of everything linearised
-    (:meth:`linear_identity`)."""
+    (:meth:`linear_identity`); the ``outlet`` condition (:data:`fsistab.params.OUTLETS`,
+    docs/model.md §4), part of the steady state and of everything linearised, not of the mesh."""
 
     body: Body
     domain: Domain
     sizes: MeshSizes
     preset: str = "custom"
     sponge: Sponge | None = None
+    outlet: str = "stress"
 
     def __post_init__(self):
+        check_outlet(self.outlet)
         if self.sponge is not None and self.sponge.far_sigma > 0 and self.sizes.middle_box is None:
             raise InputError(
                 "a far-field sponge lies outside the mesh's middle box: this mesh has none "
@@ -189,11 +200,17 @@ class MeshSpec:
         (flat attributes; saved curves, maps, samples and study points carry them, so that results
         with and without a sponge are never mixed)."""
         sponge = "none" if self.sponge is None else json.dumps(self.sponge.key_inputs(), sort_keys=True)
-        return {"mesh_key": self.key(), "sponge": sponge}
+        identity = {"mesh_key": self.key(), "sponge": sponge}
+        if self.outlet != "stress":  # the default outlet keeps the identities it always had
+            identity["outlet"] = self.outlet
+        return identity
 
     def linear_key(self) -> str:
-        """A file-name key of :meth:`linear_identity`: the mesh key itself without a sponge."""
-        return self.key() if self.sponge is None else store.cache_key("linear", self.linear_identity())
+        """A file-name key of :meth:`linear_identity`: the mesh key itself without a sponge (and
+        with the default outlet)."""
+        if self.sponge is None and self.outlet == "stress":
+            return self.key()
+        return store.cache_key("linear", self.linear_identity())
 
     def describe(self) -> dict:
         return {
@@ -202,6 +219,7 @@ class MeshSpec:
             "sizes": asdict(self.sizes),
             "preset": self.preset,
             "sponge": None if self.sponge is None else asdict(self.sponge),
+            "outlet": self.outlet,
         }
 
 
@@ -211,6 +229,7 @@ def mesh_spec(
     reynolds: float = 100.0,
     domain: Domain | None = None,
     sponge: Sponge | None | str = "preset",
+    outlet: str = "stress",
     **sizes,
 ) -> MeshSpec:
     """Mesh specification from a preset fitted to ``reynolds``; keyword arguments override sizes.
@@ -228,13 +247,14 @@ def mesh_spec(
         if sponge != "preset":
             raise InputError(f"sponge must be a Sponge, None or 'preset', got {sponge!r}")
         sponge = default_sponge(body, preset) if domain == own_domain else None
-    return MeshSpec(body=body, domain=domain, sizes=base, preset=preset, sponge=sponge)
+    return MeshSpec(body=body, domain=domain, sizes=base, preset=preset, sponge=sponge, outlet=outlet)
 
 
 def spec_for(case) -> MeshSpec:
     """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its
-    ``fitted_reynolds`` (its ``mesh_reynolds``, or its flow's Re), its body, domain and sponge."""
-    return mesh_spec(case.body, case.preset, case.fitted_reynolds, case.domain, case.sponge)
+    ``fitted_reynolds`` (its ``mesh_reynolds``, or its flow's Re), its body, domain, sponge and
+    outlet condition."""
+    return mesh_spec(case.body, case.preset, case.fitted_reynolds, case.domain, case.sponge, case.outlet)
 
 
 def _generate(spec: MeshSpec):

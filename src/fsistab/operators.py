@@ -33,6 +33,7 @@ from fsistab.steady import (
     SteadyState,
     momentum_form,
     momentum_linearisation,
+    outlet_form,
     taylor_hood_space,
     wall_velocity,
 )
@@ -326,7 +327,9 @@ class Term:
       of the solid columns of ``J``, before the wall coupling);
     * ``base_variation``: the derivative of ``(v, J q)`` with respect to the steady velocity in the
       direction ``δ``, for the direct velocity ``u``, the test field ``v`` and a real solid
-      perturbation ``q_s`` (the base-flow gradient of :mod:`fsistab.sensitivity`).
+      perturbation ``q_s`` (the base-flow gradient of :mod:`fsistab.sensitivity`);
+    * ``outlet``: an integrand over the outlet boundary, linear in the fluid state and independent
+      of the solid's, hence the same in the residual, ``J_ff`` and ``K_ff(s)``.
 
     A part a term lacks is None. A new term (a PML, a forcing) is one subclass added to ``TERMS``:
     every operator, the residual and the base-flow gradient are sums over the terms. A term that is
@@ -350,6 +353,9 @@ class Term:
         return None
 
     def base_variation(self, fields: SteadyFields, delta, u, v, q_solid: np.ndarray):
+        return None
+
+    def outlet(self, fields: SteadyFields, trial, test):
         return None
 
 
@@ -455,7 +461,18 @@ class SpongeLayer(Term):
         return -(pitch * fields.sigma * _dot(Grad(delta) * CF((-y, x)) - CF((-delta[1], delta[0])), v))
 
 
-TERMS: tuple[Term, ...] = (NavierStokes(), TimeDerivative(), FrameRotation(), SpongeLayer())
+class GradientOutlet(Term):
+    """The ``"gradient"`` outlet condition ``Re⁻¹(∇U)N − PN = 0`` (docs/model.md §4, "Outlet";
+    :func:`fsistab.steady.outlet_form`), ``−Re⁻¹((∇u)ᵀN, v)`` on the outlet; nothing on the
+    default ``"stress"`` outlet, the natural condition of :class:`NavierStokes`."""
+
+    def outlet(self, fields, trial, test):
+        if fields.steady.mesh_spec.outlet != "gradient":
+            return None
+        return outlet_form(trial[0], test[0], fields.inv_reynolds)
+
+
+TERMS: tuple[Term, ...] = (NavierStokes(), TimeDerivative(), FrameRotation(), SpongeLayer(), GradientOutlet())
 
 
 def stiffness_integrand(fields: SteadyFields, trial, test, terms=TERMS):
@@ -488,6 +505,23 @@ def residual_integrand(fields: SteadyFields, motion: Motion, trial, test, terms=
     """The nonlinear residual's integrand in the fluid state, for the solid :class:`Motion`
     (docs/model.md §4), without the terms' sources (:func:`residual_sources`)."""
     return _total(term.residual(fields, motion, trial, test) for term in terms)
+
+
+def outlet_integrand(fields: SteadyFields, trial, test, terms=TERMS):
+    """The terms' integrand over the outlet (None if no term has one)."""
+    return _total(term.outlet(fields, trial, test) for term in terms)
+
+
+def integrals(volume, fields: SteadyFields, trial, test, terms=TERMS, compile: bool = True):
+    """The form of the domain integrand ``volume`` (compiled unless ``compile`` is False) plus the
+    terms' outlet integrand over the outlet (:func:`outlet_integrand`): what every bilinear form
+    of the operators and the residual adds to its ``BilinearForm``."""
+    from ngsolve import ds, dx
+
+    form = (volume.Compile() if compile else volume) * dx
+    boundary = outlet_integrand(fields, trial, test, terms)
+    # on the skeleton: the trial function's gradient is that of the element beside the outlet
+    return form if boundary is None else form + boundary * ds("outlet", skeleton=True)
 
 
 def residual_sources(fields: SteadyFields, v, terms=TERMS) -> list:
@@ -530,7 +564,7 @@ def _bilinear_matrices(fields: SteadyFields, terms=TERMS) -> tuple[sp.csr_matrix
     jacobian = BilinearForm(space)
     # compiled: the sum of the terms assembles several times faster than uncompiled, the matrix
     # identical to the bit
-    jacobian += stiffness_integrand(fields, (u, p), (v, q), terms).Compile() * dx
+    jacobian += integrals(stiffness_integrand(fields, (u, p), (v, q), terms), fields, (u, p), (v, q), terms)
     jacobian.Assemble()
     mass_term = mass_integrand(fields, (u, p), (v, q), terms)
     mass = BilinearForm(space)
@@ -589,7 +623,7 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex, terms=TERMS):
     for a factorisation by NGSolve's sparse solvers (:class:`fsistab.linalg.FluidFactor`; SciPy's
     complex sparse matrices cannot be handed to them). The caller keeps ``form`` alive while it
     uses the matrix ``form.mat``."""
-    from ngsolve import BilinearForm, dx
+    from ngsolve import BilinearForm
 
     steady = fluid.steady
     shift = complex(shift)
@@ -598,8 +632,9 @@ def shifted_fluid_matrix(fluid: FluidOperators, shift: complex, terms=TERMS):
     (u, p), (v, q) = space.TnT()
     form = BilinearForm(space)
     value = shift if is_complex else shift.real
-    integrand = shifted_integrand(steady_fields(steady), (u, p), (v, q), value, terms)
-    form += integrand.Compile() * dx  # as in fluid_operators
+    fields = steady_fields(steady)
+    integrand = shifted_integrand(fields, (u, p), (v, q), value, terms)
+    form += integrals(integrand, fields, (u, p), (v, q), terms)  # as in fluid_operators
     form.Assemble()
     return form, space.FreeDofs()
 
@@ -615,7 +650,7 @@ class FluidResidual:
     """
 
     def __init__(self, steady: SteadyState, terms=TERMS):
-        from ngsolve import BilinearForm, dx
+        from ngsolve import BilinearForm
 
         self.steady = steady
         space = steady.space
@@ -623,7 +658,8 @@ class FluidResidual:
         fields = steady_fields(steady)
         self.motion = Motion.at_rest()
         form = BilinearForm(space)
-        form += residual_integrand(fields, self.motion, (u, p), (v, q), terms) * dx
+        integrand = residual_integrand(fields, self.motion, (u, p), (v, q), terms)
+        form += integrals(integrand, fields, (u, p), (v, q), terms, compile=False)
         self.form = form
         # the parts independent of the fluid state as (weight(q_s), load vector) pairs
         self._sources = [

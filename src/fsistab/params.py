@@ -251,6 +251,16 @@ def as_dict(obj) -> dict:
 
 # the presets of fsistab.mesh (checked there too)
 MESH_PRESETS = ("coarse", "quick", "fast", "medium", "fine")
+# the outflow condition (docs/model.md §4, "Outlet"): the natural condition of the symmetric
+# stress, σN = 0 (the default), or of the velocity gradient, Re⁻¹(∇U)N − PN = 0
+OUTLETS = ("stress", "gradient")
+
+
+def check_outlet(outlet: str) -> str:
+    """``outlet`` if it is one of :data:`OUTLETS`, else a one-line InputError."""
+    if outlet not in OUTLETS:
+        raise InputError(f"unknown outlet condition {outlet!r}: choose one of {', '.join(OUTLETS)}")
+    return outlet
 
 
 def preset_message(body: Body, preset: str) -> str:
@@ -328,7 +338,8 @@ class Case:
     changes the linear operators only, not the mesh or the steady state. ``mesh_reynolds`` is the
     Reynolds number the preset's sizes are fitted to (:func:`fsistab.mesh.preset_sizes`), None the
     flow's own: held fixed, one mesh serves flows at several Re, so that a study in Re is not
-    crossed by changes of mesh (docs/how-to/studies.md, "One mesh for a range of Re")."""
+    crossed by changes of mesh (docs/how-to/studies.md, "One mesh for a range of Re"). ``outlet``
+    is the outflow condition (:data:`OUTLETS`), part of the steady state, not of the mesh."""
 
     body: Body
     flow: Flow
@@ -336,8 +347,10 @@ class Case:
     domain: Domain | None = None
     sponge: Sponge | None | Literal["preset"] = "preset"
     mesh_reynolds: float | None = None
+    outlet: str = "stress"
 
     def __post_init__(self):
+        check_outlet(self.outlet)
         if self.mesh_reynolds is not None:
             value = _bounded("mesh Reynolds number (--mesh-reynolds)", self.mesh_reynolds, MAX_REYNOLDS)
             object.__setattr__(self, "mesh_reynolds", value)
@@ -366,6 +379,7 @@ class Case:
         reference_length: float | None = None,
         mesh_reynolds: float | None = None,
         elastic_axis: float = 0.0,
+        outlet: str = "stress",
     ) -> Case:
         """From the command-line options (:func:`fsistab.bodies.make_body`). Every shape option is
         checked for every body: a value that makes no sense is refused even where it is not used.
@@ -380,6 +394,7 @@ class Case:
             domain=Domain(*domain) if domain is not None else None,
             sponge=parse_sponge(sponge),
             mesh_reynolds=mesh_reynolds,
+            outlet=outlet,
         )
 
     @property

@@ -23,10 +23,12 @@ def _pair(z) -> list[float]:
 def payload(command: str, ds: xr.Dataset) -> dict:
     """The JSON object a command prints, from the Dataset its workflow returned (and the figure
     path the command added as the ``figure`` attribute), with ``mesh_reynolds`` (the Re the mesh
-    is fitted to) when the dataset records one."""
+    is fitted to) and the ``outlet`` condition when the dataset records them."""
     result = _PAYLOADS[command](ds)
     if "mesh_reynolds" in ds.attrs:
         result["mesh_reynolds"] = float(ds.attrs["mesh_reynolds"])
+    if "outlet" in ds.attrs:
+        result["outlet"] = str(ds.attrs["outlet"])
     return result
 
 

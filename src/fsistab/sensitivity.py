@@ -872,7 +872,7 @@ def forced_steady(steady, force: np.ndarray, *, tol: float = 1e-12, maxit: int =
 
     from fsistab.steady import SteadyProblem
 
-    problem = SteadyProblem.on(steady.mesh, steady.space)
+    problem = SteadyProblem.on(steady.mesh, steady.space, outlet=steady.mesh_spec.outlet)
     state = GridFunction(steady.space)
     state.vec.data = steady.state.vec
     try:
@@ -1052,7 +1052,7 @@ def _drag_steady_state(steady, strength, grid_velocity, quadrature, tol: float, 
     from fsistab.steady import SteadyProblem
 
     space = steady.space
-    problem = SteadyProblem.on(steady.mesh, space)
+    problem = SteadyProblem.on(steady.mesh, space, outlet=steady.mesh_spec.outlet)
     state = GridFunction(space)
     state.vec.data = steady.state.vec
     problem.set_flow(steady.flow)

@@ -38,6 +38,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
+    integrals,
     mass_integrand,
     residual_integrand,
     steady_fields,
@@ -78,12 +79,13 @@ class InertialFluidResidual(FluidResidual):
     the same sum of terms, compiled (the march evaluates it a few times per step)."""
 
     def __init__(self, steady):
-        from ngsolve import BilinearForm, dx
+        from ngsolve import BilinearForm
 
         super().__init__(steady)
         (u, p), (v, q) = steady.space.TnT()
+        fields = steady_fields(steady)
         form = BilinearForm(steady.space)
-        form += residual_integrand(steady_fields(steady), self.motion, (u, p), (v, q)).Compile() * dx
+        form += integrals(residual_integrand(fields, self.motion, (u, p), (v, q)), fields, (u, p), (v, q))
         self.form = form
         self.mass = full_mass_matrix(steady)
         self.scale = 0.0
@@ -238,7 +240,7 @@ class TimeStepper:
         that velocity field, the other blocks kept, factorised anew at the next step (the same
         symbolic analysis). Only the iteration matrix changes, never the residual: a step
         converges to the same state."""
-        from ngsolve import BilinearForm, GridFunction, dx
+        from ngsolve import BilinearForm, GridFunction
 
         fluid = self.system.fluid
         steady = fluid.steady
@@ -247,7 +249,7 @@ class TimeStepper:
         fields = steady_fields(replace(steady, state=velocity))
         (u, p), (v, w) = steady.space.TnT()
         form = BilinearForm(steady.space)
-        form += stiffness_integrand(fields, (u, p), (v, w)).Compile() * dx
+        form += integrals(stiffness_integrand(fields, (u, p), (v, w)), fields, (u, p), (v, w))
         form.Assemble()
         index = fluid.free_dofs
         jff = _scipy_matrix(form.mat, steady.space.ndof)[index][:, index].tocsr()

@@ -3,7 +3,8 @@
 Unknowns are the absolute velocity written in the body axes ``U`` and the pressure ``P``
 (Taylor–Hood P2–P1). The steady state is the flow around the body held at ``θ0 = -α0`` with the
 uniform wall velocity ``W⁰ = R(θ0)ᵀ(-1, 0)ᵀ``; ``U = 0`` upstream and laterally, ``σN = 0``
-downstream. It depends on ``Re`` and ``α0`` only, so one steady state serves every solid parameter.
+downstream (or ``Re⁻¹(∇U)N − PN = 0``: the mesh specification's ``outlet``). It depends on ``Re``
+and ``α0`` only, so one steady state serves every solid parameter.
 """
 
 from __future__ import annotations
@@ -56,6 +57,27 @@ def momentum_form(velocity, pressure, test_velocity, test_pressure, grid_velocit
         - p * div(v)
         - q * div(u)
     )
+
+
+def outlet_form(velocity, test_velocity, inv_reynolds):
+    """``−Re⁻¹((∇U)ᵀN, v)`` on the outlet (docs/model.md §4, "Outlet"): added to
+    :func:`momentum_form`, it turns the natural condition ``σN = 0`` into ``Re⁻¹(∇U)N − PN = 0``
+    (the ``"gradient"`` outlet of :class:`fsistab.mesh.MeshSpec`), the condition of a residual
+    written with ``Re⁻¹(∇U, ∇v)``, without changing the interior equations or the wall loads.
+    Linear in ``U``: the same integrand in the residual and in every linearisation."""
+    from ngsolve import Grad, InnerProduct, specialcf
+
+    return -inv_reynolds * InnerProduct(Grad(velocity).trans * specialcf.normal(2), test_velocity)
+
+
+def outlet_integral(outlet: str, velocity, test_velocity, inv_reynolds):
+    """:func:`outlet_form` over the outlet for the ``"gradient"`` outlet, None for ``"stress"``."""
+    from ngsolve import ds
+
+    if outlet == "stress":
+        return None
+    # on the skeleton: the trial function's gradient is that of the element beside the outlet
+    return outlet_form(velocity, test_velocity, inv_reynolds) * ds("outlet", skeleton=True)
 
 
 def momentum_linearisation(
@@ -133,12 +155,14 @@ class SteadyProblem:
     inv_reynolds: object
     grid_velocity: object
     backend: str = "umfpack"
+    outlet: str = "stress"
     factorisations: int = 0
     analysis: object = field(default=None, repr=False)  # fsistab.umfpack.Analysis of the pattern
     _gather: _JacobianGather | None = field(default=None, repr=False)
 
     @classmethod
-    def on(cls, mesh, space=None, backend: str = "umfpack") -> SteadyProblem:
+    def on(cls, mesh, space=None, backend: str = "umfpack", outlet: str = "stress") -> SteadyProblem:
+        """The problem on ``mesh`` with the outlet condition ``outlet`` (:func:`outlet_integral`)."""
         from ngsolve import CF, BilinearForm, Parameter, dx
 
         check_backend(backend)
@@ -149,7 +173,10 @@ class SteadyProblem:
         grid_velocity = CF((wx, wy))
         form = BilinearForm(space)
         form += momentum_form(u, p, v, q, grid_velocity, inv_reynolds) * dx
-        return cls(mesh, space, form, inv_reynolds, (wx, wy), backend)
+        boundary = outlet_integral(outlet, u, v, inv_reynolds)
+        if boundary is not None:
+            form += boundary
+        return cls(mesh, space, form, inv_reynolds, (wx, wy), backend, outlet)
 
     # made on first use: a problem built for its residual alone (forces) does not pay for them
     @cached_property
@@ -175,6 +202,9 @@ class SteadyProblem:
         )
         form = BilinearForm(self.space)
         form += integrand * dx
+        boundary = outlet_integral(self.outlet, u, v, self.inv_reynolds)
+        if boundary is not None:
+            form += boundary
         return form
 
     def set_flow(self, flow: Flow) -> None:
@@ -417,7 +447,7 @@ def solve_steady(
 
     t0 = time.perf_counter()
     mesh = initial.mesh if initial is not None else build_mesh(spec, cache_dir)
-    problem = SteadyProblem.on(mesh, backend=backend)
+    problem = SteadyProblem.on(mesh, backend=backend, outlet=spec.outlet)
     from ngsolve import GridFunction
 
     state = GridFunction(problem.space)
@@ -452,7 +482,10 @@ def solve_steady(
 
 
 def steady_key(spec: MeshSpec, flow: Flow) -> str:
-    return store.cache_key("steady", {"mesh": spec.key(), "flow": asdict(flow), "tol": NEWTON_TOL})
+    inputs = {"mesh": spec.key(), "flow": asdict(flow), "tol": NEWTON_TOL}
+    if spec.outlet != "stress":  # the default outlet keeps the keys it always had
+        inputs["outlet"] = spec.outlet
+    return store.cache_key("steady", inputs)
 
 
 def steady_path(spec: MeshSpec, flow: Flow, cache_dir: Path) -> Path:

@@ -751,12 +751,13 @@ def _map(case: Case, settings: StudySettings, cache_dir: Path | None, counter, s
 def _case_identity(case: Case) -> dict:
     from fsistab.mesh import spec_for
 
+    linear = spec_for(case).linear_identity()
     return {
         "body": asdict(case.body),
         "flow": asdict(case.flow),
         "preset": case.preset,
         "domain": None if case.domain is None else asdict(case.domain),
-        "sponge": spec_for(case).linear_identity()["sponge"],
+        **{key: linear[key] for key in ("sponge", "outlet") if key in linear},
     }
 
 
@@ -778,7 +779,7 @@ def point_identity(case: Case, settings: StudySettings) -> str:
     return json.dumps(
         {
             "case": _case_identity(case),
-            "mesh_key": spec_for(case).key(),  # the sponge is in the case's identity
+            "mesh_key": spec_for(case).key(),  # the sponge and outlet are in the case's identity
             "settings": settings.point_identity(),
             "fsistab": __version__,
         },

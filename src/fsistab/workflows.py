@@ -147,6 +147,7 @@ def steady_flow(case: Case, cache_dir: Path, progress: Progress = None) -> Stead
             "reynolds": result.flow.reynolds,
             "alpha0_deg": result.flow.alpha0_deg,
             "mesh_reynolds": case.fitted_reynolds,
+            "outlet": case.outlet,
             "lift_coefficient": coefficients.lift,
             "moment_coefficient": coefficients.moment,
             "drag_coefficient": coefficients.drag,
