@@ -1241,7 +1241,8 @@ def simulate(
         "steps_this_run": steps,
         "seconds_per_step": seconds / steps if steps else float("nan"),
         "factorisations": stepper.counter.count,
-        "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M at the steady state",
+        "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M, J_ff rebuilt about the "
+        "current flow after a step with many iterations",
         "conventions": "time in L/U; heave in L, pitch in rad (counter-clockwise +); coefficients "
         "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about the pitch axis",
         "checkpoint": str(path),
