@@ -157,3 +157,18 @@ def test_outlet_option(tmp_path, gradient_40, cylinder_coarse_40):
     assert refused.exit_code != 0
     assert "unknown outlet condition 'free'" in refused.output
     assert sorted((tmp_path / "cache").rglob("*")) == before
+
+
+def test_reynolds_tangent_with_the_gradient_outlet_matches_steady_states(gradient_40):
+    """``dq⁰/dRe`` (:func:`fsistab.sensitivity.flow_tangent`, (S2)) with the gradient outlet, whose
+    term is ``Re⁻¹``-weighted too, against the central difference of its steady states at
+    Re 40 ± 0.2 (Newton from Re 40), on the free dofs near the outlet and everywhere."""
+    from fsistab.sensitivity import flow_tangent
+
+    steady, step = gradient_40, 0.2
+    tangent = flow_tangent(fluid_operators(steady), "reynolds").steady_tangent
+    sides = [solve_steady(steady.mesh_spec, Flow(40 + s * step), initial=steady) for s in (-1, 1)]
+    difference = (sides[1].state.vec.FV().NumPy() - sides[0].state.vec.FV().NumPy()) / (2 * step)
+    free = np.array(list(steady.space.FreeDofs()), dtype=bool)
+    error = np.abs(tangent - difference)[free].max()
+    assert error < 1e-4 * np.abs(difference[free]).max()

@@ -438,6 +438,7 @@ def flow_tangent(fluid: FluidOperators, parameter: str, factor: FluidFactor | No
     from ngsolve import Grad, GridFunction, InnerProduct, LinearForm, dx
 
     from fsistab.operators import wall_coefficients_jacobian, wall_lifting_matrix
+    from fsistab.steady import outlet_integral
 
     if parameter not in FLOW_PARAMETERS:
         raise InputError(f"{parameter!r} is not a flow parameter ({', '.join(FLOW_PARAMETERS)})")
@@ -448,11 +449,15 @@ def flow_tangent(fluid: FluidOperators, parameter: str, factor: FluidFactor | No
     space, index, flow = steady.space, fluid.free_dofs, steady.flow
     direction = np.zeros(space.ndof)  # dq⁰/dc on every dof
     if parameter == "reynolds":
-        # c = 1/Re: ∂R_f/∂c = (∇U⁰ + ∇U⁰ᵀ, ∇v), the viscous term; the wall values do not move
+        # c = 1/Re: ∂R_f/∂c = (∇U⁰ + ∇U⁰ᵀ, ∇v), the viscous term, and the gradient outlet's
+        # term (fsistab.steady.outlet_form) at c = 1; the wall values do not move
         (_, _), (v, _) = space.TnT()
         u0 = steady.velocity
         form = LinearForm(space)
         form += InnerProduct(Grad(u0) + Grad(u0).trans, Grad(v)) * dx
+        outlet = outlet_integral(steady.mesh_spec.outlet, u0, v, 1.0)
+        if outlet is not None:
+            form += outlet
         form.Assemble()
         direction[index] = -factor.solve(form.vec.FV().NumPy()[index])
         centre = 1.0 / flow.reynolds
