@@ -1,0 +1,200 @@
+"""The fixed plate's wake onset in angle of attack at Re = 500 against the discretisation.
+
+Reported in docs/discretisation.md ("The wake onset in α0 at Re 500"). Each variant is a mesh fitted
+to Re 500 (a preset's sizes with some overridden) with its outlet layers and condition; on each the
+script computes, with the library's own functions and one thread:
+
+* the fixed plate's spectrum at ``α0 = 8, 10, 12, 14°``: the eigenvalues nearest the shifts
+  ``0.1 + iω`` for ``ω`` in ``SHIFTS`` (shift-invert Arnoldi, :func:`fsistab.eigen.eigenpairs_near`,
+  one factorisation per shift), each with the share of its kinetic energy in the near wake
+  ``NEAR_WAKE`` (the flow's modes have most of it there, the truncated domain's a few per cent), so
+  that a mode that changes rank between meshes is seen;
+* the onset ``α0_c``, ``ω_c`` (:func:`fsistab.onset.critical_onset`, the secant on the leading growth
+  rate), from the angle and frequency where the leading wake mode of the spectra crosses the axis
+  (linear interpolation between the two angles that bracket it; from the largest angle otherwise).
+
+The steady states are continued in α0 from 8° and cached (``--cache``). One JSON line per variant is
+appended to ``--out`` (a variant already there is skipped, so a rerun resumes), with wall and CPU
+times, factorisations and the peak memory.
+
+Usage: python validation/alpha0_onset_study.py [VARIANT ...] [--out FILE] [--cache DIR]
+       python validation/alpha0_onset_study.py --list
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from ngsolve import SetNumThreads
+
+from fsistab.bodies import Plate
+from fsistab.coupled import CoupledSystem
+from fsistab.eigen import eigenpairs_near
+from fsistab.linalg import FactorCounter
+from fsistab.mesh import mesh_spec
+from fsistab.onset import critical_onset
+from fsistab.operators import fluid_operators
+from fsistab.params import Flow, Solid
+from fsistab.steady import solve_steady
+from fsistab.store import default_cache_dir
+
+REYNOLDS = 500.0
+ANGLES = (8.0, 10.0, 12.0, 14.0)  # degrees
+SHIFTS = (2.0, 2.8, 3.6, 4.4)  # frequencies of the Arnoldi shifts (the wake modes lie at ω 2.5-4.2)
+N_EIGENVALUES = 8
+NEAR_WAKE = (-1.0, 10.0, 4.0)  # the box [x0, x1] × [-h, h] of the energy share (chords)
+
+# the near-body sizes (wall, corner, near) of the `fine` preset, and a level beyond it
+NEAR2 = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
+NEAR3 = {"wall": 0.005, "corner": 0.001, "near": 0.008}
+
+# name: (preset, size overrides, outlet layers of the preset (True) or none (False), outlet)
+VARIANTS = {
+    "coarse": ("coarse", {}, True, "stress"),
+    "default": ("medium", {}, True, "stress"),
+    # near-body resolution: the `fine` preset's near-body sizes, then finer; the corners alone
+    "near2": ("medium", NEAR2, True, "stress"),
+    "near3": ("medium", NEAR3, True, "stress"),
+    "corner": ("medium", {"corner": 0.001}, True, "stress"),
+    # a wake box wide enough for the wake tilted by α0 ≤ 16° over 12 chords (the default's, 1 chord
+    # wide, holds it for 3.5-5.5 chords only)
+    "wide-wake": ("medium", {"wake_length": 12.0, "wake_half_width": 3.5}, True, "stress"),
+    # the outlet: no layers; the gradient condition (docs/model.md §4)
+    "bare": ("medium", {}, False, "stress"),
+    "gradient": ("medium", {}, True, "gradient"),
+    # coarse with the default's near-body sizes, and with the default's wake box
+    "coarse-near": ("coarse", {"wall": 0.015, "corner": 0.003, "near": 0.025}, True, "stress"),
+    "coarse-wake": ("coarse", {"wake": 0.05, "wake_length": 20.0, "wake_half_width": 1.0}, True, "stress"),
+}
+
+
+def variant_spec(name: str):
+    """The mesh of a variant fitted to Re 500, with its outlet layers and outlet condition."""
+    preset, sizes, layers, outlet = VARIANTS[name]
+    return mesh_spec(Plate(), preset, REYNOLDS, sponge="preset" if layers else None, outlet=outlet, **sizes)
+
+
+def region_mass(fluid, box) -> sp.csr_matrix:
+    """Velocity mass restricted to the box ``[x0, x1] × [-h, h]`` (fluid unknowns)."""
+    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
+
+    x0, x1, half = box
+    (u, _), (v, _) = fluid.steady.space.TnT()
+    form = BilinearForm(fluid.steady.space)
+    inside = IfPos(x - x0, IfPos(x1 - x, IfPos(half * half - y * y, 1.0, 0.0), 0.0), 0.0)
+    form += inside * InnerProduct(u, v) * dx
+    form.Assemble()
+    rows, cols, values = form.mat.COO()
+    n = fluid.steady.space.ndof
+    index = fluid.free_dofs
+    matrix = sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(n, n))
+    return matrix[index][:, index]
+
+
+def spectrum(fluid, counter) -> list[list[float]]:
+    """``[growth rate, frequency, near-wake share]`` of the fixed plate's eigenvalues nearest the
+    shifts ``0.1 + iω`` (``ω`` in :data:`SHIFTS`), least stable first."""
+    mass = region_mass(fluid, NEAR_WAKE)
+    system = CoupledSystem(fluid, Solid(dofs=()))
+    pairs = eigenpairs_near(system, [0.1 + 1j * w for w in SHIFTS], N_EIGENVALUES, counter=counter)
+    rows = []
+    for p in pairs:
+        share = np.vdot(p.vector, mass @ p.vector).real / np.vdot(p.vector, fluid.mff @ p.vector).real
+        rows.append([p.value.real, p.value.imag, float(share)])
+    return sorted(rows, key=lambda r: -r[0])
+
+
+def leading_wake_mode(rows) -> list[float]:
+    """The least stable of ``rows`` with at least half its energy in the near wake."""
+    return next(r for r in rows if r[2] >= 0.5)
+
+
+def onset_start(spectra: dict[float, list[list[float]]]) -> tuple[float, complex]:
+    """``(guess, shift)`` of the secant: where the leading wake mode's growth rate changes sign
+    between two angles (linear interpolation), the shift at the frequency of the unstable one (the
+    mode that leads may change between the two); else the largest angle and its leading mode."""
+    angles = sorted(spectra)
+    lead = {a: leading_wake_mode(spectra[a]) for a in angles}
+    for a, b in zip(angles, angles[1:], strict=False):
+        if lead[a][0] < 0 <= lead[b][0]:
+            t = -lead[a][0] / (lead[b][0] - lead[a][0])
+            return a + t * (b - a), 1j * lead[b][1]
+    last = angles[-1] if lead[angles[-1]][0] < 0 else angles[0]
+    return last, 1j * lead[last][1]
+
+
+def run_variant(name: str, cache: Path) -> dict:
+    """The spectra at :data:`ANGLES` and the onset on the mesh of ``name``."""
+    spec = variant_spec(name)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    counter = FactorCounter()
+    spectra, steady_factorisations, steady = {}, 0, None
+    for angle in ANGLES:
+        steady = solve_steady(spec, Flow(REYNOLDS, angle), cache_dir=cache, initial=steady)
+        steady_factorisations += 0 if steady.from_cache else steady.factorisations
+        fluid = fluid_operators(steady)
+        spectra[angle] = spectrum(fluid, counter)
+        print(f"{name} α0 {angle:g}: {spectra[angle][:3]}", flush=True)
+    spectra_wall = time.perf_counter() - wall0
+    guess, shift = onset_start(spectra)
+    result = critical_onset(spec, Flow(REYNOLDS), "alpha0", round(guess, 3), shift, cache_dir=cache)
+    return {
+        "variant": name,
+        "reynolds": REYNOLDS,
+        "mesh": spec.describe(),
+        "unknowns": int(fluid.n_fluid),
+        "spectra": {f"{a:g}": rows for a, rows in spectra.items()},
+        "onset_guess": [guess, shift.imag],
+        "critical_alpha0": result.critical_value,
+        "critical_frequency": result.frequency,
+        "onset_iterates": [[i.value, i.growth_rate, i.frequency] for i in result.iterates],
+        "factorisations": counter.count + steady_factorisations + result.factorisations,
+        "spectra_wall_s": spectra_wall,
+        "wall_s": time.perf_counter() - wall0,
+        "cpu_s": time.process_time() - cpu0,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("variants", nargs="*", default=list(VARIANTS))
+    parser.add_argument("--out", default="docs/data/alpha0_onset_Re500.jsonl")
+    parser.add_argument("--cache", default=None)
+    parser.add_argument("--list", action="store_true")
+    args = parser.parse_args()
+    if args.list:
+        for name, variant in VARIANTS.items():
+            print(name, variant)
+        return
+    unknown = [name for name in args.variants if name not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variants {unknown}; --list shows them")
+    SetNumThreads(1)
+    out = Path(args.out)
+    done = set()
+    if out.exists():
+        done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
+    cache = Path(args.cache) if args.cache else default_cache_dir()
+    for name in args.variants:
+        if name in done:
+            print(f"{name}: done")
+            continue
+        try:
+            record = run_variant(name, cache)
+        except Exception as exc:  # one failed variant must not stop the study
+            record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
+        print(json.dumps(record), flush=True)
+        if "error" not in record:
+            with out.open("a") as handle:
+                handle.write(json.dumps(record) + "\n")
+
+
+if __name__ == "__main__":
+    main()
