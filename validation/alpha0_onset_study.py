@@ -18,6 +18,8 @@ appended to ``--out`` (a variant already there is skipped, so a rerun resumes), 
 times, factorisations and the peak memory.
 
 Usage: python validation/alpha0_onset_study.py [VARIANT ...] [--out FILE] [--cache DIR]
+       python validation/alpha0_onset_study.py VARIANT --wavemaker ALPHA0 OMEGA [--out FILE]
+       python validation/alpha0_onset_study.py [VARIANT ...] --figure PNG [--wavemaker-maps NPZ ...]
        python validation/alpha0_onset_study.py --list
 """
 
@@ -162,17 +164,124 @@ def run_variant(name: str, cache: Path) -> dict:
     }
 
 
+def vertices(fluid, box) -> np.ndarray:
+    """The mesh vertices in the box ``[x0, x1] × [y0, y1]`` (N × 2)."""
+    x0, x1, y0, y1 = box
+    points = np.array([p.p[:2] for p in fluid.steady.mesh.ngmesh.Points()])
+    keep = (points[:, 0] >= x0) & (points[:, 0] <= x1) & (points[:, 1] >= y0) & (points[:, 1] <= y1)
+    return points[keep]
+
+
+WAVEMAKER_BOX = (-1.0, 4.0, -2.0, 2.0)
+
+
+def wavemaker(name: str, angle: float, frequency: float, cache: Path, out: Path) -> dict:
+    """The structural sensitivity ``‖û†‖‖û‖`` (Giannetti & Luchini 2007,
+    :func:`fsistab.sensitivity.structural_sensitivity`) of the fixed plate's least stable wake
+    mode near ``iω`` (of the six nearest ``0.05 + iω``) at ``angle`` on the mesh of ``name``: its
+    peak, and the share of ``Σ S²`` over the vertices of :data:`WAVEMAKER_BOX` that lie within
+    about 0.1 chord of the plate (``|X| ≤ 0.6, |Y| ≤ 0.125``). The values at those vertices are
+    saved to ``out`` (NumPy ``.npz``)."""
+    from fsistab.sensitivity import adjoint_mode, structural_sensitivity
+
+    spec = variant_spec(name)
+    steady = None
+    for a in ANGLES:  # continued as in run_variant, so the cached states are reused
+        steady = solve_steady(spec, Flow(REYNOLDS, a), cache_dir=cache, initial=steady)
+        if a == angle:
+            break
+    fluid = fluid_operators(steady)
+    system = CoupledSystem(fluid, Solid(dofs=()))
+    counter = FactorCounter()
+    pairs = eigenpairs_near(system, [0.05 + 1j * frequency], 6, counter=counter)
+    mass = region_mass(fluid, NEAR_WAKE)
+    pairs = [
+        p
+        for p in pairs
+        if np.vdot(p.vector, mass @ p.vector).real > 0.5 * np.vdot(p.vector, fluid.mff @ p.vector).real
+    ]
+    pair = max(pairs, key=lambda p: p.value.real)  # the least stable wake mode near iω
+    mode = adjoint_mode(system, pair.value, pair.vector, counter=counter)
+    points = vertices(fluid, WAVEMAKER_BOX)
+    values = structural_sensitivity(fluid, mode, points)
+    np.savez_compressed(out, points=points, sensitivity=values, eigenvalue=pair.value)
+    peak = points[np.argmax(values)]
+    weight = values**2
+    near_body = (np.abs(points[:, 0]) <= 0.6) & (np.abs(points[:, 1]) <= 0.125)
+    return {
+        "variant": name,
+        "alpha0": angle,
+        "eigenvalue": [pair.value.real, pair.value.imag],
+        "peak": peak.tolist(),
+        "near_body_share": float(weight[near_body].sum() / weight.sum()),
+        "factorisations": counter.count,
+    }
+
+
+def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
+    """The leading wake mode's growth rate against α0 on each mesh (the spectra's, and the onset
+    marked), and the structural sensitivity maps given (``.npz`` of :func:`wavemaker`)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    columns = 1 + len(wavemakers)
+    fig, axes = plt.subplots(1, columns, figsize=(5 * columns, 3.8), squeeze=False)
+    ax = axes[0, 0]
+    for r in records:
+        angles = sorted(float(a) for a in r["spectra"])
+        rates = [leading_wake_mode(r["spectra"][f"{a:g}"])[0] for a in angles]
+        (line,) = ax.plot(angles, rates, "o-", label=f"{r['variant']} ({r['unknowns']:,})")
+        ax.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=9)
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel(r"$\alpha_0$ (degrees)")
+    ax.set_ylabel(r"leading growth rate $\lambda$ ($U_\infty/L$)")
+    ax.set_title("fixed plate, Re 500: leading wake mode")
+    ax.legend(fontsize=7)
+    for ax, npz in zip(axes[0, 1:], wavemakers, strict=True):
+        data = np.load(npz)
+        points, values = data["points"], data["sensitivity"]
+        contour = ax.tricontourf(points[:, 0], points[:, 1], values / values.max(), levels=20, cmap="viridis")
+        ax.fill([-0.5, 0.5, 0.5, -0.5], [-0.025, -0.025, 0.025, 0.025], color="w", ec="k", lw=0.5)
+        ax.set_aspect("equal")
+        value = complex(data["eigenvalue"])
+        ax.set_title(
+            f"{npz.stem.split('_', 1)[1]}: $\\sigma$ = {value.real:+.3f} {value.imag:+.3f}i", fontsize=9
+        )
+        fig.colorbar(contour, ax=ax, shrink=0.7, label=r"$\|\hat u^\dagger\|\,\|\hat u\|$ / max")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("variants", nargs="*", default=list(VARIANTS))
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("variants", nargs="*", default=[])
     parser.add_argument("--out", default="docs/data/alpha0_onset_Re500.jsonl")
     parser.add_argument("--cache", default=None)
     parser.add_argument("--list", action="store_true")
+    parser.add_argument(
+        "--wavemaker",
+        nargs=2,
+        type=float,
+        metavar=("ALPHA0", "OMEGA"),
+        help="the structural sensitivity of the wake mode nearest iOMEGA at ALPHA0 instead (prints it)",
+    )
+    parser.add_argument("--figure", default=None, help="draw --out (and the --wavemaker-maps) to this PNG")
+    parser.add_argument("--wavemaker-maps", nargs="*", default=[], help=".npz files of --wavemaker")
     args = parser.parse_args()
+    if args.figure:
+        records = [json.loads(line) for line in Path(args.out).read_text().splitlines() if line.strip()]
+        chosen = [r for r in records if r["variant"] in args.variants] if args.variants else records
+        draw(chosen, [Path(p) for p in args.wavemaker_maps], Path(args.figure))
+        return
     if args.list:
         for name, variant in VARIANTS.items():
             print(name, variant)
         return
+    args.variants = args.variants or list(VARIANTS)
     unknown = [name for name in args.variants if name not in VARIANTS]
     if unknown:
         parser.error(f"unknown variants {unknown}; --list shows them")
@@ -182,6 +291,11 @@ def main() -> None:
     if out.exists():
         done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
     cache = Path(args.cache) if args.cache else default_cache_dir()
+    if args.wavemaker:
+        for name in args.variants:
+            npz = out.with_name(f"wavemaker_{name}_a{args.wavemaker[0]:g}.npz")
+            print(json.dumps(wavemaker(name, *args.wavemaker, cache, npz)), flush=True)
+        return
     for name in args.variants:
         if name in done:
             print(f"{name}: done")
