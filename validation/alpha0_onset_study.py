@@ -42,7 +42,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.mesh import mesh_spec
 from fsistab.onset import critical_onset
 from fsistab.operators import fluid_operators
-from fsistab.params import Flow, Solid
+from fsistab.params import Domain, Flow, Solid
 from fsistab.steady import solve_steady
 from fsistab.store import default_cache_dir
 
@@ -56,7 +56,19 @@ NEAR_WAKE = (-1.0, 10.0, 4.0)  # the box [x0, x1] × [-h, h] of the energy share
 NEAR2 = {"wall": 0.008, "corner": 0.0015, "near": 0.012}
 NEAR3 = {"wall": 0.005, "corner": 0.001, "near": 0.008}
 
-# name: (preset, size overrides, outlet layers of the preset (True) or none (False), outlet)
+# the inner mesh of `coarse` (near-body sizes and wake box)
+COARSE_INNER = {
+    "wall": 0.03,
+    "corner": 0.005,
+    "near": 0.05,
+    "wake": 0.15,
+    "wake_length": 4.0,
+    "wake_half_width": 0.6,
+}
+# the outer mesh of `coarse`: its far-field size, no middle box or band (its domain is in VARIANTS)
+COARSE_OUTER = {"far": 4.0, "middle": None, "middle_box": None, "middle_band": None}
+
+# name: (preset, size overrides, outlet layers of the preset (True) or none (False), outlet[, domain])
 VARIANTS = {
     "coarse": ("coarse", {}, True, "stress"),
     "default": ("medium", {}, True, "stress"),
@@ -73,13 +85,17 @@ VARIANTS = {
     # coarse with the default's near-body sizes, and with the default's wake box
     "coarse-near": ("coarse", {"wall": 0.015, "corner": 0.003, "near": 0.025}, True, "stress"),
     "coarse-wake": ("coarse", {"wake": 0.05, "wake_length": 20.0, "wake_half_width": 1.0}, True, "stress"),
+    # the default's inner mesh in coarse's domain and far field, and coarse's inner mesh in the default's
+    "coarse-outer": ("medium", COARSE_OUTER, False, "stress", Domain(20.0, 40.0, 20.0)),
+    "coarse-inner": ("medium", COARSE_INNER, True, "stress"),
 }
 
 
 def variant_spec(name: str):
     """The mesh of a variant fitted to Re 500, with its outlet layers and outlet condition."""
-    preset, sizes, layers, outlet = VARIANTS[name]
-    return mesh_spec(Plate(), preset, REYNOLDS, sponge="preset" if layers else None, outlet=outlet, **sizes)
+    preset, sizes, layers, outlet, *domain = VARIANTS[name]
+    sponge = "preset" if layers else None
+    return mesh_spec(Plate(), preset, REYNOLDS, *domain, sponge=sponge, outlet=outlet, **sizes)
 
 
 def region_mass(fluid, box) -> sp.csr_matrix:
@@ -244,6 +260,8 @@ def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
         points, values = data["points"], data["sensitivity"]
         contour = ax.tricontourf(points[:, 0], points[:, 1], values / values.max(), levels=20, cmap="viridis")
         ax.fill([-0.5, 0.5, 0.5, -0.5], [-0.025, -0.025, 0.025, 0.025], color="w", ec="k", lw=0.5)
+        ax.set_xlim(-0.8, 2.5)
+        ax.set_ylim(-0.8, 1.0)
         ax.set_aspect("equal")
         value = complex(data["eigenvalue"])
         ax.set_title(
