@@ -150,13 +150,14 @@ def onset_start(spectra: dict[float, list[list[float]]]) -> tuple[float, complex
     return last, 1j * lead[last][1]
 
 
-def run_variant(name: str, cache: Path) -> dict:
-    """The spectra at :data:`ANGLES` and the onset on the mesh of ``name``."""
+def run_variant(name: str, cache: Path, angles=ANGLES) -> dict:
+    """The spectra at ``angles`` (increasing, from 8°: the steady states are continued) and the
+    onset on the mesh of ``name``."""
     spec = variant_spec(name)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     counter = FactorCounter()
     spectra, steady_factorisations, steady = {}, 0, None
-    for angle in ANGLES:
+    for angle in angles:
         steady = solve_steady(spec, Flow(REYNOLDS, angle), cache_dir=cache, initial=steady)
         steady_factorisations += 0 if steady.from_cache else steady.factorisations
         fluid = fluid_operators(steady)
@@ -283,6 +284,7 @@ def main() -> None:
     parser.add_argument("--out", default="docs/data/alpha0_onset_Re500.jsonl")
     parser.add_argument("--cache", default=None)
     parser.add_argument("--list", action="store_true")
+    parser.add_argument("--angles", nargs="+", type=float, default=list(ANGLES), help="the spectra's α0")
     parser.add_argument(
         "--wavemaker",
         nargs=2,
@@ -322,7 +324,7 @@ def main() -> None:
             print(f"{name}: done")
             continue
         try:
-            record = run_variant(name, cache)
+            record = run_variant(name, cache, sorted(args.angles))
         except Exception as exc:  # one failed variant must not stop the study
             record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
         print(json.dumps(record), flush=True)
