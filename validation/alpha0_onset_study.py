@@ -89,6 +89,8 @@ VARIANTS = {
     # the default's inner mesh in coarse's domain and far field, and coarse's inner mesh in the default's
     "coarse-outer": ("medium", COARSE_OUTER, False, "stress", Domain(20.0, 40.0, 20.0)),
     "coarse-inner": ("medium", COARSE_INNER, True, "stress"),
+    # coarse's domain with 1-chord elements in the whole far field (the default's inner mesh)
+    "small-domain": ("medium", {**COARSE_OUTER, "far": 1.0}, False, "stress", Domain(20.0, 40.0, 20.0)),
 }
 
 
