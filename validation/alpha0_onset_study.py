@@ -4,18 +4,21 @@ Reported in docs/discretisation.md ("The wake onset in α0 at Re 500"). Each var
 to Re 500 (a preset's sizes with some overridden) with its outlet layers and condition; on each the
 script computes, with the library's own functions and one thread:
 
-* the fixed plate's spectrum at ``α0 = 8, 10, 12, 14°``: the eigenvalues nearest the shifts
-  ``0.1 + iω`` for ``ω`` in ``SHIFTS`` (shift-invert Arnoldi, :func:`fsistab.eigen.eigenpairs_near`,
-  one factorisation per shift), each with the share of its kinetic energy in the near wake
-  ``NEAR_WAKE`` (the flow's modes have most of it there, the truncated domain's a few per cent), so
-  that a mode that changes rank between meshes is seen;
+* the fixed plate's spectrum at ``α0 = 8, 10, 12, 14°`` (``--angles``): the eigenvalues nearest
+  the shifts ``0.1 + iω`` for ``ω`` in ``SHIFTS`` (shift-invert Arnoldi,
+  :func:`fsistab.eigen.eigenpairs_near`, one factorisation per shift), each with the share of its
+  kinetic energy in the near wake ``NEAR_WAKE``, so that a mode that changes rank between meshes
+  is seen (a wake mode resolved over a long wake box carries much of its energy downstream);
 * the onset ``α0_c``, ``ω_c`` (:func:`fsistab.onset.critical_onset`, the secant on the leading growth
-  rate), from the angle and frequency where the leading wake mode of the spectra crosses the axis
-  (linear interpolation between the two angles that bracket it; from the largest angle otherwise).
+  rate), from the angle and frequency where the least stable eigenvalue of the spectra crosses the
+  axis (linear interpolation between the two angles that bracket it; from the largest angle
+  otherwise).
 
-The steady states are continued in α0 from 8° and cached (``--cache``). One JSON line per variant is
+The steady states are continued in α0 from 8° and cached (``--cache``); each spectrum is appended
+to ``OUT_spectra.jsonl`` beside ``--out`` and read back on a rerun. One JSON line per variant is
 appended to ``--out`` (a variant already there is skipped, so a rerun resumes), with wall and CPU
-times, factorisations and the peak memory.
+times (of this run: spectra read back cost nothing), factorisations and the peak memory; an onset
+that fails leaves the spectra and its error (``onset_error``).
 
 Usage: python validation/alpha0_onset_study.py [VARIANT ...] [--out FILE] [--cache DIR]
        python validation/alpha0_onset_study.py VARIANT --wavemaker ALPHA0 OMEGA [--out FILE]
@@ -131,19 +134,14 @@ def spectrum(fluid, counter) -> list[list[float]]:
     return sorted(rows, key=lambda r: -r[0])
 
 
-def leading_wake_mode(rows) -> list[float]:
-    """The least stable of ``rows`` with at least :data:`WAKE_SHARE` of its energy in the near wake
-    (a wake mode carries 0.5-1 of it there, more of it downstream the finer the wake box; a mode of
-    the truncated domain 0.02 or less)."""
-    return next(r for r in rows if r[2] >= WAKE_SHARE)
-
-
 def onset_start(spectra: dict[float, list[list[float]]]) -> tuple[float, complex]:
-    """``(guess, shift)`` of the secant: where the leading wake mode's growth rate changes sign
-    between two angles (linear interpolation), the shift at the frequency of the unstable one (the
-    mode that leads may change between the two); else the largest angle and its leading mode."""
+    """``(guess, shift)`` of the secant: where the least stable eigenvalue's growth rate changes
+    sign between two angles (linear interpolation), the shift at the frequency of the unstable one
+    (the mode that leads may change between the two); else the largest angle and its leading mode.
+    The leading mode is whatever mode leads (``rows[0]``), wake mode or not: the onset is where
+    the fixed plate first turns unstable."""
     angles = sorted(spectra)
-    lead = {a: leading_wake_mode(spectra[a]) for a in angles}
+    lead = {a: spectra[a][0] for a in angles}
     for a, b in zip(angles, angles[1:], strict=False):
         if lead[a][0] < 0 <= lead[b][0]:
             t = -lead[a][0] / (lead[b][0] - lead[a][0])
@@ -152,9 +150,23 @@ def onset_start(spectra: dict[float, list[list[float]]]) -> tuple[float, complex
     return last, 1j * lead[last][1]
 
 
-def run_variant(name: str, cache: Path, angles=ANGLES) -> dict:
-    """The spectra at ``angles`` (increasing, from 8°: the steady states are continued) and the
-    onset on the mesh of ``name``."""
+def cached_spectrum(name: str, angle: float, steady, counter, store: Path) -> list[list[float]]:
+    """:func:`spectrum` at ``angle`` on the mesh of ``name``, read from ``store`` (JSON lines) when
+    it is there, else computed and appended to it, so that a rerun resumes."""
+    if store.exists():
+        for line in store.read_text().splitlines():
+            entry = json.loads(line) if line.strip() else {}
+            if entry.get("variant") == name and entry.get("alpha0") == angle:
+                return entry["rows"]
+    rows = spectrum(fluid_operators(steady), counter)
+    with store.open("a") as handle:
+        handle.write(json.dumps({"variant": name, "alpha0": angle, "rows": rows}) + "\n")
+    return rows
+
+
+def run_variant(name: str, cache: Path, store: Path, angles=ANGLES) -> dict:
+    """The spectra at ``angles`` (increasing, from 8°: the steady states are continued; kept in
+    ``store``) and the onset on the mesh of ``name``; an onset that fails is recorded as such."""
     spec = variant_spec(name)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     counter = FactorCounter()
@@ -162,28 +174,33 @@ def run_variant(name: str, cache: Path, angles=ANGLES) -> dict:
     for angle in angles:
         steady = solve_steady(spec, Flow(REYNOLDS, angle), cache_dir=cache, initial=steady)
         steady_factorisations += 0 if steady.from_cache else steady.factorisations
-        fluid = fluid_operators(steady)
-        spectra[angle] = spectrum(fluid, counter)
+        spectra[angle] = cached_spectrum(name, angle, steady, counter, store)
         print(f"{name} α0 {angle:g}: {spectra[angle][:3]}", flush=True)
-    spectra_wall = time.perf_counter() - wall0
-    guess, shift = onset_start(spectra)
-    result = critical_onset(spec, Flow(REYNOLDS), "alpha0", round(guess, 3), shift, cache_dir=cache)
-    return {
+    record = {
         "variant": name,
         "reynolds": REYNOLDS,
         "mesh": spec.describe(),
-        "unknowns": int(fluid.n_fluid),
+        "unknowns": int(fluid_operators(steady).n_fluid),
         "spectra": {f"{a:g}": rows for a, rows in spectra.items()},
-        "onset_guess": [guess, shift.imag],
-        "critical_alpha0": result.critical_value,
-        "critical_frequency": result.frequency,
-        "onset_iterates": [[i.value, i.growth_rate, i.frequency] for i in result.iterates],
-        "factorisations": counter.count + steady_factorisations + result.factorisations,
-        "spectra_wall_s": spectra_wall,
-        "wall_s": time.perf_counter() - wall0,
-        "cpu_s": time.process_time() - cpu0,
-        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+        "spectra_wall_s": time.perf_counter() - wall0,
     }
+    guess, shift = onset_start(spectra)
+    record["onset_guess"] = [guess, shift.imag]
+    try:
+        result = critical_onset(spec, Flow(REYNOLDS), "alpha0", round(guess, 3), shift, cache_dir=cache)
+    except Exception as exc:  # the spectra stand without the onset
+        record["onset_error"] = f"{type(exc).__name__}: {exc}"
+        onset_factorisations = 0
+    else:
+        record["critical_alpha0"] = result.critical_value
+        record["critical_frequency"] = result.frequency
+        record["onset_iterates"] = [[i.value, i.growth_rate, i.frequency] for i in result.iterates]
+        onset_factorisations = result.factorisations
+    record["factorisations"] = counter.count + steady_factorisations + onset_factorisations
+    record["wall_s"] = time.perf_counter() - wall0
+    record["cpu_s"] = time.process_time() - cpu0
+    record["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+    return record
 
 
 def vertices(fluid, box) -> np.ndarray:
@@ -253,13 +270,14 @@ def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
     ax = axes[0, 0]
     for r in records:
         angles = sorted(float(a) for a in r["spectra"])
-        rates = [leading_wake_mode(r["spectra"][f"{a:g}"])[0] for a in angles]
+        rates = [r["spectra"][f"{a:g}"][0][0] for a in angles]
         (line,) = ax.plot(angles, rates, "o-", label=f"{r['variant']} ({r['unknowns']:,})")
-        ax.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=9)
+        if "critical_alpha0" in r:
+            ax.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=9)
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel(r"$\alpha_0$ (degrees)")
     ax.set_ylabel(r"leading growth rate $\lambda$ ($U_\infty/L$)")
-    ax.set_title("fixed plate, Re 500: leading wake mode")
+    ax.set_title("fixed plate, Re 500: least stable mode")
     ax.legend(fontsize=7)
     for ax, npz in zip(axes[0, 1:], wavemakers, strict=True):
         data = np.load(npz)
@@ -316,6 +334,7 @@ def main() -> None:
     if out.exists():
         done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
     cache = Path(args.cache) if args.cache else default_cache_dir()
+    store = out.with_name(out.stem + "_spectra.jsonl")
     if args.wavemaker:
         for name in args.variants:
             npz = out.with_name(f"wavemaker_{name}_a{args.wavemaker[0]:g}.npz")
@@ -326,7 +345,7 @@ def main() -> None:
             print(f"{name}: done")
             continue
         try:
-            record = run_variant(name, cache, sorted(args.angles))
+            record = run_variant(name, cache, store, sorted(args.angles))
         except Exception as exc:  # one failed variant must not stop the study
             record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
         print(json.dumps(record), flush=True)
