@@ -8,7 +8,9 @@ script computes, with the library's own functions and one thread:
   the shifts ``0.1 + iω`` for ``ω`` in ``SHIFTS`` (shift-invert Arnoldi,
   :func:`fsistab.eigen.eigenpairs_near`, one factorisation per shift), each with the share of its
   kinetic energy in the near wake ``NEAR_WAKE``, so that a mode that changes rank between meshes
-  is seen (a wake mode resolved over a long wake box carries much of its energy downstream);
+  is seen (a wake mode resolved over a long wake box carries much of its energy downstream). On
+  such meshes the eight eigenvalues nearest a fixed shift can all be weakly damped far-wake modes
+  and miss the wake mode: check it with a shift at its frequency (docs/discretisation.md);
 * the onset ``α0_c``, ``ω_c`` (:func:`fsistab.onset.critical_onset`, the secant on the leading growth
   rate), from the angle and frequency where the least stable eigenvalue of the spectra crosses the
   axis (linear interpolation between the two angles that bracket it; from the largest angle
@@ -35,8 +37,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 from ngsolve import SetNumThreads
+from variant_runs import region_mass, run_variants
 
 from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
@@ -102,23 +104,6 @@ def variant_spec(name: str):
     preset, sizes, layers, outlet, *domain = VARIANTS[name]
     sponge = "preset" if layers else None
     return mesh_spec(Plate(), preset, REYNOLDS, *domain, sponge=sponge, outlet=outlet, **sizes)
-
-
-def region_mass(fluid, box) -> sp.csr_matrix:
-    """Velocity mass restricted to the box ``[x0, x1] × [-h, h]`` (fluid unknowns)."""
-    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
-
-    x0, x1, half = box
-    (u, _), (v, _) = fluid.steady.space.TnT()
-    form = BilinearForm(fluid.steady.space)
-    inside = IfPos(x - x0, IfPos(x1 - x, IfPos(half * half - y * y, 1.0, 0.0), 0.0), 0.0)
-    form += inside * InnerProduct(u, v) * dx
-    form.Assemble()
-    rows, cols, values = form.mat.COO()
-    n = fluid.steady.space.ndof
-    index = fluid.free_dofs
-    matrix = sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(n, n))
-    return matrix[index][:, index]
 
 
 def spectrum(fluid, counter) -> list[list[float]]:
@@ -258,8 +243,9 @@ def wavemaker(name: str, angle: float, frequency: float, cache: Path, out: Path)
 
 
 def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
-    """The leading wake mode's growth rate against α0 on each mesh (the spectra's, and the onset
-    marked), and the structural sensitivity maps given (``.npz`` of :func:`wavemaker`)."""
+    """The least stable growth rate against α0 on each mesh (of the spectra and of the records'
+    ``targeted`` eigenvalues, found with a shift at the mode; the onset marked), and the
+    structural sensitivity maps given (``.npz`` of :func:`wavemaker`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -269,8 +255,11 @@ def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
     fig, axes = plt.subplots(1, columns, figsize=(5 * columns, 3.8), squeeze=False)
     ax = axes[0, 0]
     for r in records:
-        angles = sorted(float(a) for a in r["spectra"])
-        rates = [r["spectra"][f"{a:g}"][0][0] for a in angles]
+        targeted = r.get("targeted", {})
+        angles = sorted({float(a) for a in r["spectra"]} | {float(a) for a in targeted})
+        rates = [
+            max(row[0] for row in r["spectra"].get(f"{a:g}", []) + targeted.get(f"{a:g}", [])) for a in angles
+        ]
         (line,) = ax.plot(angles, rates, "o-", label=f"{r['variant']} ({r['unknowns']:,})")
         if "critical_alpha0" in r:
             ax.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=9)
@@ -330,9 +319,6 @@ def main() -> None:
         parser.error(f"unknown variants {unknown}; --list shows them")
     SetNumThreads(1)
     out = Path(args.out)
-    done = set()
-    if out.exists():
-        done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
     cache = Path(args.cache) if args.cache else default_cache_dir()
     store = out.with_name(out.stem + "_spectra.jsonl")
     if args.wavemaker:
@@ -340,18 +326,7 @@ def main() -> None:
             npz = out.with_name(f"wavemaker_{name}_a{args.wavemaker[0]:g}.npz")
             print(json.dumps(wavemaker(name, *args.wavemaker, cache, npz)), flush=True)
         return
-    for name in args.variants:
-        if name in done:
-            print(f"{name}: done")
-            continue
-        try:
-            record = run_variant(name, cache, store, sorted(args.angles))
-        except Exception as exc:  # one failed variant must not stop the study
-            record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
-        print(json.dumps(record), flush=True)
-        if "error" not in record:
-            with out.open("a") as handle:
-                handle.write(json.dumps(record) + "\n")
+    run_variants(args.variants, out, lambda name: run_variant(name, cache, store, sorted(args.angles)))
 
 
 if __name__ == "__main__":

@@ -28,15 +28,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import resource
 import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 from ngsolve import SetNumThreads
+from variant_runs import region_mass, run_variants
 
 from fsistab.bodies import Plate
 from fsistab.coupled import CoupledSystem
@@ -199,20 +198,7 @@ WAKE_BOX = (0.5, 20.0, 1.5)  # x from the trailing edge to 20 chords, |y| < 1.5
 
 def wake_mass(fluid):
     """Velocity mass restricted to the wake box ``WAKE_BOX`` (fluid unknowns)."""
-    from ngsolve import BilinearForm, IfPos, InnerProduct, dx, x, y
-
-    x0, x1, half = WAKE_BOX
-    (u, _), (v, _) = fluid.steady.space.TnT()
-    form = BilinearForm(fluid.steady.space)
-    inside = IfPos(x - x0, IfPos(x1 - x, IfPos(half * half - y * y, 1.0, 0.0), 0.0), 0.0)
-    form += inside * InnerProduct(u, v) * dx
-    form.Assemble()
-    rows, cols, values = form.mat.COO()
-    n = fluid.steady.space.ndof
-    index = fluid.free_dofs
-    return sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(n, n))[index][
-        :, index
-    ]
+    return region_mass(fluid, WAKE_BOX)
 
 
 def wake_modes(fluid, counter) -> list[tuple[complex, float]]:
@@ -324,25 +310,14 @@ def main() -> None:
         parser.error(f"unknown variants {unknown}; --list shows them")
     SetNumThreads(args.threads)
     out = Path(args.out)
-    done = set()
-    if out.exists():
-        done = {json.loads(line)["variant"] for line in out.read_text().splitlines() if line.strip()}
     cache = Path(args.cache) if args.cache else default_cache_dir()
-    for name in args.variants:
-        if name in done:
-            print(f"{name}: done")
-            continue
-        try:
-            if args.wake_onset:
-                record = wake_onset(name, cache)
-            else:
-                record = run_variant(name, cache, tuple(args.flutter_guess), args.reynolds)
-        except Exception as exc:  # one failed variant must not stop the study
-            record = {"variant": name, "error": f"{type(exc).__name__}: {exc}"}
-        print(json.dumps(record), flush=True)
-        if "error" not in record:
-            with out.open("a") as handle:
-                handle.write(json.dumps(record) + "\n")
+
+    def compute(name: str) -> dict:
+        if args.wake_onset:
+            return wake_onset(name, cache)
+        return run_variant(name, cache, tuple(args.flutter_guess), args.reynolds)
+
+    run_variants(args.variants, out, compute)
 
 
 if __name__ == "__main__":
