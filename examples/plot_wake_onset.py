@@ -18,9 +18,9 @@ coarse mesh puts at 0 near 17°, is not a wake mode: with the coarse mesh's wake
 5 chords it is damped (λ = -0.08 at 15°; docs/gallery/index.md).
 
 Mesh: ``--mesh`` preset (default coarse), fitted to Re = 500. The coarse mesh gives α0_c = 9.77°,
-ω_c = 3.947, an artefact of its near-body sizes: on the default mesh (``--mesh medium``) that mode
-stays damped (λ ≈ -0.06 to -0.07 from 8° to 12°), and the wake turns unstable at
-α0_c = 14.766°, ω_c = 2.597, in another mode (``--guess 14 --shift 0+2.5j``; docs/gallery/index.md).
+ω_c = 3.947; the default mesh (``--mesh medium --guess 10 --shift 0.07+3.877j``) gives the same
+mode's onset at 9.725°, ω_c 3.966. A second mode crosses at 14.0° (ω 2.82) on the default mesh,
+the first being unstable by then (docs/discretisation.md, "The wake onset in α0 at Re 500").
 Reference: Moulin & Marquet 2021 gives the plate's flutter and divergence at α0 = 0 only, nothing on the
 fixed plate's onset in α0.
 
