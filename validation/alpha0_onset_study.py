@@ -23,6 +23,7 @@ times (of this run: spectra read back cost nothing), factorisations and the peak
 that fails leaves the spectra and its error (``onset_error``).
 
 Usage: python validation/alpha0_onset_study.py [VARIANT ...] [--out FILE] [--cache DIR]
+       python validation/alpha0_onset_study.py VARIANT ... --targeted-onset ALPHA0 SHIFT [--out FILE]
        python validation/alpha0_onset_study.py VARIANT --wavemaker ALPHA0 OMEGA [--out FILE]
        python validation/alpha0_onset_study.py [VARIANT ...] --figure PNG [--wavemaker-maps NPZ ...]
        python validation/alpha0_onset_study.py --list
@@ -188,6 +189,31 @@ def run_variant(name: str, cache: Path, store: Path, angles=ANGLES) -> dict:
     return record
 
 
+def targeted_onset(name: str, guess: float, shift: complex, cache: Path) -> dict:
+    """The onset on the mesh of ``name`` by the secant from ``guess`` with the mode picked near
+    ``shift`` (a shift at the wake mode, as found on another mesh), without the spectra: on meshes
+    where a spectrum over fixed shifts costs an hour per angle and may miss the mode."""
+    spec = variant_spec(name)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    result = critical_onset(spec, Flow(REYNOLDS), "alpha0", guess, shift, cache_dir=cache)
+    steady = solve_steady(spec, Flow(REYNOLDS, guess), cache_dir=cache)  # cached by the secant
+    return {
+        "variant": name,
+        "reynolds": REYNOLDS,
+        "mesh": spec.describe(),
+        "unknowns": int(sum(steady.space.FreeDofs())),
+        "onset_guess": [guess, shift.imag],
+        "onset_shift": [shift.real, shift.imag],
+        "critical_alpha0": result.critical_value,
+        "critical_frequency": result.frequency,
+        "onset_iterates": [[i.value, i.growth_rate, i.frequency] for i in result.iterates],
+        "factorisations": result.factorisations,
+        "wall_s": time.perf_counter() - wall0,
+        "cpu_s": time.process_time() - cpu0,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+    }
+
+
 def vertices(fluid, box) -> np.ndarray:
     """The mesh vertices in the box ``[x0, x1] × [y0, y1]`` (N × 2)."""
     x0, x1, y0, y1 = box
@@ -243,10 +269,22 @@ def wavemaker(name: str, angle: float, frequency: float, cache: Path, out: Path)
     }
 
 
+def growth_rates(record: dict) -> tuple[list[float], list[float]]:
+    """``(α0, λ)`` of a record, increasing α0: the least stable of its spectra and ``targeted``
+    eigenvalues at each angle; a record with neither (:func:`targeted_onset`) gives its secant's
+    iterates."""
+    spectra, targeted = record.get("spectra", {}), record.get("targeted", {})
+    if not spectra and not targeted:
+        iterates = sorted(record["onset_iterates"])
+        return [i[0] for i in iterates], [i[1] for i in iterates]
+    angles = sorted({float(a) for a in spectra} | {float(a) for a in targeted})
+    rates = [max(row[0] for row in spectra.get(f"{a:g}", []) + targeted.get(f"{a:g}", [])) for a in angles]
+    return angles, rates
+
+
 def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
-    """The least stable growth rate against α0 on each mesh (of the spectra and of the records'
-    ``targeted`` eigenvalues, found with a shift at the mode; the onset marked), and the
-    structural sensitivity maps given (``.npz`` of :func:`wavemaker`)."""
+    """The least stable growth rate against α0 on each mesh (:func:`growth_rates`; the onset
+    marked), and the structural sensitivity maps given (``.npz`` of :func:`wavemaker`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -255,20 +293,23 @@ def draw(records: list[dict], wavemakers: list[Path], path: Path) -> None:
     columns = 1 + len(wavemakers)
     fig, axes = plt.subplots(1, columns, figsize=(5 * columns, 3.8), squeeze=False)
     ax = axes[0, 0]
+    zoom = ax.inset_axes([0.56, 0.08, 0.41, 0.36])  # the onsets, magnified
     for r in records:
-        targeted = r.get("targeted", {})
-        angles = sorted({float(a) for a in r["spectra"]} | {float(a) for a in targeted})
-        rates = [
-            max(row[0] for row in r["spectra"].get(f"{a:g}", []) + targeted.get(f"{a:g}", [])) for a in angles
-        ]
-        (line,) = ax.plot(angles, rates, "o-", label=f"{r['variant']} ({r['unknowns']:,})")
+        angles, rates = growth_rates(r)
+        (line,) = ax.plot(angles, rates, "o-", ms=4, label=f"{r['variant']} ({r['unknowns']:,})")
+        zoom.plot(angles, rates, "o-", ms=3, color=line.get_color())
         if "critical_alpha0" in r:
-            ax.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=9)
-    ax.axhline(0.0, color="k", lw=0.6)
+            for axis in (ax, zoom):
+                axis.plot([r["critical_alpha0"]], [0.0], "x", color=line.get_color(), markersize=8)
+    zoom.set_xlim(9.6, 9.8)
+    zoom.set_ylim(-0.02, 0.02)
+    zoom.tick_params(labelsize=6)
+    for axis in (ax, zoom):
+        axis.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel(r"$\alpha_0$ (degrees)")
     ax.set_ylabel(r"leading growth rate $\lambda$ ($U_\infty/L$)")
     ax.set_title("fixed plate, Re 500: least stable mode")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left")
     for ax, npz in zip(axes[0, 1:], wavemakers, strict=True):
         data = np.load(npz)
         points, values = data["points"], data["sensitivity"]
@@ -302,6 +343,12 @@ def main() -> None:
         metavar=("ALPHA0", "OMEGA"),
         help="the structural sensitivity of the wake mode nearest iOMEGA at ALPHA0 instead (prints it)",
     )
+    parser.add_argument(
+        "--targeted-onset",
+        nargs=2,
+        metavar=("ALPHA0", "SHIFT"),
+        help="only the onset, by the secant from ALPHA0 with the mode nearest SHIFT (e.g. 0.07+3.877j)",
+    )
     parser.add_argument("--figure", default=None, help="draw --out (and the --wavemaker-maps) to this PNG")
     parser.add_argument("--wavemaker-maps", nargs="*", default=[], help=".npz files of --wavemaker")
     args = parser.parse_args()
@@ -326,6 +373,10 @@ def main() -> None:
         for name in args.variants:
             npz = out.with_name(f"wavemaker_{name}_a{args.wavemaker[0]:g}.npz")
             print(json.dumps(wavemaker(name, *args.wavemaker, cache, npz)), flush=True)
+        return
+    if args.targeted_onset:
+        guess, shift = float(args.targeted_onset[0]), complex(args.targeted_onset[1])
+        run_variants(args.variants, out, lambda name: targeted_onset(name, guess, shift, cache))
         return
     run_variants(args.variants, out, lambda name: run_variant(name, cache, store, sorted(args.angles)))
 
