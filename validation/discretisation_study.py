@@ -15,12 +15,14 @@ axis at mid-chord); units chord-based. One JSON line per variant is appended to 
 variant already there is skipped, so a rerun resumes), with wall and CPU times and factorisations.
 
 With ``--wake-onset`` the script computes instead the fixed plate's critical Reynolds number of the
-wake mode on each variant's mesh (``fsistab.onset``; one JSON line per variant in ``--out``).
+wake mode on each variant's mesh (``fsistab.onset``; one JSON line per variant in ``--out``); with
+``--viv`` the thresholds at given mass ratios over given ranges of U* (the VIV windows).
 
 A variant named ``VARIANT+gradient`` is ``VARIANT`` with the gradient outlet (docs/model.md §4).
 
 Usage: python validation/discretisation_study.py [VARIANT ...] [--out FILE] [--cache DIR]
        python validation/discretisation_study.py VARIANT --wake-onset --out FILE
+       python validation/discretisation_study.py VARIANT --viv M U_MIN U_MAX [--viv ...] --out FILE
        python validation/discretisation_study.py --list
 """
 
@@ -285,6 +287,39 @@ def wake_onset(name: str, cache: Path) -> dict:
     }
 
 
+def viv_thresholds(name: str, cache: Path, sweeps) -> dict:
+    """The thresholds of the spring-mounted plate at each ``(m, U*_min, U*_max)`` of ``sweeps`` on the
+    mesh of ``name`` at Re 2900 (:func:`fsistab.frequency_sweep.sweep_thresholds`, as in
+    ``fsistab critical``, with the wake mode's 11.2 as the hint): the VIV windows against the wake
+    mode's damping, which the domain length moves (docs/discretisation.md)."""
+    from fsistab.frequency_sweep import sweep_thresholds
+
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    steady = solve_steady(variant_spec(name), Flow(REYNOLDS), cache_dir=cache)
+    fluid = fluid_operators(steady)
+    record = {"variant": name, "unknowns": fluid.n_fluid, "sweeps": []}
+    for mass_ratio, low, high in sweeps:
+        counter = FactorCounter()
+        result = sweep_thresholds(
+            fluid, Solid(mass_ratio=mass_ratio), (low, high), wake_frequency=11.2, counter=counter, threads=1
+        )
+        thresholds = [[t.reduced_velocity, t.frequency, t.kind, t.boundary] for t in result.thresholds]
+        record["sweeps"].append(
+            {
+                "mass_ratio": mass_ratio,
+                "range": [low, high],
+                "thresholds": thresholds,
+                "unresolved": [list(i) for i in result.unresolved],
+                "factorisations": counter.count,
+            }
+        )
+        print(name, mass_ratio, thresholds, flush=True)
+    record["wall_s"] = time.perf_counter() - wall0
+    record["cpu_s"] = time.process_time() - cpu0
+    record["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+    return record
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -298,6 +333,14 @@ def main() -> None:
     parser.add_argument("--list", action="store_true")
     parser.add_argument(
         "--wake-onset", action="store_true", help="the wake mode's critical Re instead (writes --out)"
+    )
+    parser.add_argument(
+        "--viv",
+        nargs=3,
+        type=float,
+        action="append",
+        metavar=("M", "U_MIN", "U_MAX"),
+        help="the thresholds at mass ratio M for U* in [U_MIN, U_MAX] instead (repeatable; writes --out)",
     )
     args = parser.parse_args()
     if args.list:
@@ -315,6 +358,8 @@ def main() -> None:
     def compute(name: str) -> dict:
         if args.wake_onset:
             return wake_onset(name, cache)
+        if args.viv:
+            return viv_thresholds(name, cache, args.viv)
         return run_variant(name, cache, tuple(args.flutter_guess), args.reynolds)
 
     run_variants(args.variants, out, compute)
