@@ -16,13 +16,15 @@ variant already there is skipped, so a rerun resumes), with wall and CPU times a
 
 With ``--wake-onset`` the script computes instead the fixed plate's critical Reynolds number of the
 wake mode on each variant's mesh (``fsistab.onset``; one JSON line per variant in ``--out``); with
-``--viv`` the thresholds at given mass ratios over given ranges of U* (the VIV windows).
+``--viv`` the thresholds at given mass ratios over given ranges of U* (the VIV windows); with
+``--wake-spectrum`` the fixed plate's ten eigenvalues nearest the wake mode.
 
 A variant named ``VARIANT+gradient`` is ``VARIANT`` with the gradient outlet (docs/model.md §4).
 
 Usage: python validation/discretisation_study.py [VARIANT ...] [--out FILE] [--cache DIR]
        python validation/discretisation_study.py VARIANT --wake-onset --out FILE
        python validation/discretisation_study.py VARIANT --viv M U_MIN U_MAX [--viv ...] --out FILE
+       python validation/discretisation_study.py VARIANT --wake-spectrum --out FILE
        python validation/discretisation_study.py --list
 """
 
@@ -287,6 +289,21 @@ def wake_onset(name: str, cache: Path) -> dict:
     }
 
 
+def wake_spectrum(name: str, cache: Path, count: int = 10) -> dict:
+    """The fixed plate's ``count`` eigenvalues nearest ``11.15i`` at Re 2900 on the mesh of ``name``
+    (one factorisation): the wake mode and its neighbours, whose distance tells whether the wake
+    mode couples with other modes of the domain (docs/discretisation.md)."""
+    wall0 = time.perf_counter()
+    steady = solve_steady(variant_spec(name), Flow(REYNOLDS), cache_dir=cache)
+    pairs = eigenpairs_near(CoupledSystem(fluid_operators(steady), Solid(dofs=())), [11.15j], count)
+    values = sorted((complex(p.value) for p in pairs), key=lambda v: -v.real)
+    return {
+        "variant": name,
+        "eigenvalues": [[v.real, v.imag] for v in values],
+        "wall_s": time.perf_counter() - wall0,
+    }
+
+
 def viv_thresholds(name: str, cache: Path, sweeps) -> dict:
     """The thresholds of the spring-mounted plate at each ``(m, U*_min, U*_max)`` of ``sweeps`` on the
     mesh of ``name`` at Re 2900 (:func:`fsistab.frequency_sweep.sweep_thresholds`, as in
@@ -335,6 +352,11 @@ def main() -> None:
         "--wake-onset", action="store_true", help="the wake mode's critical Re instead (writes --out)"
     )
     parser.add_argument(
+        "--wake-spectrum",
+        action="store_true",
+        help="the ten eigenvalues nearest 11.15i instead (writes --out)",
+    )
+    parser.add_argument(
         "--viv",
         nargs=3,
         type=float,
@@ -360,6 +382,8 @@ def main() -> None:
             return wake_onset(name, cache)
         if args.viv:
             return viv_thresholds(name, cache, args.viv)
+        if args.wake_spectrum:
+            return wake_spectrum(name, cache)
         return run_variant(name, cache, tuple(args.flutter_guess), args.reynolds)
 
     run_variants(args.variants, out, compute)
