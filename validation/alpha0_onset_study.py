@@ -375,7 +375,10 @@ def main() -> None:
             print(json.dumps(wavemaker(name, *args.wavemaker, cache, npz)), flush=True)
         return
     if args.targeted_onset:
-        guess, shift = float(args.targeted_onset[0]), complex(args.targeted_onset[1])
+        try:
+            guess, shift = float(args.targeted_onset[0]), complex(args.targeted_onset[1])
+        except ValueError:
+            parser.error(f"--targeted-onset takes an angle and a complex shift, got {args.targeted_onset}")
         run_variants(args.variants, out, lambda name: targeted_onset(name, guess, shift, cache))
         return
     run_variants(args.variants, out, lambda name: run_variant(name, cache, store, sorted(args.angles)))

@@ -373,6 +373,9 @@ def main() -> None:
     unknown = [name for name, (v, outlet) in parts.items() if v not in VARIANTS or outlet not in OUTLETS]
     if unknown:
         parser.error(f"unknown variants {unknown}; --list shows them")
+    bad = [sweep for sweep in args.viv or [] if not (sweep[0] > 0 and 0 < sweep[1] < sweep[2])]
+    if bad:
+        parser.error(f"--viv takes M > 0 and 0 < U_MIN < U_MAX, got {bad}")
     SetNumThreads(args.threads)
     out = Path(args.out)
     cache = Path(args.cache) if args.cache else default_cache_dir()

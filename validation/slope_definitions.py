@@ -116,6 +116,10 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=None)
     parser.add_argument("--angles", type=float, nargs="+", default=list(SECANT_ANGLES), help="the secants' α")
     args = parser.parse_args()
+    if not all(re > 0 for re in args.reynolds) or not all(0 < a < 90 for a in args.angles):
+        parser.error(
+            f"--Re must be positive and --angles in (0, 90) degrees, got {args.reynolds}, {args.angles}"
+        )
     SetNumThreads(1)
     cache = args.cache or default_cache_dir()
     records = [json.loads(line) for line in args.out.read_text().splitlines()] if args.out.exists() else []

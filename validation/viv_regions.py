@@ -56,8 +56,8 @@ def draw(records: list[dict], path: Path) -> None:
             continue
         on = ds.curve.values == k
         ax.plot(ds.curve_reduced_velocity.values[on], ds.curve_mass_ratio.values[on], "k-", lw=0.8)
-    for shift, (record, colour) in enumerate(zip(records, ("C0", "C3", "C2", "C1"), strict=False)):
-        label = f"{record['variant']} ({record['unknowns']:,})"
+    for shift, record in enumerate(records):
+        colour, label = f"C{shift}", f"{record['variant']} ({record['unknowns']:,})"
         for sweep in record["sweeps"]:
             level = sweep["mass_ratio"] * 1.08**shift
             for low, high in windows(sweep["thresholds"]):
