@@ -110,6 +110,30 @@ def test_a_step_failing_on_the_steady_matrix_is_retried_on_one_rebuilt_at_its_st
     assert np.max(np.abs(new.current - reference.current)) < 1e-8
 
 
+def test_a_diverging_step_is_retried_on_the_rebuilt_matrix_then_refused_in_one_line(cylinder_60):
+    """A chord iteration whose update turns non-finite (diverged) fails like one that does not
+    converge: retried once on the matrix rebuilt at the step's start, then a ConvergenceError with
+    the advice, never a LinAlgError from the mixing's least squares."""
+    from fsistab.errors import ConvergenceError
+
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", mass_ratio=10, reduced_velocity=5))
+    stepper = TimeStepper(system, 0.1)
+    start = MarchState(0.0, 0, stepper.steady_point())
+    equations = stepper._equations
+
+    def diverging(order, current, previous):
+        residual = equations(order, current, previous)
+        return lambda q: np.full_like(residual(q), np.nan)
+
+    stepper._equations = diverging
+    with pytest.raises(ConvergenceError, match="diverged .* at iteration 1.*reduce --time-step"):
+        stepper.step(start)
+    assert stepper.refreshes == 1
+    stepper._equations = equations
+    new, sample = stepper.step(start)  # the same stepper marches on once the residual is finite
+    assert sample.iterations <= 2 and np.all(np.isfinite(new.current))
+
+
 def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):
     system = CoupledSystem(cylinder_60, solid_for("cylinder", dofs=()))
     pair = min(eigenpairs_near(system, [SHIFT], 4), key=lambda p: abs(p.value - SHIFT))
@@ -252,3 +276,54 @@ def test_rebuilding_the_iteration_matrix_changes_iterations_not_states(cylinder_
         results.append(np.array([[s.solid[0], s.lift, s.drag] for s in samples]))
         assert stepper.refreshes == (0 if refresh_after == 0 else 3)
     np.testing.assert_allclose(results[1], results[0], rtol=0, atol=1e-8)
+
+
+def test_the_rebuilt_fluid_block_is_the_residual_s_derivative_about_a_moving_state(plate_operators):
+    """The iteration matrix's rebuilt ``J_ff`` (:meth:`InertialFluidResidual.linearisation`) against
+    a central difference of the nonlinear residual (quadratic in the fluid state: exact to
+    round-off) at a pitching, heaving state off the steady flow; the steady state's ``J_ff``,
+    without the grid velocity's and the rotation's part, misses it there by far more."""
+    from fsistab.params import Solid
+
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.0))
+    stepper = TimeStepper(system, 0.05)
+    residual = stepper.fluid
+    residual.set_rate(0.0, np.zeros(residual.mass.shape[0]))  # R_f alone, no inertia
+    rng = np.random.default_rng(7)
+    q_solid, fluid0 = np.array([0.1, 0.12, 0.05, 0.03]), stepper.steady_point()[system.n_solid :]
+    q_fluid = fluid0 + 1e-2 * rng.standard_normal(fluid0.size)
+    direction, eps = rng.standard_normal(fluid0.size), 1e-4
+    index = plate_operators.free_dofs
+    jff = residual.linearisation(q_solid, residual.full_state(q_solid, q_fluid))[index][:, index]
+    plus, _ = residual(q_solid, q_fluid + eps * direction)
+    minus, _ = residual(q_solid, q_fluid - eps * direction)
+    difference = (plus - minus) / (2 * eps)
+    scale = np.max(np.abs(difference))
+    assert np.max(np.abs(jff @ direction - difference)) < 1e-8 * scale
+    assert np.max(np.abs(plate_operators.jff @ direction - difference)) > 1e-2 * scale
+
+
+def test_a_released_start_takes_the_body_s_mode_when_a_fluid_mode_is_nearer(plate_operators):
+    """At U* = 5.4 (coarse plate, Re 2900, m = 1000) a far-field mode, in which the plate is
+    still, lies nearer the shift 0.01 + 0.18i than the flutter mode, whose frequency has fallen
+    with U*: the perturbed start keeps the nearest mode, a released one (--perturbation-of pitch)
+    the body's."""
+    from fsistab.bodies import Plate
+    from fsistab.params import Solid
+    from fsistab.workflows import _start_mode
+
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.4))
+    case, shift = Case(Plate(), Flow(2900.0), preset="coarse"), 0.01 + 0.18j
+    nearest = _start_mode(system, SimulationSettings(100.0, shift=shift), case, lambda message: None)
+    released = SimulationSettings(100.0, perturbation=0.1, shift=shift, perturbation_of="pitch")
+    body = _start_mode(system, released, case, lambda message: None)
+    assert nearest.solid_energy_fraction < 1e-12  # a far-field mode: the plate does not move
+    assert body.label != "fluid" and body.growth_rate > 0  # the flutter mode, past its threshold
+    assert abs(body.value - shift) > abs(nearest.value - shift)
+    # at U* = 5.8 the flutter mode (ω ≈ 0.14) is not among the six nearest: one line, no march
+    system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.8))
+    pair = _start_mode(system, released, case, lambda message: None)
+    assert pair.label == "fluid"
+    stepper = TimeStepper(system, 0.05)
+    with pytest.raises(InputError, match="no pitch component .* give a --shift nearer the body's mode"):
+        perturbed_state(stepper, pair.vector, 0.1, "pitch")

@@ -232,7 +232,8 @@ SIMULATE_OPTIONS = {
                                "mode's solid state with that heave (body lengths) or pitch (radians), "
                                "the fluid steady", "largest"),
     "shift": option(str | None, "--shift", "start from the eigenmode nearest this complex shift "
-                     "(default: the body's spectrum shift)"),
+                     "(default: the body's spectrum shift); a released body (--perturbation-of "
+                     "heave or pitch) from the nearest of six not labelled fluid, if any"),
     "start": option(str | None, "--start", "start from the last state of this simulation checkpoint "
                      "(same mesh, flow and dofs; e.g. a saturated state at another U*) instead"),
     "checkpoint_every": option(int, "--checkpoint-every", "steps between checkpoints (a rerun resumes "

@@ -552,10 +552,11 @@ def limit_cycles(
     t0 = time.perf_counter()
     sweep = threshold_sweep(settings, mass_ratio) if thresholds else None  # refused before any march
     velocities = settings.velocities()
-    say(
-        f"{len(velocities)} marches of {settings.simulation.duration:g} time units, "
-        f"U* from {velocities[0]:g} to {velocities[-1]:g}"
-    )
+    duration, first, last = settings.simulation.duration, velocities[0], velocities[-1]
+    if len(velocities) == 1:
+        say(f"1 march of {duration:g} time units, U* = {first:g}")
+    else:
+        say(f"{len(velocities)} marches of {duration:g} time units, U* from {first:g} to {last:g}")
     increasing = _run_increasing(case, solid, settings, cache_dir, out, client, say)
     data, decreasing = _stack(velocities, increasing), []
     if settings.hysteresis and len(velocities) > 1:

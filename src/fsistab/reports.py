@@ -457,7 +457,8 @@ def lco(ds: xr.Dataset, p: dict) -> list:
             f"A² = {fit['slope']:.4g} (U* − {fit['velocity']:.5g}) through the first saturated points"
         )
     lines.append(
-        f"{p['computed']} marches computed ({p['execution']}), {p['failed']} failed, {p['seconds']:.4g} s; "
+        f"{p['computed']} march{'' if p['computed'] == 1 else 'es'} computed ({p['execution']}), "
+        f"{p['failed']} failed, {p['seconds']:.4g} s; "
         f"{p['ndof']} unknowns; data {p['data']}; figure {p['figure']}"
     )
     return lines

@@ -17,7 +17,7 @@ instability of partitioned schemes at any mass ratio). Each step solves ``F(qⁿ
 coupled matrix of the eigenvalue solver, factorised once per ``(c₀, Δt)``
 (:class:`fsistab.linalg.ShiftedSolver`, the solid unknowns bordered). Near the steady state it is
 the exact Jacobian; far from it (a saturated wake) the iteration converges linearly, accelerated
-by Anderson mixing, and the fluid block of its matrix is rebuilt about the current field when a
+by Anderson mixing, and the fluid block of its matrix is rebuilt about the current flow and motion when a
 step needs many iterations (:meth:`TimeStepper.refresh`). A step stops when the update's largest
 entry is below the tolerance, and fails (ConvergenceError, with the advice to reduce the step)
 when it does not within the iterations allowed.
@@ -42,7 +42,6 @@ from fsistab.operators import (
     mass_integrand,
     residual_integrand,
     steady_fields,
-    stiffness_integrand,
 )
 
 BDF_COEFFICIENTS = {1: (1.0, -1.0, 0.0), 2: (1.5, -2.0, 0.5)}
@@ -91,6 +90,16 @@ class InertialFluidResidual(FluidResidual):
         self.scale = 0.0
         self.history = np.zeros(self.mass.shape[0])
         self.loads = np.zeros(3)
+
+    def linearisation(self, q_solid: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
+        """``∂R_f/∂U`` on every dof at the full dof vector ``values`` and the solid state ``q_solid``
+        (SciPy CSR), without the inertia: NGSolve's linearisation of the residual's form, so with
+        the current grid velocity ``W(θ, ḣ, θ')`` and rotation term ``θ' e_z∧u`` (docs/model.md §4),
+        which ``J_ff`` at the steady state lacks (there ``θ' = ḣ = 0``)."""
+        self.motion.set(q_solid)
+        self._vector.FV().NumPy()[:] = values
+        self.form.AssembleLinearization(self._vector)
+        return _scipy_matrix(self.form.mat, self.mass.shape[0])
 
     def set_rate(self, scale: float, history: np.ndarray) -> None:
         """``U̇ = scale·U + history`` for the next calls."""
@@ -228,32 +237,32 @@ class TimeStepper:
                     f"the time step at t = {state.time:.6g} did not converge in {self.max_iterations} "
                     f"iterations (last update {change:.3g}); reduce --time-step"
                 )
-            # unrefined solves: the chord iteration corrects their error with the others'
-            update = solver.solve(-equations(q), refine=False)
+            # unrefined solves: the chord iteration corrects their error with the others'; a
+            # diverging iterate is refused below, without NumPy's warnings on its way there
+            with np.errstate(invalid="ignore", over="ignore"):
+                update = solver.solve(-equations(q), refine=False)
             change, iterations = float(np.max(np.abs(update))), iterations + 1
+            if not math.isfinite(change):  # diverged: no mixing of non-finite iterates
+                raise ConvergenceError(
+                    f"the time step at t = {state.time:.6g} diverged (a non-finite update at "
+                    f"iteration {iterations}); reduce --time-step"
+                )
             q = mixing.next(q, update)
         return q, iterations, change
 
     def refresh(self, q: np.ndarray) -> None:
-        """Linearise the fluid block at the fluid state of ``q`` instead of the steady state:
-        ``J_ff`` of the operators' terms (:func:`fsistab.operators.stiffness_integrand`) about
-        that velocity field, the other blocks kept, factorised anew at the next step (the same
-        symbolic analysis). Only the iteration matrix changes, never the residual: a step
-        converges to the same state."""
-        from ngsolve import BilinearForm, GridFunction
-
+        """Linearise the fluid block at ``q`` instead of the steady state: ``J_ff`` of the
+        nonlinear residual about the current flow *and* motion
+        (:meth:`InertialFluidResidual.linearisation`: the grid velocity and the frame's rotation
+        of a pitching body enter it), the coupling blocks kept, factorised anew at the next step
+        (the same symbolic analysis). Only the iteration matrix changes, never the residual: a
+        step converges to the same state."""
         fluid = self.system.fluid
-        steady = fluid.steady
-        velocity = GridFunction(steady.space)
-        velocity.vec.FV().NumPy()[:] = self._full(q)
-        fields = steady_fields(replace(steady, state=velocity))
-        (u, p), (v, w) = steady.space.TnT()
-        form = BilinearForm(steady.space)
-        form += integrals(stiffness_integrand(fields, (u, p), (v, w)), fields, (u, p), (v, w))
-        form.Assemble()
+        jff = self.fluid.linearisation(self.solid_state(q), self._full(q))
         index = fluid.free_dofs
-        jff = _scipy_matrix(form.mat, steady.space.ndof)[index][:, index].tocsr()
-        linearised = replace(fluid, jff=jff, analyses=dict(self._linearised.fluid.analyses))
+        linearised = replace(
+            fluid, jff=jff[index][:, index].tocsr(), analyses=dict(self._linearised.fluid.analyses)
+        )
         self._linearised = CoupledSystem(linearised, self.system.solid)
         self._solvers.clear()
         self.refreshes += 1
@@ -321,7 +330,10 @@ def perturbed_state(
         raise InputError(f"--perturbation-of {scale}: the {scale} is not a degree of freedom (--dofs)")
     peak = mode[names.index(state)]
     if abs(peak) <= 1e-12 * float(np.max(np.abs(mode))):
-        raise InputError(f"--perturbation-of {scale}: the start mode has no {scale} component")
+        raise InputError(
+            f"--perturbation-of {scale}: the start mode has no {scale} component (the body is still "
+            "in it); give a --shift nearer the body's mode (fsistab spectrum lists the modes)"
+        )
     start = stepper.steady_point()
     start[: len(names)] += amplitude * (mode[: len(names)] / peak).real
     return start

@@ -1090,12 +1090,19 @@ def _start_fingerprint(path: str) -> str:
 
 
 def _start_mode(system, settings, case: Case, say):
-    """The eigenpair nearest the shift (the body's spectrum shift by default, docs/model.md §7)."""
+    """The eigenpair nearest the shift (the body's spectrum shift by default, docs/model.md §7).
+    A released body (``perturbation_of`` heave or pitch) starts from the mode's solid motion, so
+    its mode is the nearest of the six found that is labelled heave, pitch or coupled
+    (:func:`fsistab.eigen.label_mode`), the nearest of all when every one is labelled fluid (a
+    wake mode carrying a light body, as in VIV): the flutter mode's frequency moves with U* while
+    the fluid modes stay, and one shift serves a range of U* (``fsistab lco``)."""
     from fsistab.eigen import eigenpairs_near
 
     shift = case.body.spectrum_shifts[0] if settings.shift is None else settings.shift
     say(f"eigenmode nearest {shift:.4g} (shift-invert Arnoldi)")
     pairs = eigenpairs_near(system, [shift], 6)
+    if settings.perturbation_of != "largest":
+        pairs = [p for p in pairs if p.label != "fluid"] or pairs
     return min(pairs, key=lambda p: abs(p.value - shift))
 
 
@@ -1139,7 +1146,7 @@ def _start(table, stepper, system, settings, case, identity, say):
 
 def _resume_linearisation(table, stepper, state, say) -> None:
     """A march resumed after a step that needed more than ``stepper.refresh_after`` chord
-    iterations had its iteration matrix rebuilt about the current field
+    iterations had its iteration matrix rebuilt about the current flow and motion
     (:meth:`fsistab.simulation.TimeStepper.refresh`); that matrix is not saved, so rebuild it at
     the resumed state: the steady state's would make the next step start over far from its
     solution (a large-amplitude cycle then stalls). The residual, hence every converged step, is
@@ -1242,7 +1249,7 @@ def simulate(
         "seconds_per_step": seconds / steps if steps else float("nan"),
         "factorisations": stepper.counter.count,
         "scheme": "BDF2 (first step BDF1), chord iteration on J + (c0/dt) M, J_ff rebuilt about the "
-        "current flow after a step with many iterations",
+        "current flow and motion after a step with many iterations",
         "conventions": "time in L/U; heave in L, pitch in rad (counter-clockwise +); coefficients "
         "F/(0.5 rho U^2 L s), lift and drag in laboratory axes, moment about the pitch axis",
         "checkpoint": str(path),
