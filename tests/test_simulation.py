@@ -279,10 +279,11 @@ def test_rebuilding_the_iteration_matrix_changes_iterations_not_states(cylinder_
 
 
 def test_the_rebuilt_fluid_block_is_the_residual_s_derivative_about_a_moving_state(plate_operators):
-    """The iteration matrix's rebuilt ``J_ff`` (:meth:`InertialFluidResidual.linearisation`) against
-    a central difference of the nonlinear residual (quadratic in the fluid state: exact to
-    round-off) at a pitching, heaving state off the steady flow; the steady state's ``J_ff``,
-    without the grid velocity's and the rotation's part, misses it there by far more."""
+    """The iteration matrix's rebuilt ``J_ff`` (:meth:`FluidResidual.linearisation` of the march's
+    compiled form) against a central difference of the nonlinear residual (quadratic in the fluid
+    state: exact to round-off) at a pitching, heaving state off the steady flow; the steady
+    state's ``J_ff``, without the grid velocity's and the rotation's part, misses it there by far
+    more."""
     from fsistab.params import Solid
 
     system = CoupledSystem(plate_operators, Solid(mass_ratio=1000.0, reduced_velocity=5.0))

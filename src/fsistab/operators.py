@@ -686,6 +686,16 @@ class FluidResidual:
             r = r - weight(q_solid) * vector
         return r[self.index].copy(), -(self.lifting.T @ r)
 
+    def linearisation(self, q_solid: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
+        """``∂R_f/∂U`` on every dof at the full dof vector ``values`` and the solid state ``q_solid``
+        (SciPy CSR): NGSolve's linearisation of the residual's form, so with the current grid
+        velocity ``W(θ, ḣ, θ')`` and rotation term ``θ' e_z∧u`` (docs/model.md §4), which ``J_ff``
+        at the steady state lacks (there ``θ' = ḣ = 0``): the time march's rebuilt iteration matrix."""
+        self.motion.set(q_solid)
+        self._vector.FV().NumPy()[:] = values
+        self.form.AssembleLinearization(self._vector)
+        return _to_scipy(self.form.mat, self.steady.space.ndof)
+
     def steady_point(self) -> tuple[np.ndarray, np.ndarray]:
         """The steady state as ``(q_s⁰, q_f⁰)``."""
         q_solid = np.array([0.0, self.steady.flow.theta0, 0.0, 0.0])

@@ -17,8 +17,8 @@ instability of partitioned schemes at any mass ratio). Each step solves ``F(qⁿ
 coupled matrix of the eigenvalue solver, factorised once per ``(c₀, Δt)``
 (:class:`fsistab.linalg.ShiftedSolver`, the solid unknowns bordered). Near the steady state it is
 the exact Jacobian; far from it (a saturated wake) the iteration converges linearly, accelerated
-by Anderson mixing, and the fluid block of its matrix is rebuilt about the current flow and motion when a
-step needs many iterations (:meth:`TimeStepper.refresh`). A step stops when the update's largest
+by Anderson mixing, and the fluid block of its matrix is rebuilt about the current flow and
+motion when a step needs many iterations (:meth:`TimeStepper.refresh`). A step stops when the update's largest
 entry is below the tolerance, and fails (ConvergenceError, with the advice to reduce the step)
 when it does not within the iterations allowed.
 """
@@ -90,16 +90,6 @@ class InertialFluidResidual(FluidResidual):
         self.scale = 0.0
         self.history = np.zeros(self.mass.shape[0])
         self.loads = np.zeros(3)
-
-    def linearisation(self, q_solid: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
-        """``∂R_f/∂U`` on every dof at the full dof vector ``values`` and the solid state ``q_solid``
-        (SciPy CSR), without the inertia: NGSolve's linearisation of the residual's form, so with
-        the current grid velocity ``W(θ, ḣ, θ')`` and rotation term ``θ' e_z∧u`` (docs/model.md §4),
-        which ``J_ff`` at the steady state lacks (there ``θ' = ḣ = 0``)."""
-        self.motion.set(q_solid)
-        self._vector.FV().NumPy()[:] = values
-        self.form.AssembleLinearization(self._vector)
-        return _scipy_matrix(self.form.mat, self.mass.shape[0])
 
     def set_rate(self, scale: float, history: np.ndarray) -> None:
         """``U̇ = scale·U + history`` for the next calls."""
@@ -253,10 +243,10 @@ class TimeStepper:
     def refresh(self, q: np.ndarray) -> None:
         """Linearise the fluid block at ``q`` instead of the steady state: ``J_ff`` of the
         nonlinear residual about the current flow *and* motion
-        (:meth:`InertialFluidResidual.linearisation`: the grid velocity and the frame's rotation
-        of a pitching body enter it), the coupling blocks kept, factorised anew at the next step
-        (the same symbolic analysis). Only the iteration matrix changes, never the residual: a
-        step converges to the same state."""
+        (:meth:`fsistab.operators.FluidResidual.linearisation`: the grid velocity and the frame's
+        rotation of a pitching body enter it), the coupling blocks kept, factorised anew at the
+        next step (the same symbolic analysis). Only the iteration matrix changes, never the
+        residual: a step converges to the same state."""
         fluid = self.system.fluid
         jff = self.fluid.linearisation(self.solid_state(q), self._full(q))
         index = fluid.free_dofs
