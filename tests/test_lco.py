@@ -58,6 +58,20 @@ def test_the_envelope_growth_rate_follows_the_amplitude_law():
     assert np.all(np.diff(rates[amplitudes > 0.05]) < 0)
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.37])
+def test_half_period_peaks_are_placed_between_samples(offset):
+    """A sinusoid sampled at ωΔt = 0.3: every closed half period's peak is found at the analytic
+    amplitude and time to the parabola's O((ωΔt)⁴) error, where the largest sample is up to 1.1 %
+    low (so two time steps compared by their samples would differ by that): the unrefined
+    maxima fail the tolerance."""
+    omega, phase, amplitude, level = 1.3, 0.4, 0.7, 0.2
+    t = (np.arange(0.0, 40.0, 0.3 / omega) + offset * 0.3 / omega)[:-1]
+    at, peaks = lco.half_period_peaks(t, level + amplitude * np.sin(omega * t + phase), level)
+    order = np.arange(1, 16)  # the half periods closed on both sides within t < 40
+    np.testing.assert_allclose(at, (np.pi / 2 + order * np.pi - phase) / omega, atol=5e-4)
+    np.testing.assert_allclose(peaks, amplitude, rtol=3e-4)
+
+
 def test_onset_fit_recovers_a_square_root_law():
     u = np.array([4.0, 4.5, 5.0, 5.5, 6.0])
     amplitude = np.sqrt(np.clip(0.2 * (u - 4.3), 0, None))

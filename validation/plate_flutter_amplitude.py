@@ -24,20 +24,17 @@ import math
 
 import numpy as np
 
-from fsistab.lco import envelope_growth, period_amplitudes
+from fsistab.lco import envelope_growth, half_period_peaks, period_amplitudes
 from fsistab.simulation import damped_oscillation
 from fsistab.store import read_dataset
 
 
 def half_period_rates(times: np.ndarray, values: np.ndarray) -> list[tuple[float, float]]:
     """``(A, σ)`` between successive half periods: the largest ``|θ|`` between zero crossings of
-    ``θ`` (about θ₀ = 0), ``σ = ln(A_{k+1}/A_k)/(t_{k+1} − t_k)`` at ``A = √(A_k A_{k+1})``: twice as
-    many samples of σ(A) as the whole periods give, for a slowly growing cycle."""
-    crossings = np.nonzero(np.diff(np.sign(values)) != 0)[0]
-    peaks = []
-    for start, end in zip(crossings[:-1], crossings[1:], strict=True):
-        k = start + 1 + int(np.argmax(np.abs(values[start + 1 : end + 1])))
-        peaks.append((times[k], abs(values[k])))
+    ``θ`` (about θ₀ = 0; :func:`fsistab.lco.half_period_peaks`), ``σ = ln(A_{k+1}/A_k)/(t_{k+1} −
+    t_k)`` at ``A = √(A_k A_{k+1})``: twice as many samples of σ(A) as the whole periods give, for a
+    slowly growing cycle."""
+    peaks = list(zip(*half_period_peaks(times, values), strict=True))
     return [
         (math.sqrt(a0 * a1), math.log(a1 / a0) / (t1 - t0))
         for (t0, a0), (t1, a1) in zip(peaks[:-1], peaks[1:], strict=True)

@@ -148,6 +148,26 @@ def envelope_growth(times, values) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(amplitudes[1:] * amplitudes[:-1]), rates
 
 
+def half_period_peaks(times, values, level: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, peaks)``: the largest ``|v − level|`` between each pair of successive crossings of
+    ``level``, placed by the parabola through the largest sample and its two neighbours (the peak
+    between samples: the sampled maximum of a sinusoid misses it by about ``(ωΔt)²/8`` relative,
+    which would differ between two time steps being compared). Only half periods closed by a
+    crossing on both sides are counted. Twice as many amplitude samples as whole periods give: the
+    measure of docs/simulation.md's time-step and mesh checks of a slowly changing envelope."""
+    times, centred = np.asarray(times, dtype=float), np.asarray(values, dtype=float) - level
+    crossings = np.nonzero(np.diff(np.sign(centred)) != 0)[0]
+    at, peaks = [], []
+    for start, end in zip(crossings[:-1], crossings[1:], strict=True):
+        k = start + 1 + int(np.argmax(np.abs(centred[start + 1 : end + 1])))  # 1 <= k <= end <= len - 2
+        y0, y1, y2 = centred[k - 1 : k + 2] * np.sign(centred[k])
+        curvature = y0 - 2 * y1 + y2
+        shift = 0.5 * (y0 - y2) / curvature if curvature < 0 else 0.0
+        at.append(times[k] + shift * (times[k + 1] - times[k - 1]) / 2)
+        peaks.append(y1 - 0.25 * (y0 - y2) * shift)
+    return np.array(at), np.array(peaks)
+
+
 def onset_fit(velocities, amplitudes, saturated, threshold: float, points: int = 3) -> tuple[float, float]:
     """``(slope, U*_0)`` of ``A² = slope·(U* − U*_0)`` through the first ``points`` saturated
     points above ``threshold`` with a nonzero amplitude (least squares; NaN with fewer than two).
