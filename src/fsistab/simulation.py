@@ -38,6 +38,7 @@ from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
+    _to_scipy,
     integrals,
     mass_integrand,
     residual_integrand,
@@ -58,14 +59,7 @@ def full_mass_matrix(steady) -> sp.csr_matrix:
     form = BilinearForm(space)
     form += mass_integrand(steady_fields(steady), (u, p), (v, q)) * dx
     form.Assemble()
-    return _scipy_matrix(form.mat, space.ndof)
-
-
-def _scipy_matrix(matrix, n: int) -> sp.csr_matrix:
-    """An assembled NGSolve matrix as SciPy CSR, from its own CSR arrays (copied)."""
-    values, columns, starts = matrix.CSR()
-    arrays = np.array(values), np.array(columns), np.array(starts, dtype=np.int64)
-    return sp.csr_matrix(arrays, shape=(n, n))
+    return _to_scipy(form.mat, space.ndof)
 
 
 class InertialFluidResidual(FluidResidual):
