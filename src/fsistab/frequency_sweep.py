@@ -73,6 +73,7 @@ from fsistab.neutral_point import NeutralPoint, divergence_velocity
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.progress import Progress
+from fsistab.symmetry import antisymmetric_operators, whole_mode
 from fsistab.transfer import (
     TransferSample,
     sample_threads,
@@ -448,11 +449,15 @@ def sweep_thresholds(
         raise InputError(f"the velocity range must satisfy 0 < low < high, got {velocity_range}")
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
+    # the antisymmetric fields only, for a symmetric section at zero incidence (fsistab.symmetry):
+    # the same G from half the unknowns; G(0) from the whole space where its factor is given
+    whole, fluid = fluid, antisymmetric_operators(fluid)
     samples = _Samples(fluid, solid, counter, threads, say)
     linear = linear_solid(solid, fluid.theta0)  # the polynomials' W at the steady pitch (model §3.1)
     grid = _initial_grid(linear, low, high, wake_frequency)
+    static_fluid = whole if static_factor is not None else fluid
     with ThreadPoolExecutor(1) as pool:
-        static = _StaticSample(fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
+        static = _StaticSample(static_fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
         samples.add(*grid)
         _widen_band(samples, static, low, high)
         relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
@@ -470,7 +475,7 @@ def sweep_thresholds(
             static.prefetch()
         found = _converge_crossings(samples, starts, relevant, low, high, unresolved)
         if static is not None:
-            found += _divergence(static.get(), solid, fluid, (low, high))
+            found += _divergence(static.get(), solid, static_fluid, (low, high))
     found.sort(key=lambda t: t.reduced_velocity)
     frequencies = np.array(sorted(samples.by_frequency))
     return SweepResult(tuple(found), frequencies, tuple(unresolved), counter.count - samples.start)
@@ -536,7 +541,7 @@ def _converge(fluid, solid: Solid, omega: float, velocity: float, counter) -> Ne
         tolerance=NEWTON_STEP, refine=False,
     )  # fmt: skip
     critical = replace(solid, reduced_velocity=point.reduced_velocity)
-    mode = sample.mode(critical, fluid.theta0, fluid.loads0)
+    mode = whole_mode(fluid, sample.mode(critical, fluid.theta0, fluid.loads0))
     root = neutral_root(sample, critical, fluid.theta0, fluid.loads0)
     following = local_following(root)
     return replace(
@@ -609,7 +614,7 @@ def _divergence(static: TransferSample, solid: Solid, fluid, velocity_range) -> 
     for velocity, rate in _divergence_velocities(static, solid, fluid):
         if velocity_range[0] <= velocity <= velocity_range[1]:
             critical = replace(solid, reduced_velocity=velocity)
-            mode = static.mode(critical, fluid.theta0, fluid.loads0)
+            mode = whole_mode(fluid, static.mode(critical, fluid.theta0, fluid.loads0))
             boundary = "onset" if rate > 0 else "restabilisation"
             found.append(
                 NeutralPoint(

@@ -103,8 +103,9 @@ class DistributedExactSource(ExactSource):
         if self._shipped is None:
             ordering = analysis_ordering(self.fluid)
             # the blocks a sample needs: UMFPACK's analyses stay in this process, and neither the
-            # steady state (NGSolve's mesh and fields) nor the near-body mass (mode labels) is sent
-            bare = replace(self.fluid, steady=None, mff_near=None, analyses={})
+            # steady state (NGSolve's mesh and fields), the near-body mass (mode labels) nor the
+            # basis of restricted operators (whole-space fields) is sent
+            bare = replace(self.fluid, steady=None, mff_near=None, basis=None, analyses={})
             self._shipped = self.client.scatter([bare, ordering], broadcast=True, hash=False)
             self.say(f"fluid operators sent to {worker_count(self.client)} dask workers")
         return self._shipped

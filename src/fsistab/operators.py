@@ -110,7 +110,12 @@ class FluidOperators:
     * ``loads0``: steady ``(F_x, F_y, M)``; ``theta0``: steady pitch;
     * ``mff_near``: velocity mass restricted to the disc of radius ``NEAR_RADIUS`` about mid-chord
       (the frame's origin unless the section pitches about an elastic axis elsewhere; to label modes:
-      global wake modes grow downstream, so whole-domain energies say little about the body).
+      global wake modes grow downstream, so whole-domain energies say little about the body);
+    * ``basis``: None, or the blocks are restricted to a subspace of the fluid unknowns and this is
+      its orthonormal basis (``free dofs × n``): a fluid vector ``q`` of these operators is
+      ``basis @ q`` on the free dofs (the antisymmetric fields of a symmetric section,
+      :mod:`fsistab.symmetry`; ``steady``, ``free_dofs``, the solid blocks and ``loads0`` stay the
+      whole space's).
     """
 
     steady: SteadyState
@@ -126,6 +131,7 @@ class FluidOperators:
     loads0: np.ndarray
     theta0: float
     mff_near: sp.csr_matrix
+    basis: sp.csr_matrix | None = None
     # UMFPACK symbolic analyses of J_ff + s M_f by arithmetic (float, complex): the pattern is the
     # same at every shift, so the analysis is made once per operators (fsistab.linalg.FluidFactor)
     analyses: dict = field(default_factory=dict, compare=False, repr=False)

@@ -56,6 +56,7 @@ from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.progress import Progress
 from fsistab.store import ResumableTable, complex_variable
+from fsistab.symmetry import antisymmetric_operators
 
 LOADS = ("force_x", "force_y", "moment")
 
@@ -403,7 +404,9 @@ def viscous_theodorsen_dataset(
         raise InputError("the frequencies must be positive finite numbers")
     counter = counter if counter is not None else FactorCounter()
     identity = flow_identity(fluid)
-    samples = _transfer_samples(fluid, omega, counter, progress, samples_path, identity)
+    # the same G from the antisymmetric fields of a symmetric section at zero incidence
+    restricted = antisymmetric_operators(fluid)
+    samples = _transfer_samples(restricted, omega, counter, progress, samples_path, identity)
     viscous = np.array(
         [
             aerodynamic_loads(g, fluid.theta0, fluid.loads0, 1j * w)

@@ -136,6 +136,7 @@ from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.progress import Progress
 from fsistab.reduced_model import ReducedModels
+from fsistab.symmetry import antisymmetric_operators
 
 # root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
 # interpolants between samples are then good to about its square, 1e-3
@@ -402,6 +403,9 @@ def transfer_neutral_map(
     counter = counter if counter is not None else FactorCounter()
     say = progress or (lambda message: None)
     start = counter.count
+    # the antisymmetric fields only, for a symmetric section at zero incidence (fsistab.symmetry):
+    # the same G from half the unknowns
+    fluid = antisymmetric_operators(fluid)
     # finished samples (checksummed; a damaged file is reported and recomputed, another flow's refused)
     store = SampleStore.at(samples_path, fluid)
     resonances = _resonance_models(fluid, samples_path, resonance_blocks, say) if exact else None

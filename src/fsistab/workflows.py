@@ -465,12 +465,13 @@ def _map_reduced_models(case: Case, fluid, settings: MapSettings, out: Path, cou
     """The transfer map's reduced fluid models (``settings.krylov_blocks`` Krylov blocks), saved in
     ``reduced_{tag}_models.nc`` and reused by a rerun; None with exact samples or by continuation."""
     from fsistab.reduced_model import ReducedModels
+    from fsistab.symmetry import antisymmetric_operators
 
-    blocks = settings.krylov_blocks(fluid.n_fluid)
+    blocks = settings.krylov_blocks(fluid.n_fluid)  # by the whole mesh's unknowns
     if settings.method != "transfer" or not blocks:
         return None
     return ReducedModels(
-        fluid,
+        antisymmetric_operators(fluid),  # the same models from half the unknowns (fsistab.symmetry)
         tolerance=settings.reduced_tolerance,
         blocks=blocks,
         path=out / f"reduced_{case.tag}_models.nc",
