@@ -36,6 +36,7 @@ from fsistab.neutral_point import DeterminantProblem, NeutralPoint, TurningPoint
 from fsistab.operators import fluid_operators
 from fsistab.params import Flow, Solid
 from fsistab.steady import solve_steady
+from fsistab.symmetry import antisymmetric_operators
 from fsistab.transfer import characteristic_matrix, determinant_gradient, exact_transfer
 
 PARAMETERS = ("reynolds", "alpha0")
@@ -56,7 +57,7 @@ class _FlowDeterminant:
         self._transfers: OrderedDict = OrderedDict()
         self.scale = 1.0
         if fluid is not None:
-            self._states[self.value_of(flow)] = (fluid.steady, fluid)
+            self._states[self.value_of(flow)] = (fluid.steady, antisymmetric_operators(fluid))
         elif initial is not None:
             self._states[self.value_of(flow)] = (initial, None)
 
@@ -78,7 +79,8 @@ class _FlowDeterminant:
         else:
             initial = self._states[nearest][0] if nearest is not None else None
             steady = solve_steady(self.spec, self.flow_at(p), cache_dir=self.cache_dir, initial=initial)
-        fluid = fluid_operators(steady)
+        # G from the antisymmetric fields where the flow is symmetric (fsistab.symmetry)
+        fluid = antisymmetric_operators(fluid_operators(steady))
         self._states[p] = (steady, fluid)
         while len(self._states) > 4:
             self._states.popitem(last=False)

@@ -14,12 +14,13 @@ antisymmetric subspace, and with ``Q`` an orthonormal basis of it (:func:`antisy
     X = Q K_a(s)⁻¹ Qᵀ(J_fs + s M_fs),     K_a(s) = Qᵀ J_ff Q + s Qᵀ M_f Q,
 
 the same ``G(s)`` from a matrix of half the size, whose factorisation costs a fraction of the
-whole one's (docs/performance.md, "Mirror symmetry"). :func:`antisymmetric_operators` makes these blocks (the load rows ``ℓ_f Q``:
-the drag row vanishes on them, as it must, the drag of an antisymmetric field being zero), and
-returns the operators unchanged when the body is not meshed as a mirrored half, the incidence is
-not zero, or the steady flow or the solid columns are not symmetric to ``SYMMETRY_TOLERANCE``
-(a steady flow that broke the symmetry). The transfer-function paths (thresholds, maps) use them;
-modes of the result are mapped back to the whole space with :func:`whole_mode`.
+whole one's (docs/performance.md, "Mirror symmetry"). :func:`antisymmetric_operators` makes these
+blocks (the load rows ``ℓ_f Q``: the drag row vanishes on them, as it must, the drag of an
+antisymmetric field being zero), and returns the operators unchanged when the body is not meshed as
+a mirrored half, the incidence is not zero, or the steady flow or the solid columns are not
+symmetric to ``SYMMETRY_TOLERANCE`` (a steady flow that broke the symmetry). The transfer-function
+paths (thresholds, maps, flow-plane curves) use them; modes of the result are mapped back to the
+whole space with :func:`whole_mode`.
 """
 
 from __future__ import annotations
