@@ -134,7 +134,11 @@ def aaa(points: np.ndarray, values: np.ndarray, tolerance: float = FIT_TOLERANCE
         fitted[rest] = (cauchy @ (weights[:, None] * f[support])) / (cauchy @ weights)[:, None]
     if not support:  # constant data
         support = [0]
-    return BarycentricModel(points[support], f[support] * scale, weights, shape)
+    # a support point of zero weight is no part of the interpolant: its 0/0 at its own point and
+    # the spurious pole it adds to the arrowhead pencil are dropped with it
+    used = np.flatnonzero(weights != 0)
+    support = np.asarray(support)[used]
+    return BarycentricModel(points[support], f[support] * scale, weights[used], shape)
 
 
 @dataclass(frozen=True)

@@ -80,16 +80,17 @@ def _mirror_points(points: np.ndarray) -> np.ndarray | None:
     return image if float(distance.max()) <= 1e-9 * scale else None
 
 
-def antisymmetric_basis(image: np.ndarray, sign: np.ndarray, free: np.ndarray) -> sp.csr_matrix:
+def antisymmetric_basis(image: np.ndarray, sign: np.ndarray, free: np.ndarray) -> sp.csr_matrix | None:
     """The orthonormal basis ``Q`` (free dofs × antisymmetric unknowns) of the vectors on the free
     dofs ``free`` with ``R q = −q``: ``(e_i − sign_i e_j)/√2`` for each pair of mirror dofs
     ``i < j``, ``e_i`` for a dof on ``Y = 0`` that ``R`` reverses (``V`` there), none for one it
-    keeps (``U`` and ``P`` on ``Y = 0`` vanish in an antisymmetric field)."""
+    keeps (``U`` and ``P`` on ``Y = 0`` vanish in an antisymmetric field); None if the mirror image
+    of a free dof is not free (boundary conditions that are not symmetric)."""
     position = np.full(len(image), -1)
     position[free] = np.arange(len(free))
     mirror = position[image[free]]
     if np.any(mirror < 0):
-        raise ValueError("the free dofs are not closed under the reflection")
+        return None
     own = np.arange(len(free))
     pairs = own < mirror
     on_axis = (own == mirror) & (sign[free] < 0)
@@ -126,7 +127,7 @@ def antisymmetric_operators(fluid: FluidOperators) -> FluidOperators:
         return fluid
     basis = antisymmetric_basis(image, sign, fluid.free_dofs)
     inputs = np.hstack([fluid.jfs, fluid.mfs])
-    if _relative(inputs - basis @ (basis.T @ inputs), inputs) > SYMMETRY_TOLERANCE:
+    if basis is None or _relative(inputs - basis @ (basis.T @ inputs), inputs) > SYMMETRY_TOLERANCE:
         return fluid
     left = basis.T.tocsr()
     return replace(
