@@ -114,3 +114,28 @@ def test_a_resolved_pole_anywhere_in_the_band_is_fitted_between_the_samples(damp
         middle = middle[(middle > 10.7) & (middle < 11.3)]
         got = np.array([fit.transfer(x)[0] for x in middle])
         assert relative_error(got, np.array([value(1j * x) for x in middle])) < 1e-6
+
+
+def test_a_support_point_of_zero_weight_is_dropped(monkeypatch):
+    """Where the SVD gives a support point a weight of exactly zero (as the exactly affine drag row
+    of a symmetric section's G did), that point is no part of the interpolant: the model keeps only
+    weighted points, is finite with its derivative at every sample, and has no pole there."""
+    svd = np.linalg.svd
+
+    def first_weight_zero(matrix, *args, **kwargs):
+        u, s, vh = svd(matrix, *args, **kwargs)
+        if vh.shape[1] >= 3:
+            vh = vh.copy()
+            vh[-1, 0] = 0.0
+        return u, s, vh
+
+    monkeypatch.setattr(np.linalg, "svd", first_weight_zero)
+    points = 1j * np.linspace(0.5, 1.5, 12)
+    cauchy = 1.0 / (points[:, None] - np.array([0.05 + 0.8j, 0.04 + 1.3j])[None, :])
+    values = cauchy @ np.array([[1.0, 2.0], [0.5, -1.0]])  # two entries, two poles
+    model = aaa(points, values, tolerance=1e-10)
+    assert len(model.support) >= 2 and np.all(model.weights != 0)
+    for s in points:
+        value, rate = model(s, derivative=True)
+        assert np.all(np.isfinite(value)) and np.all(np.isfinite(rate))
+    assert np.all(np.abs(model.poles()[:, None] - points[None, :]) > 1e-12)
