@@ -46,6 +46,30 @@ def test_a_signal_still_growing_or_decaying_is_said_so():
     assert short.state == "too short" and math.isnan(short.change) and short.found < 4
 
 
+def test_a_slow_modulation_is_modulated_even_at_its_top():
+    """A beating oscillation whose envelope peaks within the record's last four periods: they are
+    flat (the envelope test alone would call it saturated), its second half rises and falls."""
+    t = np.arange(0.0, 400.0, 0.01)
+    omega, depth, slow = 1.3, 0.25, 2 * math.pi / 100.0
+    envelope = 0.5 * (1 + depth * np.cos(slow * (t - 386.6)))  # its top amid the last four periods
+    s = lco.saturation(t, 0.02 + envelope * np.sin(omega * t), periods=4, tolerance=0.01)
+    assert abs(s.change) < 0.01  # the last four periods pass the envelope test
+    assert s.state == "modulated" and not s.saturated
+    assert s.low == pytest.approx(0.5 * (1 - depth), rel=0.02)
+    assert s.high == pytest.approx(0.5 * (1 + depth), rel=0.02)
+    assert s.largest == pytest.approx(0.5 * (1 + depth), rel=0.01)
+    assert s.amplitude == pytest.approx(0.5, rel=0.05)  # the mean over the second half's periods
+    assert s.frequency == pytest.approx(omega, rel=0.01)
+
+
+def test_a_limit_cycle_keeps_its_range_and_largest_excursion():
+    t = np.arange(0.0, 400.0, 0.02)
+    s = lco.saturation(t, 0.1 + _landau(t, 0.08, 0.73, 1e-4, 0.4), periods=4, tolerance=1e-3)
+    assert s.state == "saturated"
+    assert s.low == pytest.approx(0.4, rel=1e-4) and s.high == pytest.approx(0.4, rel=1e-4)
+    assert s.largest == pytest.approx(0.4, rel=1e-4)
+
+
 def test_the_envelope_growth_rate_follows_the_amplitude_law():
     """For ``A' = σA(1 − A²/A∞²)`` the rate measured between periods is ``σ(1 − A²/A∞²)``: its zero is
     the limit cycle, with ``dσ/dA < 0`` (stable)."""

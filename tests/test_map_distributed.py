@@ -4,7 +4,9 @@ Plate, Re = 2900, coarse mesh, a small map (m in [500, 2000], ω in [0.12, 0.3],
 initial frequencies and refinement rounds up to 12). The map made on a 2-worker LocalCluster is
 the serial map: the same frequencies, the same samples bit for bit, the same NetCDF variables, the
 same factorisation counts; a rerun from its saved samples factorises nothing; the command hands
-its workflow a client; bad execution options are refused in one line before any work.
+its workflow a client; bad execution options are refused in one line before any work. The same for
+``fsistab critical``'s frequency sweep (m = 1000, U* in [2, 10]): on the cluster, the same
+thresholds and modes bit for bit.
 """
 
 import sys
@@ -15,6 +17,7 @@ from typer.testing import CliRunner
 
 from fsistab.cli import app
 from fsistab.errors import InputError
+from fsistab.frequency_sweep import sweep_thresholds
 from fsistab.linalg import FactorCounter
 from fsistab.neutral_map import neutral_map_dataset
 from fsistab.params import Solid
@@ -78,23 +81,54 @@ def test_a_map_on_a_local_cluster_is_the_serial_map(tmp_path, plate_operators, c
     assert workers == {w: {} for w in client.scheduler_info()["workers"]}  # released after the map
 
 
+def test_a_threshold_sweep_on_a_local_cluster_is_the_serial_sweep(plate_operators, client):
+    """``fsistab critical``'s sweep (m = 1000, U* in [2, 10]) in this process (two threads) and with
+    its samples on the 2-worker cluster: the same frequencies, thresholds and modes bit for bit,
+    the same factorisations; the operators are released from the workers afterwards."""
+    solid = Solid(mass_ratio=1000.0, reduced_velocity=2.0)
+    counters = FactorCounter(), FactorCounter()
+    serial = sweep_thresholds(plate_operators, solid, (2.0, 10.0), counter=counters[0], threads=2)
+    parallel = sweep_thresholds(plate_operators, solid, (2.0, 10.0), counter=counters[1], client=client)
+    assert counters[1].count == counters[0].count == serial.factorisations > 6
+    assert _same_bits(parallel.frequencies, serial.frequencies)
+    assert [t.kind for t in serial.thresholds] == ["flutter", "divergence"]
+    for a, b in zip(serial.thresholds, parallel.thresholds, strict=True):
+        assert (a.kind, a.reduced_velocity, a.frequency) == (b.kind, b.reduced_velocity, b.frequency)
+        assert _same_bits(a.mode, b.mode)
+    workers = client.run(lambda: dict(sys.modules["fsistab.map_distributed"]._WORKING))
+    assert workers == {w: {} for w in client.scheduler_info()["workers"]}
+
+
+CRITICAL = ["critical", "--body", "plate", "--mesh", "coarse", "--mass-ratio", "1000"]
+
+
+@pytest.mark.parametrize("command, name", [(MAP, "stability_map"), (CRITICAL, "critical_points")])
 @pytest.mark.parametrize("option", ["--workers", "--scheduler"])
-def test_the_command_hands_the_workflow_a_client(tmp_path, monkeypatch, client, option):
-    """``fsistab neutral --workers 2`` (a new LocalCluster) or ``--scheduler ADDRESS`` (the
-    module's cluster): the map's workflow gets a client of two workers (the workflow itself is
-    replaced here: the map it makes is the test above)."""
+def test_the_command_hands_the_workflow_a_client(tmp_path, monkeypatch, client, option, command, name):
+    """``fsistab neutral`` or ``fsistab critical`` with ``--workers 2`` (a new LocalCluster) or
+    ``--scheduler ADDRESS`` (the module's cluster): the workflow gets a client of two workers (the
+    workflow itself is replaced here: what it makes is the tests above)."""
     from fsistab import workflows
 
     seen = []
 
-    def workflow(case, template, settings, cache_dir, out, progress, client=None):
+    def workflow(*args, client=None):
         seen.append(len(client.scheduler_info()["workers"]))
         raise InputError("stopped after the client was seen")
 
-    monkeypatch.setattr(workflows, "stability_map", workflow)
+    monkeypatch.setattr(workflows, name, workflow)
     value = "2" if option == "--workers" else client.scheduler.address
-    result = runner.invoke(app, [*MAP, option, value, "--out", str(tmp_path / "o"), "--cache", str(tmp_path)])
+    result = runner.invoke(
+        app, [*command, option, value, "--out", str(tmp_path / "o"), "--cache", str(tmp_path)]
+    )
     assert "stopped after the client was seen" in result.output and seen == [2]
+
+
+def test_critical_refuses_the_options_with_tracking_in_one_line(tmp_path):
+    out = tmp_path / "out"
+    result = runner.invoke(app, [*CRITICAL, "--method", "tracking", "--workers", "2", "--out", str(out)])
+    assert result.exit_code == 2 and "--method transfer only" in result.output
+    assert result.output.count("\n") == 1 and not out.exists()
 
 
 @pytest.mark.parametrize(

@@ -351,18 +351,25 @@ def slopes(
     _finish("slopes", figures.slopes(ds, out), opts.as_json, reports.slopes)
 
 
-@command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, CRITICAL_OPTIONS)
+@command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, CRITICAL_OPTIONS, EXECUTION_OPTIONS)
 def critical(opts):
     """Every instability threshold along U* at one mass ratio (docs/model.md §8): by default the
     exact transfer function swept in frequency, each crossing converged by Newton on det T(iω; U*),
     and divergence from G(0); --method tracking follows eigenvalue branches over --points values.
+    --workers N or --scheduler ADDRESS: the sweep's samples are factorised on dask workers, the
+    same thresholds (--method transfer; docs/how-to/cluster.md).
     Writes the thresholds (NetCDF) and their figure in --out."""
+    from fsistab.study import check_execution, study_client
+
     case, sweep, solid = _threshold_sweep(opts, "critical points", opts.method)
+    check_execution(opts.workers, opts.scheduler)
+    if opts.method != "transfer" and (opts.workers is not None or opts.scheduler is not None):
+        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports, workflows
 
-    with _running() as progress:
-        ds = workflows.critical_points(case, solid, sweep, cache, out, progress)
+    with _running() as progress, study_client(opts.workers, opts.scheduler) as client:
+        ds = workflows.critical_points(case, solid, sweep, cache, out, progress, client=client)
     _finish("critical", figures.critical(ds), opts.as_json, reports.critical)
 
 

@@ -382,9 +382,11 @@ def find_thresholds(
     progress: Progress = None,
     static_factor: FluidFactor | None = None,
     method: str = "transfer",
+    client=None,
 ) -> tuple[list[NeutralPoint], dict]:
     """Every threshold with U* between ``velocities[0]`` and ``velocities[-1]`` (increasing) at
-    ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue.
+    ``solid.mass_ratio``; ``wake_shift`` a guess of the fixed body's wake eigenvalue; ``client``: a
+    ``dask.distributed`` client whose workers factorise the sweep's samples (transfer only).
 
     ``method="transfer"`` (default): the exact transfer function swept in frequency
     (:func:`fsistab.frequency_sweep.sweep_thresholds`), every neutral point of the range, each
@@ -409,6 +411,8 @@ def find_thresholds(
     if velocities.ndim != 1 or len(velocities) < 2 or np.any(np.diff(velocities) <= 0) or velocities[0] <= 0:
         raise InputError("the reduced velocities must be positive and increasing (at least two)")
     if method == "tracking":
+        if client is not None:
+            raise InputError("--workers and --scheduler spread the samples of --method transfer only")
         return track_thresholds(
             fluid, solid, velocities, wake_shift=wake_shift, counter=counter, progress=progress,
             static_factor=static_factor,
@@ -419,7 +423,7 @@ def find_thresholds(
         wake = wake_mode_near(fluid, float(complex(wake_shift).imag), counter=counter).frequency
     result = sweep_thresholds(
         fluid, solid, (float(velocities[0]), float(velocities[-1])), wake_frequency=wake,
-        static_factor=static_factor, counter=counter, progress=progress,
+        static_factor=static_factor, counter=counter, progress=progress, client=client,
     )  # fmt: skip
     thresholds = []
     for t in result.thresholds:

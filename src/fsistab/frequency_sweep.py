@@ -57,6 +57,7 @@ Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 
 from __future__ import annotations
 
+import contextlib
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -67,7 +68,9 @@ import numpy.polynomial.polynomial as npoly
 from fsistab.coupled import in_vacuo_rates, solid_energies
 from fsistab.errors import ConvergenceError, InputError
 from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.map_distributed import DistributedExactSource, worker_count
 from fsistab.map_roots import linear_solid
+from fsistab.map_sources import ExactSource
 from fsistab.neutral_map import following_kind, following_ratio
 from fsistab.neutral_point import NeutralPoint, divergence_velocity
 from fsistab.operators import FluidOperators
@@ -79,7 +82,6 @@ from fsistab.transfer import (
     sample_threads,
     transfer_flutter_point,
     transfer_sample,
-    transfer_samples,
 )
 from fsistab.transfer_map import (
     AxisSample,
@@ -149,12 +151,17 @@ def _all_roots(loads: np.ndarray, solid: Solid, omega: float) -> np.ndarray:
 
 def velocity_roots(sample: TransferSample, solid: Solid, theta0: float, loads0: np.ndarray) -> SweepSample:
     """The roots ``u`` of ``det(m W(iω, u) − A(iω)) = 0`` at ``solid.mass_ratio`` with ``Re u > 0``
-    and ``du/dω = −i (∂F/∂s)/(∂F/∂u)`` (module docstring)."""
-    omega = sample.s.imag
+    and ``du/dω = −i (∂F/∂s)/(∂F/∂u)`` (module docstring), from one sample on the axis."""
+    return axis_roots(AxisSample(sample.s.imag, sample.value, sample.rate), solid, theta0, loads0)
+
+
+def axis_roots(sample: AxisSample, solid: Solid, theta0: float, loads0: np.ndarray) -> SweepSample:
+    """:func:`velocity_roots` of ``G(iω)``, ``dG/ds`` as a map's sample sources give them."""
+    omega = sample.frequency
     if omega <= 0:
         raise InputError("velocity roots are for ω > 0; divergence (ω = 0) is divergence_lines")
     solid = linear_solid(solid, theta0)  # W at the steady pitch (docs/model.md §3.1)
-    loads, rate = second_order_loads(AxisSample(omega, sample.value, sample.rate), theta0, loads0)
+    loads, rate = second_order_loads(sample, theta0, loads0)
     roots = sorted((u for u in _all_roots(loads, solid, omega) if u.real > 0), key=lambda u: u.real)
     slopes = []
     for u in roots:
@@ -319,11 +326,13 @@ def frequency_band(solid: Solid, velocity_range: tuple[float, float]) -> tuple[f
 
 
 class _Samples:
-    """The sweep's samples, by frequency (:class:`SweepSample`): :meth:`add` factorises new
-    frequencies ``threads`` at a time (at most ``MAX_SAMPLES`` in all) and reports progress."""
+    """The sweep's samples, by frequency (:class:`SweepSample`): :meth:`add` has ``source`` make
+    new frequencies (:class:`fsistab.map_sources.ExactSource`: ``threads`` at a time in this process;
+    :class:`fsistab.map_distributed.DistributedExactSource`: on dask workers), at most
+    ``MAX_SAMPLES`` in all, and reports progress."""
 
-    def __init__(self, fluid: FluidOperators, solid: Solid, counter: FactorCounter, threads, say):
-        self.fluid, self.solid, self.counter, self.threads, self.say = fluid, solid, counter, threads, say
+    def __init__(self, fluid: FluidOperators, solid: Solid, counter: FactorCounter, source: ExactSource, say):
+        self.fluid, self.solid, self.counter, self.source, self.say = fluid, solid, counter, source, say
         self.start = counter.count
         self.by_frequency: dict[float, SweepSample] = {}
 
@@ -332,13 +341,8 @@ class _Samples:
         new = [float(w) for w in dict.fromkeys(frequencies) if w not in samples]
         if len(samples) + len(new) > MAX_SAMPLES:
             raise ConvergenceError(f"the frequency sweep needed more than {MAX_SAMPLES} samples")
-        data = transfer_samples(
-            fluid, [1j * w for w in new], self.counter, refine=False, threads=self.threads
-        )
-        samples.update(
-            (w, velocity_roots(d, self.solid, fluid.theta0, fluid.loads0))
-            for w, d in zip(new, data, strict=True)
-        )
+        for found in self.source.samples(new):
+            samples[found.frequency] = axis_roots(found, self.solid, fluid.theta0, fluid.loads0)
         if new:
             made = self.counter.count - self.start
             self.say(
@@ -433,6 +437,7 @@ def sweep_thresholds(
     counter: FactorCounter | None = None,
     progress: Progress = None,
     threads: int | None = None,
+    client=None,
 ) -> SweepResult:
     """Every threshold with ``U*`` in ``velocity_range`` at ``solid.mass_ratio`` (module docstring),
     each converged on the exact transfer function, with its critical mode. A dynamic threshold is
@@ -443,7 +448,9 @@ def sweep_thresholds(
     not depend on whether a hint was given, and is that of the rule labelling its curve on a map.
     ``divergence`` from ``G(0)`` when pitch is active (``static_factor``: a factorisation of
     ``J_ff`` to reuse). ``threads``: samples factorised at once
-    (:func:`fsistab.transfer.transfer_samples`)."""
+    (:func:`fsistab.transfer.transfer_samples`); ``client``: a ``dask.distributed`` client whose
+    workers factorise the samples of each round instead (:func:`_sample_source`); the Newton
+    iterations and ``G(0)`` stay in this process."""
     low, high = (float(v) for v in velocity_range)
     if not (0 < low < high and math.isfinite(high)):
         raise InputError(f"the velocity range must satisfy 0 < low < high, got {velocity_range}")
@@ -452,18 +459,17 @@ def sweep_thresholds(
     # the antisymmetric fields only, for a symmetric section at zero incidence (fsistab.symmetry):
     # the same G from half the unknowns; G(0) from the whole space where its factor is given
     whole, fluid = fluid, antisymmetric_operators(fluid)
-    samples = _Samples(fluid, solid, counter, threads, say)
+    source, parallel = _sample_source(fluid, counter, threads, client, say)
+    samples = _Samples(fluid, solid, counter, source, say)
     linear = linear_solid(solid, fluid.theta0)  # the polynomials' W at the steady pitch (model §3.1)
     grid = _initial_grid(linear, low, high, wake_frequency)
     static_fluid = whole if static_factor is not None else fluid
-    with ThreadPoolExecutor(1) as pool:
+    with ThreadPoolExecutor(1) as pool, _releasing(source):
         static = _StaticSample(static_fluid, static_factor, counter, pool) if "pitch" in solid.dofs else None
         samples.add(*grid)
         _widen_band(samples, static, low, high)
         relevant = (1.0 / (RELEVANT_MARGIN * high), RELEVANT_MARGIN / low)  # u of the range, widened
-        intervals, unresolved = _bisect(
-            samples.by_frequency, samples.add, linear, relevant, sample_threads(threads)
-        )
+        intervals, unresolved = _bisect(samples.by_frequency, samples.add, linear, relevant, parallel)
         if unresolved:
             where = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unresolved)
             say(f"frequency sweep: {len(unresolved)} interval(s) of ω unresolved at {MIN_STEP:g}: {where}")
@@ -479,6 +485,25 @@ def sweep_thresholds(
     found.sort(key=lambda t: t.reduced_velocity)
     frequencies = np.array(sorted(samples.by_frequency))
     return SweepResult(tuple(found), frequencies, tuple(unresolved), counter.count - samples.start)
+
+
+def _sample_source(fluid: FluidOperators, counter: FactorCounter, threads, client, say):
+    """``(source, parallel)``: where the sweep's samples are factorised, and how many at once (a
+    bisection round splits its intervals into that many samples at least): ``threads`` in this
+    process, or the workers of ``client`` (:mod:`fsistab.map_distributed`: each gets the operators
+    once and returns ``G``, ``dG/ds`` bit for bit as this process makes them)."""
+    if client is None:
+        return ExactSource(fluid, counter, threads), sample_threads(threads)
+    return DistributedExactSource(fluid, counter, client, say), max(worker_count(client), 1)
+
+
+@contextlib.contextmanager
+def _releasing(source: ExactSource):
+    """Free what ``source`` holds on its workers when the sweep ends, however it ends."""
+    try:
+        yield source
+    finally:
+        source.release()
 
 
 class _StaticSample:

@@ -11,6 +11,12 @@ over their last whole periods (:func:`saturation`):
 * the march is **saturated** when ``|r|`` is below the tolerance (``growing`` or ``decaying``
   otherwise; ``too short`` with fewer than ``P`` periods); the amplitude is the mean of the last
   ``P`` period amplitudes, the angular frequency ``2πP`` over their span;
+* it is **modulated** (beating, quasi-periodic), whatever ``r``, when over the whole periods of the
+  record's second half (at least ``2P`` of them) the envelope both rises and falls by more than
+  the tolerance from one period to the next: four periods at the top of a slow modulation look
+  saturated. Its amplitude and frequency are then those of the second half's periods. For every
+  state the smallest and largest period amplitudes of that window and the largest excursion from
+  the mid-level over the second half (the measure of published VIV amplitude curves) are kept;
 * a march from the perturbed steady state is ``transient``, not saturated, when the envelope test
   cannot tell a cycle from the linear transient (:func:`left_linear_transient`): the linear growth
   per period ``|e^{σ₀T₀} − 1|`` of the start mode is below the tolerance (near a threshold σ₀ → 0 and
@@ -50,7 +56,7 @@ import xarray as xr
 from fsistab.params import Case, LcoSettings, Solid, body_velocity_scale
 from fsistab.progress import Progress
 
-STATES = ("saturated", "growing", "decaying", "too short", "transient")
+STATES = ("saturated", "modulated", "growing", "decaying", "too short", "transient")
 
 # A march from the perturbed steady state whose amplitude stays within this factor of its first
 # whole period's has not left its start: it is no cycle, whatever its envelope (module docstring).
@@ -63,7 +69,9 @@ class Saturation:
     half peak-to-peak of the last ``periods`` periods, else half the range of the signal's second
     half), angular ``frequency`` (NaN without a whole period), ``mean`` level, ``change`` (relative
     envelope change per period, NaN when too short), ``found`` whole periods in all, ``state``,
-    ``first`` the first whole period's amplitude (NaN without one)."""
+    ``first`` the first whole period's amplitude (NaN without one); ``low`` and ``high`` the
+    smallest and largest period amplitudes of the second half's whole periods (of the last
+    ``periods`` if it has fewer), ``largest`` the largest ``|value - mean|`` over the second half."""
 
     amplitude: float
     frequency: float
@@ -73,6 +81,9 @@ class Saturation:
     found: int
     state: str
     first: float = math.nan
+    low: float = math.nan
+    high: float = math.nan
+    largest: float = math.nan
 
     @property
     def saturated(self) -> bool:
@@ -101,24 +112,35 @@ def period_amplitudes(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray
 
 def saturation(times, values, periods: int = 4, tolerance: float = 0.01) -> Saturation:
     """The :class:`Saturation` of a sampled signal over its last ``periods`` whole periods, called
-    saturated when the envelope changes by less than ``tolerance`` (relative) per period
-    (module docstring)."""
+    saturated when the envelope changes by less than ``tolerance`` (relative) per period, modulated
+    when it rises and falls by more over the second half (module docstring)."""
     times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
     crossings, amplitudes, level = period_amplitudes(times, values)
     found = len(amplitudes)
     first = float(amplitudes[0]) if found else math.nan
+    late = values[len(values) // 2 :]
+    largest = float(np.max(np.abs(late - level))) if len(late) else 0.0
     if found < periods or not np.all(amplitudes[-periods:] > 0):
-        late = values[len(values) // 2 :]
         frequency = 2 * math.pi * found / (crossings[-1] - crossings[0]) if found else math.nan
         amplitude = 0.5 * float(np.ptp(late)) if len(late) else 0.0
-        return Saturation(amplitude, frequency, level, math.nan, periods, found, "too short", first)
+        return Saturation(
+            amplitude, frequency, level, math.nan, periods, found, "too short", first, largest=largest
+        )
     last = amplitudes[-periods:]
     slope = np.polyfit(np.arange(periods), np.log(last), 1)[0]
     change = float(math.expm1(slope))
     state = "saturated" if abs(change) < tolerance else ("growing" if change > 0 else "decaying")
     span = crossings[-1] - crossings[-1 - periods]
-    frequency = 2 * math.pi * periods / span
-    return Saturation(float(last.mean()), frequency, level, change, periods, found, state, first)
+    frequency, amplitude = 2 * math.pi * periods / span, float(last.mean())
+    second = crossings[:-1] >= 0.5 * (times[0] + times[-1])  # the second half's whole periods
+    window = amplitudes[second] if second.sum() >= periods else last
+    if len(window) >= 2 * periods and np.all(window > 0):
+        steps = np.diff(np.log(window))
+        if steps.max() > math.log1p(tolerance) and steps.min() < -math.log1p(tolerance):
+            state, amplitude = "modulated", float(window.mean())
+            frequency = 2 * math.pi * len(window) / (crossings[-1] - crossings[-1 - len(window)])
+    low, high = float(window.min()), float(window.max())
+    return Saturation(amplitude, frequency, level, change, periods, found, state, first, low, high, largest)
 
 
 def left_linear_transient(s: Saturation, growth_rate: float, frequency: float, tolerance: float) -> bool:
@@ -319,6 +341,9 @@ def point_dataset(series: xr.Dataset, velocity: float, settings: LcoSettings) ->
             f"{name}_saturated": int(s.saturated),
             f"{name}_state": s.state,
             f"{name}_periods": s.found,
+            f"{name}_low": s.low,
+            f"{name}_high": s.high,
+            f"{name}_largest": s.largest,
         }
     keep = ("ndof", "steps", "factorisations", "seconds_per_step", "checkpoint", "netcdf", "dofs")
     attrs = {k: series.attrs[k] for k in keep if k in series.attrs}

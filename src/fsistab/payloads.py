@@ -430,6 +430,11 @@ def _lco_payload(ds):
                     "frequency": _finite_or_none([ds[f"{name}_frequency"].values[i]])[0],
                     "change_per_period": _finite_or_none([ds[f"{name}_change"].values[i]])[0],
                     "state": str(ds[f"{name}_state"].values[i]),
+                    **{
+                        key: _finite_or_none([ds[f"{name}_{key}"].values[i]])[0]
+                        for key in ("low", "high", "largest")
+                        if f"{name}_{key}" in ds  # diagrams written before these fields
+                    },
                 }
             if f"decreasing_{name}_amplitude" in ds:
                 point[f"decreasing_{name}"] = {

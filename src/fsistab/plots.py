@@ -1363,8 +1363,9 @@ def plot_thresholds(ds, path: Path, title: str = "") -> Path:
 @_styled
 def plot_lco(ds, path: Path, title: str = "") -> Path:
     """The bifurcation diagram of ``fsistab lco`` (:func:`fsistab.lco.limit_cycles`): the saturated
-    amplitudes of the moving degrees of freedom against U* (filled: saturated; open: not; triangles
-    down: the sweep by decreasing U*), the linear thresholds dashed; beside it the frequency of the
+    amplitudes of the moving degrees of freedom against U* (filled: saturated; open: not, with a bar
+    over the range of a modulated one's period amplitudes; triangles down: the sweep by decreasing
+    U*), the linear thresholds dashed; beside it the frequency of the
     leading signal with the in-vacuo natural frequency."""
     from fsistab.lco import signals
 
@@ -1385,6 +1386,10 @@ def plot_lco(ds, path: Path, title: str = "") -> Path:
             if (~held).any():
                 ax_amp.plot(u[~held], amp[~held], marker, color=colour, ms=5, mfc="none",
                             label=f"{name}{unit}, {label}, not saturated")  # fmt: skip
+            modulated = ds[f"{prefix}{name}_state"].values == "modulated"
+            if modulated.any() and f"{prefix}{name}_low" in ds:  # the range of its period amplitudes
+                low, high = (ds[f"{prefix}{name}_{k}"].values[modulated] for k in ("low", "high"))
+                ax_amp.vlines(u[modulated], low, high, color=colour, lw=1.5)
             if not prefix:
                 ax_freq.plot(u, ds[f"{name}_frequency"].values, marker + "-", color=colour, ms=4, label=name)
     for ax in (ax_amp, ax_freq):

@@ -443,6 +443,8 @@ def lco(ds: xr.Dataset, p: dict) -> list:
             cells.append(f"{amplitude} (ω {frequency})")
         state = point[names[0]]
         change = "" if state["change_per_period"] is None else f" {state['change_per_period']:+.2g}/period"
+        if state["state"] == "modulated" and state.get("low") is not None:
+            change = f" {state['low']:.4g}–{state['high']:.4g}"  # the range of its period amplitudes
         rows.append((f"{point['reduced_velocity']:g}", *cells, f"{state['state']}{change}"))
     title = (
         f"limit cycles: {a['body']}, Re = {a['reynolds']:g}, m = {a['mass_ratio']:g}, dofs {a['dofs']}, "

@@ -76,16 +76,26 @@ def _limit_cycle_fields() -> dict[str, Field]:
     fields = {"error": _text("error message of a failed point")}
     for name, (what, unit) in signals.items():
         fields |= {
-            f"{name}_amplitude": Field(f"saturated amplitude (half peak-to-peak) of the {what}", unit),
+            f"{name}_amplitude": Field(
+                f"amplitude of the {what}: mean half peak-to-peak of its last periods (modulated: of the "
+                "second half's)",
+                unit,
+            ),
             f"{name}_frequency": Field(f"angular frequency of the {what} over its last periods (U/L)"),
             f"{name}_mean": Field(f"mid-level of the {what} oscillation", unit),
             f"{name}_change": Field(f"relative change per period of the {what} envelope"),
             f"{name}_saturated": Field(f"1 when the {what} oscillation is a limit cycle (saturated)"),
             f"{name}_state": _text(
-                f"the {what} march: saturated, growing, decaying, too short or transient (the envelope "
-                "test cannot tell it from the start mode's linear transient)"
+                f"the {what} march: saturated, modulated (the envelope rises and falls over the second "
+                "half), growing, decaying, too short or transient (the envelope test cannot tell it from "
+                "the start mode's linear transient)"
             ),
             f"{name}_periods": Field(f"whole periods of the {what} in the march"),
+            f"{name}_low": Field(f"smallest period amplitude of the {what} over the second half", unit),
+            f"{name}_high": Field(f"largest period amplitude of the {what} over the second half", unit),
+            f"{name}_largest": Field(
+                f"largest excursion of the {what} from its mid-level over the second half", unit
+            ),
         }
     fields["start_state"] = _text(
         "state of the leading signal of the march this one started from (the one above; 'not chained' "

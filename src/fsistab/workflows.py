@@ -270,6 +270,7 @@ def critical_points(
     cache_dir: Path,
     out: Path | None = None,
     progress: Progress = None,
+    client=None,
 ) -> xr.Dataset:
     """Every threshold along U* at one mass ratio (docs/model.md §8) over the sweep's range: the exact
     transfer function swept in frequency, each crossing converged by Newton on ``det T``,
@@ -278,7 +279,9 @@ def critical_points(
     solid's natural frequency: ω_θ of the plate, ω_h of the cylinder). What the
     search did in attributes: ``frequencies_sampled`` (transfer) or ``branches_tracked`` over
     ``points`` values of U* (tracking). Saved as ``critical_{tag}_m{m}_{preset}.nc`` in ``out``
-    (when given), its path in attribute ``netcdf``."""
+    (when given), its path in attribute ``netcdf``. ``client``: a ``dask.distributed`` client whose
+    workers factorise the frequency sweep's samples (:mod:`fsistab.map_distributed`), the same
+    thresholds."""
     from fsistab.critical import find_thresholds
     from fsistab.store import write_dataset
 
@@ -293,6 +296,7 @@ def critical_points(
         counter=counter,
         progress=say,
         method=sweep.method,
+        client=client,
     )
     velocity = np.array([t.reduced_velocity * scale for t in thresholds])
     frequency = np.array([t.frequency for t in thresholds])
