@@ -11,21 +11,24 @@ commit 883fc136837900a6d426473449129fea28e168d4; the case's Re and M_red read fr
 of it, ``validation/osc/VIV``): a third party's digitisation, about ±0.02 D.
 
 Reads the diagram of ``fsistab lco`` (its NetCDF, ``data`` of the JSON output) and prints one
-Markdown row per U*: A/D (the mean period amplitude over the last periods, with the saturation
-state), the largest |h − mean| over the second half of the march (the references' measure, read
-from the march's time series in ``OUT/lco_runs``), the references and the differences; ``--figure``
-draws both curves.
+Markdown row per U*: A/D (the mean period amplitude, with the march's state: over the last periods,
+or over the second half's for a modulated march, with the range of its period amplitudes), the
+largest |h − mid-level| over the second half of the march (``heave_largest``, the references'
+measure), the references and the differences; ``--figure`` draws both curves.
 
-Usage: python validation/viv_amplitude.py LCO.nc [--runs OUT/lco_runs] [--figure viv.png]
+Several diagrams (e.g. marches of different durations) are read as one, by U*.
+
+Usage: python validation/viv_amplitude.py LCO.nc [LCO.nc ...] [--figure viv.png]
 """
 
 import argparse
-from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
 from fsistab.store import read_dataset
 
+FIELDS = ("amplitude", "frequency", "state", "low", "high", "largest", "saturated")
 # U*, A_max/D of Borazjani et al. (2008), of Ahn & Kallinderis (2006): cuIBM's digitisation
 REFERENCE = (
     (3.0, 0.0714, 0.0714),
@@ -37,27 +40,17 @@ REFERENCE = (
 )
 
 
-def record_maxima(runs: Path | None) -> dict[float, float]:
-    """U* → the largest |h − mean h| over the second half of each march in ``runs``."""
-    maxima = {}
-    for path in sorted(runs.glob("*/simulate_*.nc")) if runs else []:
-        series = read_dataset(path)
-        u = round(float(series.attrs["reduced_velocity"]) * 2 * np.pi, 6)  # the cylinder's U*
-        t, h = series.time.values, series.heave.values
-        late = h[t >= 0.5 * t[-1]]
-        maxima[u] = float(np.max(np.abs(late - late.mean())))
-    return maxima
-
-
-def rows(ds, maxima: dict[float, float]) -> list[str]:
+def rows(ds) -> list[str]:
     out = []
     for u, borazjani, ahn in REFERENCE:
         near = np.isclose(ds.reduced_velocity.values, u)
         if not near.any():
             continue
         i = int(np.argmax(near))
-        a, w, state = (ds[f"heave_{k}"].values[i] for k in ("amplitude", "frequency", "state"))
-        peak = maxima.get(round(u, 6), np.nan)
+        a, w, state, low, high, peak = (
+            ds[f"heave_{k}"].values[i] for k in ("amplitude", "frequency", "state", "low", "high", "largest")
+        )
+        state = f"{state} {low:.3f}–{high:.3f}" if state == "modulated" else state
         fn = 2 * np.pi / u
         out.append(
             f"| {u:g} | {borazjani:.3f} | {ahn:.3f} | {a:.3f} ({state}) | {peak:.3f} | "
@@ -66,7 +59,7 @@ def rows(ds, maxima: dict[float, float]) -> list[str]:
     return out
 
 
-def draw(ds, maxima: dict[float, float], path: str) -> None:
+def draw(ds, path: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -82,9 +75,11 @@ def draw(ds, maxima: dict[float, float], path: str) -> None:
     ax.plot(u[ok], a[ok], "ko", label="fsistab lco (saturated)")
     if (~ok).any():
         ax.plot(u[~ok], a[~ok], "ko", mfc="none", label="fsistab lco (not saturated)")
-    if maxima:
-        um = sorted(maxima)
-        ax.plot(um, [maxima[v] for v in um], "kx", label="fsistab: largest |h| (second half)")
+    modulated = ds.heave_state.values == "modulated"
+    if modulated.any():
+        ax.vlines(u[modulated], ds.heave_low.values[modulated], ds.heave_high.values[modulated], "k",
+                  label="fsistab lco: range of a modulated march")  # fmt: skip
+    ax.plot(u, ds.heave_largest.values, "kx", label="fsistab: largest |h| (second half)")
     ax.set_xlabel("U* = U/(f_n D)")
     ax.set_ylabel("A/D")
     ax.set_title(f"cylinder in heave, Re 150, M_red = 2, ζ = 0 ({ds.attrs.get('preset', '')} mesh)")
@@ -97,20 +92,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("diagram", help="the NetCDF file of fsistab lco")
-    parser.add_argument("--runs", type=Path, default=None, help="the lco_runs folder of the diagram")
+    parser.add_argument("diagrams", nargs="+", help="NetCDF files of fsistab lco")
     parser.add_argument("--figure", default=None, help="draw the comparison to this file")
     args = parser.parse_args()
-    ds = read_dataset(args.diagram)
+    parts = [read_dataset(path)[[f"heave_{k}" for k in FIELDS]] for path in args.diagrams]
+    ds = xr.concat(parts, "reduced_velocity", combine_attrs="drop_conflicts").sortby("reduced_velocity")
     print(
         "| U* | Borazjani et al. | Ahn & Kallinderis | fsistab: period amplitude (state) | "
         "fsistab: largest |h| | − Borazjani | − Ahn | ω (heave) |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    maxima = record_maxima(args.runs)
-    print("\n".join(rows(ds, maxima)))
+    print("\n".join(rows(ds)))
     if args.figure:
-        draw(ds, maxima, args.figure)
+        draw(ds, args.figure)
 
 
 if __name__ == "__main__":

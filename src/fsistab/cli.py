@@ -600,12 +600,13 @@ def lco(opts):
     of --points U* over --reduced-velocity-range, the saturated amplitude and frequency of h and θ
     from their last --periods periods (saturated when the envelope changes by less than
     --saturation-tolerance per period; from the perturbed steady state also only once it has left
-    the start mode's linear transient), the bifurcation diagram with the linear onsets of the same
-    mesh, and whether the onset is supercritical (A² linear in U* − U*_c) or subcritical
-    (--hysteresis: a sweep by decreasing U*, each march from the last state of the one above). Each
-    march is one task: in this process by default, on a dask LocalCluster with --workers N or a
-    scheduler with --scheduler; finished marches are kept in OUT/lco_points and rerunning resumes.
-    Exit status 1 when a march of either sweep failed."""
+    the start mode's linear transient; modulated when over the march's second half the envelope
+    rises and falls by more, with the range of its period amplitudes), the bifurcation diagram
+    with the linear onsets of the same mesh, and whether the onset is supercritical (A² linear in
+    U* − U*_c) or subcritical (--hysteresis: a sweep by decreasing U*, each march from the last
+    state of the one above). Each march is one task: in this process by default, on a dask
+    LocalCluster with --workers N or a scheduler with --scheduler; finished marches are kept in
+    OUT/lco_points and rerunning resumes. Exit status 1 when a march of either sweep failed."""
     from fsistab.study import check_execution, study_client
 
     case = opts.case()
