@@ -465,7 +465,7 @@ def test_critical_says_what_the_search_did(tmp_path, monkeypatch, method, kinds,
     nothing says so; the figure is written in --out beside the data, also without a threshold."""
     from fsistab import workflows
 
-    def fake(case, solid, sweep, cache, out, progress):
+    def fake(case, solid, sweep, cache, out, progress, client=None):
         return _critical_dataset(out, method, kinds)
 
     monkeypatch.setattr(workflows, "critical_points", fake)
