@@ -95,7 +95,12 @@ def main() -> None:
     parser.add_argument("diagrams", nargs="+", help="NetCDF files of fsistab lco")
     parser.add_argument("--figure", default=None, help="draw the comparison to this file")
     args = parser.parse_args()
-    parts = [read_dataset(path)[[f"heave_{k}" for k in FIELDS]] for path in args.diagrams]
+    parts = []
+    for path in args.diagrams:
+        diagram = read_dataset(path)
+        if "heave_largest" not in diagram:
+            raise SystemExit(f"{path}: a diagram written before heave_largest; rerun its fsistab lco command")
+        parts.append(diagram[[f"heave_{k}" for k in FIELDS]])
     ds = xr.concat(parts, "reduced_velocity", combine_attrs="drop_conflicts").sortby("reduced_velocity")
     print(
         "| U* | Borazjani et al. | Ahn & Kallinderis | fsistab: period amplitude (state) | "

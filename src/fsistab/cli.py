@@ -351,6 +351,16 @@ def slopes(
     _finish("slopes", figures.slopes(ds, out), opts.as_json, reports.slopes)
 
 
+def _check_sample_execution(opts, method: str) -> None:
+    """``--workers``/``--scheduler`` of a command whose transfer method spreads its samples on dask
+    (``critical``, ``neutral``): well formed, and only with ``--method transfer``."""
+    from fsistab.study import check_execution
+
+    check_execution(opts.workers, opts.scheduler)
+    if method != "transfer" and (opts.workers is not None or opts.scheduler is not None):
+        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
+
+
 @command(CASE_OPTIONS, *FILES, MASS_OPTION, *SPRINGS, CRITICAL_OPTIONS, EXECUTION_OPTIONS)
 def critical(opts):
     """Every instability threshold along U* at one mass ratio (docs/model.md §8): by default the
@@ -359,12 +369,10 @@ def critical(opts):
     --workers N or --scheduler ADDRESS: the sweep's samples are factorised on dask workers, the
     same thresholds (--method transfer; docs/how-to/cluster.md).
     Writes the thresholds (NetCDF) and their figure in --out."""
-    from fsistab.study import check_execution, study_client
+    from fsistab.study import study_client
 
     case, sweep, solid = _threshold_sweep(opts, "critical points", opts.method)
-    check_execution(opts.workers, opts.scheduler)
-    if opts.method != "transfer" and (opts.workers is not None or opts.scheduler is not None):
-        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
+    _check_sample_execution(opts, opts.method)
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports, workflows
 
@@ -398,7 +406,7 @@ def neutral(opts):
     map as in this process (--method transfer; docs/how-to/cluster.md).
 
     Rerunning the same command resumes."""
-    from fsistab.study import check_execution, study_client
+    from fsistab.study import study_client
 
     case = opts.case()
     case.require_plate("neutral maps")
@@ -406,9 +414,7 @@ def neutral(opts):
     seeds = None if opts.seed_masses is None else tuple(opts.seed_masses)
     settings = params.MapSettings(seed_masses=seeds, **{name: getattr(opts, name) for name in names})
     template = opts.solid("plate", settings.template_mass, settings.velocity_range[0], ("heave", "pitch"))
-    check_execution(opts.workers, opts.scheduler)
-    if settings.method != "transfer" and (opts.workers is not None or opts.scheduler is not None):
-        raise InputError("--workers and --scheduler spread the samples of --method transfer only")
+    _check_sample_execution(opts, settings.method)
     out, cache = _prepare(opts, [case])
     from fsistab import figures, reports, workflows
 
