@@ -27,7 +27,6 @@ import threading
 import time
 
 import numpy as np
-from ngsolve import SetNumThreads
 
 from fsistab import umfpack
 from fsistab.bodies import Plate
@@ -100,7 +99,6 @@ def main() -> None:
     parser.add_argument("--cache", default=None)
     parser.add_argument("--size", action="append", type=_size, default=[], help="NAME=VALUE[,VALUE...]")
     args = parser.parse_args()
-    SetNumThreads(1)
     spec = mesh_spec(Plate(), args.preset, args.reynolds, **dict(args.size))
     steady = solve_steady(spec, Flow(args.reynolds), cache_dir=args.cache or default_cache_dir())
     wall, cpu = time.perf_counter(), time.process_time()

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from fsistab import operators
 from fsistab.bodies import Cylinder, Plate
 from fsistab.coupled import CoupledResidual, CoupledSystem
 from fsistab.eigen import eigenpairs_near
@@ -81,6 +82,17 @@ def test_solid_parameters_do_not_touch_the_fluid(plate_system):
     other = CoupledSystem(system.fluid, Solid(mass_ratio=50.0, reduced_velocity=7.0))
     assert other.fluid is system.fluid
     assert (other.jacobian[other.n_solid :, other.n_solid :] != system.fluid.jff).nnz == 0
+
+
+def test_operators_assembled_on_every_core_equal_those_of_one_thread(plate_operators):
+    """``fluid_operators`` runs its element loops in NGSolve's task manager: every block is that of
+    the single-threaded assembly (the module's own function, outside any task manager) to the bit."""
+    one_thread = operators._fluid_operators(plate_operators.steady, operators.TERMS)
+    for name in ("jff", "mff", "load_f", "load_mass_f", "mff_near"):
+        a, b = getattr(plate_operators, name), getattr(one_thread, name)
+        assert a.shape == b.shape and (a != b).nnz == 0, name
+    for name in ("jfs", "mfs", "load_s", "load_mass_s", "loads0"):
+        assert np.array_equal(getattr(plate_operators, name), getattr(one_thread, name)), name
 
 
 def test_bordered_umfpack_equals_superlu_on_coupled_matrix(plate_system):

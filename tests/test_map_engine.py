@@ -61,8 +61,8 @@ class _Synthetic:
         self.counter.count += 1
         return _pitch_sample(omega, self.slope)
 
-    def samples(self, frequencies):
-        for omega in frequencies:
+    def samples(self, frequencies, later=None):
+        for omega in [*frequencies, *(later.items() if later else ())]:
             yield self.sample(omega)
 
 

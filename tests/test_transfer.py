@@ -3,6 +3,7 @@ the neutral point of det T(iω; U*), the viscous Theodorsen function."""
 
 import json
 import math
+from concurrent.futures import Future
 
 import numpy as np
 import pytest
@@ -18,10 +19,12 @@ from fsistab.operators import fluid_operators
 from fsistab.params import Solid
 from fsistab.slopes import static_slopes
 from fsistab.transfer import (
+    Deferred,
     TransferDeterminant,
     aerodynamic_loads,
     characteristic_matrix,
     exact_transfer,
+    iter_transfer_samples,
     transfer_flutter_point,
     transfer_sample,
     viscous_theodorsen_dataset,
@@ -121,6 +124,36 @@ def test_unrefined_samples_agree_with_refined_ones(plate_operators, shift):
     refined = transfer_sample(fluid, shift, factor=factor, refine=True)
     assert np.abs(plain.value - refined.value).max() < 1e-11 * np.abs(refined.value).max()
     assert np.abs(plain.rate - refined.rate).max() < 1e-10 * np.abs(refined.rate).max()
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_later_shifts_join_the_batch_once_known(plate_operators, threads):
+    """``iter_transfer_samples`` with shifts known only once a future is done (a reduced model being
+    built, in a map): with two threads they join the queue at the first sample finished after the
+    future is done, not after the batch; with one thread, after the batch. Every sample counted
+    once and equal to the one made alone, bit for bit."""
+    shifts, extra = [0.3j, 0.5j, 0.7j, 0.9j], [0.4j]
+    model = Future()
+    seen, asked = [], []
+
+    def items():
+        asked.append(len(seen))
+        return extra
+
+    later = Deferred((model,), items)
+    counter = FactorCounter()
+    found = iter_transfer_samples(plate_operators, shifts, counter, threads=threads, later=later)
+    for n, sample in enumerate(found):
+        seen.append(sample)
+        if n == 0:
+            model.set_result(None)  # the model is done while the batch is under way
+    # two threads: asked before the batch's end (after the first or second sample, as they finish)
+    assert len(asked) == 1 and (asked[0] < len(shifts) if threads == 2 else asked[0] == len(shifts))
+    assert sorted(s.s.imag for s in seen) == sorted(s.imag for s in shifts + extra)
+    assert counter.count == len(shifts) + len(extra)
+    alone = transfer_sample(plate_operators, 0.4j)
+    (joined,) = [s for s in seen if s.s == 0.4j]
+    assert np.array_equal(joined.value, alone.value) and np.array_equal(joined.rate, alone.rate)
 
 
 @pytest.mark.parametrize(

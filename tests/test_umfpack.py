@@ -93,4 +93,50 @@ def test_symmetric_analysis_with_nested_dissection_solves(complex_values):
 def test_given_ordering_of_the_wrong_size_refused():
     a = _grid_laplacian(10)
     with pytest.raises(ValueError, match="ordering"):
-        umfpack.Analysis(umfpack._Pattern(a), ordering=np.arange(5))
+        umfpack.Analysis(umfpack.PackedMatrix(a), ordering=np.arange(5))
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.4, 1.3j, 0.2 - 0.9j])
+def test_pencil_packs_scipys_shifted_matrix_to_the_bit(shift):
+    # B has entries outside A's pattern and A an explicit zero: the pencil's pattern is their union
+    # without it, SciPy's sum's for a nonzero shift, the same at every shift (at 0, SciPy's sum
+    # drops B's entries: the pencil keeps them as zeros), so one analysis serves every shift
+    a = _matrix(200, 11, False)
+    a.data[5] = 0.0  # an explicit zero, stored
+    b = sp.random(200, 200, density=0.01, random_state=np.random.default_rng(12), format="csr")
+    pencil = umfpack.Pencil(a, b)
+    packed, other = pencil.at(shift), pencil.at(2.0j)
+    value = shift if complex(shift).imag else complex(shift).real
+    assert np.array_equal(packed.matrix.toarray(), (a + value * b).toarray())
+    union = umfpack.PackedMatrix(a + 1.0 * b)
+    for pattern in (packed, other):
+        assert np.array_equal(pattern.pointers, union.pointers) and np.array_equal(pattern.rows, union.rows)
+    if shift:
+        assert np.array_equal(packed.values, umfpack.PackedMatrix(a + value * b).values)
+    assert packed.complex == bool(complex(shift).imag)
+    first = umfpack.LU(pencil.at(2.0j if packed.complex else 2.0))
+    lu = umfpack.LU(packed, first.analysis)
+    assert lu.analysis is first.analysis
+    rhs = np.random.default_rng(13).standard_normal(200)
+    assert np.linalg.norm((a + value * b) @ lu.solve(rhs) - rhs) < 1e-12 * np.linalg.norm(rhs)
+
+
+def test_pencil_of_matrices_of_different_shapes_refused():
+    with pytest.raises(ValueError, match="pencil"):
+        umfpack.Pencil(_matrix(20, 1, False), _matrix(21, 1, False))
+
+
+def test_pencil_leaves_its_matrices_as_they_are():
+    # a product's rows may come unsorted: SciPy would sort them in place (abs, sums), writing to
+    # arrays that other threads read (a map's first factorisations start in several threads)
+    a = _matrix(120, 14, False).tocsr()
+    for row in range(a.shape[0]):
+        start, end = a.indptr[row], a.indptr[row + 1]
+        a.indices[start:end] = a.indices[start:end][::-1].copy()
+        a.data[start:end] = a.data[start:end][::-1].copy()
+    a.has_sorted_indices = False
+    b = sp.identity(120, format="csr")
+    indices, data = a.indices.copy(), a.data.copy()
+    pencil = umfpack.Pencil(a, b)
+    assert np.array_equal(a.indices, indices) and np.array_equal(a.data, data)
+    assert np.array_equal(pencil.at(0.5j).matrix.toarray(), (a + 0.5j * b).toarray())

@@ -17,6 +17,7 @@ instead (slower, kept so that solvers stay swappable and to cross-check).
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -48,9 +49,16 @@ class FactorCounter:
     count: int = 0
 
 
-def _shifted(fluid: FluidOperators, shift: complex):
-    """``J_ff + s M_f`` (SciPy), real if ``s`` is."""
-    return fluid.jff + (shift if shift.imag != 0 else shift.real) * fluid.mff
+_PENCIL_MADE = threading.Lock()  # the first factorisations of a map start in several threads
+
+
+def _shifted(fluid: FluidOperators, shift: complex) -> umfpack.PackedMatrix:
+    """``J_ff + s M_f`` as UMFPACK reads it, real if ``s`` is: from the operators' pencil, made once
+    by the first thread that asks, the others waiting for it."""
+    with _PENCIL_MADE:
+        if not fluid.pencil:
+            fluid.pencil.append(umfpack.Pencil(fluid.jff, fluid.mff))
+    return fluid.pencil[0].at(shift)
 
 
 def shared_analysis(

@@ -26,6 +26,7 @@ import itertools
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import wait
 from dataclasses import replace
 
 import numpy as np
@@ -36,7 +37,7 @@ from fsistab.linalg import FactorCounter, analysis_ordering, shared_analysis
 from fsistab.map_roots import AxisSample
 from fsistab.map_sources import SAMPLE_REFINE, ExactSource
 from fsistab.operators import FluidOperators
-from fsistab.transfer import transfer_sample
+from fsistab.transfer import Deferred, transfer_sample
 
 # the operators a worker process factorises, by map (the scatter's token): the scattered blocks
 # with the worker's own symbolic analyses, which stay out of dask's data (they cannot be pickled,
@@ -110,8 +111,15 @@ class DistributedExactSource(ExactSource):
             self.say(f"fluid operators sent to {worker_count(self.client)} dask workers")
         return self._shipped
 
-    def samples(self, frequencies: Sequence[float]) -> Iterator[AxisSample]:
-        """Exact samples at ``frequencies`` (> 0) made on the workers, yielded as they finish."""
+    def samples(self, frequencies: Sequence[float], later: Deferred | None = None) -> Iterator[AxisSample]:
+        """Exact samples at ``frequencies`` (> 0) made on the workers, yielded as they finish; then
+        those of ``later`` (waited for: on a cluster the workers are many, and the batch short)."""
+        yield from self._batch(frequencies)
+        if later is not None:
+            wait(later.awaited)
+            yield from self._batch([float(w) for w in later.items()])
+
+    def _batch(self, frequencies: Sequence[float]) -> Iterator[AxisSample]:
         if not frequencies:
             return
         from distributed import as_completed

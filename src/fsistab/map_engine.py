@@ -27,6 +27,7 @@ from fsistab.map_sources import (
     ResonanceSource,
 )
 from fsistab.map_tracker import RootTracker
+from fsistab.transfer import Deferred
 
 
 @dataclass
@@ -167,11 +168,16 @@ class MapEngine:
                 self.store.keep(found)
         return self.store[omega]
 
-    def prefetch(self, frequencies) -> None:
+    def prefetch(self, frequencies, later: Deferred | None = None) -> None:
         """The exact samples among ``frequencies`` (those no certified or reduced model covers or
-        will cover), factorised ``threads`` at a time, each kept as it finishes."""
+        will cover), and among those ``later`` gives, factorised ``threads`` at a time, each kept
+        as it finishes."""
+        for found in self.sources.exact.samples(self._exact_among(frequencies), later):
+            self.store.keep(found)
+
+    def _exact_among(self, frequencies) -> list[float]:
         certified, reduced = self.sources.certified, self.sources.reduced
-        exact = [
+        return [
             float(w)
             for w in dict.fromkeys(frequencies)
             if w > 0
@@ -179,18 +185,25 @@ class MapEngine:
             and certified.fitted(w) is None
             and (reduced is None or not reduced.will_cover(w))
         ]
-        for found in self.sources.exact.samples(exact):
-            self.store.keep(found)
 
     def prefetch_beside_models(self, batch: list[float], sharp: list[tuple[float, float, float]]) -> None:
         """:meth:`prefetch` of ``batch`` while the reduced models at the ``sharp`` resonances
         ``(w0, w1, pole)`` are built in another thread: the frequencies inside their intervals wait
-        for them (a model may cover them), the others are factorised meanwhile."""
+        for them (a model may cover them), the others are factorised meanwhile; those the models do
+        not cover join the batch as soon as the models are done."""
         resonances = self.sources.resonances
         waiting = [w for w in batch if any(w0 <= w <= w1 for w0, w1, _ in sharp)]
+
+        def uncovered() -> list[float]:  # called by the exact source once the models are done
+            resonances.add([future.result() for future in futures])
+            return self._exact_among(waiting)
+
+        others = [w for w in batch if w not in waiting]
         with ThreadPoolExecutor(1) as builder:
             futures = [builder.submit(resonances.build, pole, self.say) for *_, pole in sharp]
-            self.prefetch([w for w in batch if w not in waiting])
-            resonances.add([future.result() for future in futures])
+            if self.sources.reduced is None:
+                self.prefetch(others, Deferred(tuple(futures), uncovered))
+            else:  # where reduced models serve depends on the exact samples near: the batch's first
+                self.prefetch(others)
+                self.prefetch(uncovered())
         resonances.charge(self.counter)
-        self.prefetch(waiting)

@@ -30,7 +30,7 @@ from fsistab.map_samples import SampleStore
 from fsistab.operators import FluidOperators
 from fsistab.rational_fit import TransferFit, certified_transfer
 from fsistab.reduced_model import ReducedModels
-from fsistab.transfer import exact_transfer, iter_transfer_samples
+from fsistab.transfer import Deferred, exact_transfer, iter_transfer_samples
 
 # the exact samples' solves are not refined: with the symmetric nested-dissection analysis the plain
 # solve's G differs from the refined one by at most 3e-13 (dG/ds 3e-12, relative), far below the
@@ -69,14 +69,26 @@ class ExactSource:
         g, dg = exact_transfer(self.fluid, s, self.counter, derivative=True, refine=SAMPLE_REFINE)
         return AxisSample(omega, g, dg)
 
-    def samples(self, frequencies: Sequence[float]) -> Iterator[AxisSample]:
-        """Exact samples at ``frequencies`` (> 0), yielded as they finish
-        (:func:`fsistab.transfer.iter_transfer_samples`): an interruption loses those under way only."""
+    def samples(self, frequencies: Sequence[float], later: Deferred | None = None) -> Iterator[AxisSample]:
+        """Exact samples at ``frequencies`` (> 0), and at those ``later`` gives when its futures
+        are done, yielded as they finish (:func:`fsistab.transfer.iter_transfer_samples`): an
+        interruption loses those under way only."""
         frequency = {complex(1j * w): w for w in frequencies}
         shifts = list(frequency)
+
+        def later_shifts() -> list[complex]:
+            extra = {complex(1j * w): w for w in later.items()}
+            frequency.update(extra)
+            return list(extra)
+
         start = time.perf_counter()
         found = iter_transfer_samples(
-            self.fluid, shifts, self.counter, refine=SAMPLE_REFINE, threads=self.threads
+            self.fluid,
+            shifts,
+            self.counter,
+            refine=SAMPLE_REFINE,
+            threads=self.threads,
+            later=Deferred(later.awaited, later_shifts) if later else None,
         )
         try:
             for sample in found:

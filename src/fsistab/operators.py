@@ -135,6 +135,9 @@ class FluidOperators:
     # UMFPACK symbolic analyses of J_ff + s M_f by arithmetic (float, complex): the pattern is the
     # same at every shift, so the analysis is made once per operators (fsistab.linalg.FluidFactor)
     analyses: dict = field(default_factory=dict, compare=False, repr=False)
+    # J_ff and M_f as one UMFPACK pencil (fsistab.umfpack.Pencil), made at the first factorisation;
+    # not an argument, so that operators made by dataclasses.replace (other blocks) start without it
+    pencil: list = field(default_factory=list, init=False, compare=False, repr=False)
 
     @property
     def n_fluid(self) -> int:
@@ -588,7 +591,17 @@ def _bilinear_matrices(fields: SteadyFields, terms=TERMS) -> tuple[sp.csr_matrix
 def fluid_operators(steady: SteadyState, terms=TERMS) -> FluidOperators:
     """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each): the
     sum of ``terms``, with the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one
-    (:class:`fsistab.params.Sponge`), and the wall coupling of the solid state."""
+    (:class:`fsistab.params.Sponge`), and the wall coupling of the solid state. The element loops
+    run on every core (NGSolve's task manager): the blocks are those of one thread to the bit, in
+    about half the time on two cores, the time every command spends before its first
+    factorisation."""
+    from ngsolve import TaskManager
+
+    with TaskManager():
+        return _fluid_operators(steady, terms)
+
+
+def _fluid_operators(steady: SteadyState, terms) -> FluidOperators:
     fields = steady_fields(steady)
     theta0 = steady.flow.theta0
     a_all, m_all, near_all = _bilinear_matrices(fields, terms)

@@ -34,7 +34,9 @@ cylinder, docs/model.md §2, §10); loads as in :func:`fsistab.transfer.exact_tr
 
 from __future__ import annotations
 
+import functools
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -43,7 +45,7 @@ import scipy.linalg as sla
 
 from fsistab.coupled import active_states, solid_blocks
 from fsistab.errors import ConvergenceError, InputError
-from fsistab.linalg import FactorCounter, FluidFactor
+from fsistab.linalg import FactorCounter, FluidFactor, sample_threads
 from fsistab.operators import FluidOperators
 from fsistab.params import Solid
 from fsistab.progress import Progress
@@ -164,10 +166,14 @@ def krylov_model(
             block = factor.solve(fluid.mff @ new, refine)
     del factor, block  # the factors are not needed for the projections: their memory goes first
     basis = store[:, :size]
+    # the two projections at once: SciPy's sparse and NumPy's dense products release the GIL, and
+    # a model built while no exact sample runs (the end of a map's round) has both cores to itself
+    with ThreadPoolExecutor(sample_threads()) as pool:
+        jr, mr = pool.map(functools.partial(_projected, basis), (fluid.jff, fluid.mff))
     return KrylovModel(
         shift=complex(shift),
-        jr=_projected(basis, fluid.jff),
-        mr=_projected(basis, fluid.mff),
+        jr=jr,
+        mr=mr,
         br0=_adjoint_product(basis, fluid.jfs),
         br1=_adjoint_product(basis, fluid.mfs),
         lf=np.asarray(fluid.load_f @ basis),

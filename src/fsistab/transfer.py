@@ -30,9 +30,10 @@ exactly by :func:`transfer_flutter_point` (the transfer-determinant formulation 
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -117,6 +118,15 @@ def _transfer_value(fluid: FluidOperators, s: complex, response: np.ndarray) -> 
     return fluid.load_s + s * fluid.load_mass_s - _load_rows(fluid, s, response)
 
 
+@dataclass(frozen=True)
+class Deferred:
+    """Work known only once ``awaited`` (futures, e.g. reduced models being built) are done:
+    ``items()`` gives it then (shifts, frequencies, ...), called once, in the thread that asked."""
+
+    awaited: tuple
+    items: Callable[[], Sequence]
+
+
 def iter_transfer_samples(
     fluid: FluidOperators,
     shifts,
@@ -124,6 +134,7 @@ def iter_transfer_samples(
     *,
     refine: bool = True,
     threads: int | None = None,
+    later: Deferred | None = None,
 ) -> Iterator[TransferSample]:
     """:func:`transfer_sample` at each of ``shifts``, ``threads`` at a time (default: the CPU count,
     at most 2; each holds one factorisation in memory), each yielded (and counted) as soon as it is
@@ -131,16 +142,18 @@ def iter_transfer_samples(
     waiting for the other (factorisations at different ``s`` take different times), and a
     caller that saves each sample loses only those under way if interrupted. UMFPACK, called
     through ctypes, runs without the GIL, so threads factorise in parallel; the factorisations of an
-    arithmetic share one symbolic analysis, made before them (:func:`fsistab.linalg.shared_analysis`)."""
+    arithmetic share one symbolic analysis, made before them (:func:`fsistab.linalg.shared_analysis`).
+    ``later``: shifts joining the queue as soon as they are known (:class:`Deferred`), so that no
+    thread waits for the end of ``shifts`` to start them."""
     shifts = [complex(s) for s in shifts]
-    threads = min(sample_threads(threads), max(len(shifts), 1))
+    threads = sample_threads(threads) if later else min(sample_threads(threads), max(len(shifts), 1))
     counter = counter if counter is not None else FactorCounter()
 
     def one(s: complex) -> TransferSample:
         return transfer_sample(fluid, s, refine=refine)  # counted as it is yielded
 
     if threads == 1:
-        for s in shifts:
+        for s in itertools.chain(shifts, _later_shifts(later)):
             sample = one(s)
             counter.count += 1
             yield sample
@@ -149,13 +162,30 @@ def iter_transfer_samples(
         for arithmetic in {s.imag != 0: s for s in shifts}.values():
             shared_analysis(fluid, arithmetic)
     pool = ThreadPoolExecutor(threads)
+    queue, running = list(shifts), set()
+    awaited = set(later.awaited) if later else set()
     try:
-        for future in as_completed([pool.submit(one, s) for s in shifts]):
-            sample = future.result()
-            counter.count += 1
-            yield sample
+        while queue or running or later:
+            while queue and len(running) < threads:
+                running.add(pool.submit(one, queue.pop(0)))
+            done, _ = wait(running | awaited, return_when=FIRST_COMPLETED)
+            awaited -= done
+            for future in done & running:
+                running.discard(future)
+                counter.count += 1
+                yield future.result()
+            if later and not awaited:
+                queue += _later_shifts(later)
+                later = None
     finally:  # interrupted: the shifts not started are dropped, not factorised
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _later_shifts(later: Deferred | None) -> Iterator[complex]:
+    """The shifts of ``later`` once its futures are done (waited for when first asked)."""
+    if later is not None:
+        wait(later.awaited)
+        yield from (complex(s) for s in later.items())
 
 
 def transfer_samples(

@@ -104,10 +104,12 @@ def _check(status: int, what: str) -> None:
         raise ConvergenceError(f"UMFPACK {what} failed with status {status}")
 
 
-class _Pattern:
-    """A CSC matrix's pattern and values as UMFPACK reads them (64-bit indices, packed complex)."""
+class PackedMatrix:
+    """A CSC matrix's pattern and values as UMFPACK reads them (64-bit indices, packed complex);
+    ``indices``: the 64-bit ``(pointers, rows)`` of the matrix if the caller has them
+    (:class:`Pencil`), else copied from it."""
 
-    def __init__(self, matrix: sp.spmatrix):
+    def __init__(self, matrix: sp.spmatrix, indices: tuple[np.ndarray, np.ndarray] | None = None):
         csc = sp.csc_matrix(matrix)
         csc.sort_indices()
         if csc.shape[0] != csc.shape[1]:
@@ -116,11 +118,61 @@ class _Pattern:
         self.complex = np.iscomplexobj(csc.data)
         self.kind = "z" if self.complex else "d"
         self.size = csc.shape[0]
-        self.pointers = csc.indptr.astype(np.int64)
-        self.rows = csc.indices.astype(np.int64)
-        data = csc.data.astype(complex if self.complex else float)
+        if indices is None:
+            indices = csc.indptr.astype(np.int64), csc.indices.astype(np.int64)
+        self.pointers, self.rows = indices
+        data = np.asarray(csc.data, dtype=complex if self.complex else float)
         self.values = np.ascontiguousarray(data).view(np.float64)
         self.split = [None] if self.complex else []  # the NULL imaginary-part arguments
+
+
+class Pencil:
+    """The matrices ``A + sB`` of two square SciPy matrices, for many shifts ``s``, in UMFPACK's
+    form: the union of their patterns (sorted CSC, with its 64-bit indices) and the values of
+    ``A`` and ``B`` on it are made once, so a shift costs one vectorised ``a + s b`` instead of a
+    sparse sum, a conversion to CSC and copies of the indices (docs/performance.md, "The sparse
+    LU"). Every shift has the same pattern (nonzeros of ``|A| + |B|``), so one :class:`Analysis`
+    serves them all; the values are those of SciPy's ``A + s B`` to the bit (at ``s = 0`` with
+    ``B``'s entries kept, as zeros)."""
+
+    def __init__(self, a: sp.spmatrix, b: sp.spmatrix):
+        if a.shape != b.shape or a.shape[0] != a.shape[1]:
+            raise ValueError(f"a pencil of square matrices of one shape, got {a.shape} and {b.shape}")
+        # canonical copies: SciPy canonicalises a matrix in place (abs, sums), which would write to
+        # the caller's arrays while other threads may read them
+        a, b = _sorted_csc(a), _sorted_csc(b)
+        union = _sorted_csc(abs(a) + abs(b))  # the pattern: absolute values, so nothing cancels
+        self.shape = union.shape
+        self._indptr, self._indices = union.indptr, union.indices
+        self._indices64 = union.indptr.astype(np.int64), union.indices.astype(np.int64)
+        self._a, self._b = _on_pattern(a, union), _on_pattern(b, union)
+
+    def at(self, shift: complex) -> PackedMatrix:
+        """``A + shift·B`` (real for a real ``shift``), ready for :class:`Analysis` and :class:`LU`."""
+        shift = complex(shift)
+        values = self._a + (shift if shift.imag != 0 else shift.real) * self._b
+        matrix = sp.csc_matrix((values, self._indices, self._indptr), shape=self.shape)
+        matrix.has_sorted_indices = True
+        return PackedMatrix(matrix, self._indices64)
+
+
+def _sorted_csc(matrix: sp.spmatrix) -> sp.csc_matrix:
+    """A canonical copy of ``matrix`` (sorted rows, no repeated entry), CSC."""
+    csc = sp.csc_matrix(matrix, copy=True)
+    csc.sum_duplicates()
+    return csc
+
+
+def _on_pattern(csc: sp.csc_matrix, union: sp.csc_matrix) -> np.ndarray:
+    """The values of the canonical ``csc`` at the entries of ``union`` (a pattern holding its), zero
+    where it has none: entry ``(i, j)`` of a sorted CSC matrix is the ``j·n + i``-th key in order."""
+    n = union.shape[0]
+    union_keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(union.indptr)) * n + union.indices
+    keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(csc.indptr)) * n + csc.indices
+    nonzero = csc.data != 0  # the union leaves out explicit zeros
+    values = np.zeros(union.nnz, dtype=csc.data.dtype)
+    values[np.searchsorted(union_keys, keys[nonzero])] = csc.data[nonzero]
+    return values
 
 
 class Analysis:
@@ -129,7 +181,7 @@ class Analysis:
     every shift ``s``). ``control``: UMFPACK's Control array (default :func:`_control`)."""
 
     def __init__(
-        self, pattern: _Pattern, control: np.ndarray | None = None, ordering: np.ndarray | None = None
+        self, pattern: PackedMatrix, control: np.ndarray | None = None, ordering: np.ndarray | None = None
     ):
         lib = _library()
         self.kind = pattern.kind
@@ -152,12 +204,12 @@ class Analysis:
             )
         _check(status, "symbolic analysis")
 
-    def matches(self, pattern: _Pattern) -> bool:
-        return (
-            self.kind == pattern.kind
-            and np.array_equal(self._pointers, pattern.pointers)
-            and np.array_equal(self._rows, pattern.rows)
-        )
+    def matches(self, pattern: PackedMatrix) -> bool:
+        if self.kind != pattern.kind:
+            return False
+        if self._pointers is pattern.pointers and self._rows is pattern.rows:
+            return True  # the same pencil's pattern: no comparison of millions of indices
+        return np.array_equal(self._pointers, pattern.pointers) and np.array_equal(self._rows, pattern.rows)
 
     def __del__(self):
         lib = _library()
@@ -182,11 +234,14 @@ def nested_dissection(matrix: sp.spmatrix) -> np.ndarray:
     graph = (pattern + pattern.T).tocsr()
     graph.setdiag(0)
     graph.eliminate_zeros()
+    # METIS's result depends on the order of each vertex's neighbours: sorted, it depends on the
+    # matrix alone, not on how SciPy happened to store it (a sum's output is not always sorted)
+    graph.sort_indices()
     order, _ = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
     return np.asarray(order, dtype=np.int64)
 
 
-def symmetric_analysis(matrix: sp.spmatrix, ordering: np.ndarray | None = None) -> Analysis:
+def symmetric_analysis(matrix: sp.spmatrix | PackedMatrix, ordering: np.ndarray | None = None) -> Analysis:
     """:class:`Analysis` with UMFPACK's symmetric strategy (diagonal pivots preferred) on the nested-
     dissection ordering of :func:`nested_dissection`, for a pattern-symmetric matrix such as a
     Taylor–Hood Jacobian: its numeric factorisations take less time and memory than with AMD or
@@ -197,16 +252,22 @@ def symmetric_analysis(matrix: sp.spmatrix, ordering: np.ndarray | None = None) 
     control = _control()
     control[_STRATEGY] = _STRATEGY_SYMMETRIC
     control[_ORDERING] = _ORDERING_GIVEN
-    return Analysis(_Pattern(matrix), control, nested_dissection(matrix) if ordering is None else ordering)
+    packed = _packed(matrix)
+    return Analysis(packed, control, nested_dissection(packed.matrix) if ordering is None else ordering)
+
+
+def _packed(matrix: sp.spmatrix | PackedMatrix) -> PackedMatrix:
+    return matrix if isinstance(matrix, PackedMatrix) else PackedMatrix(matrix)
 
 
 class LU:
     """``A = LU`` (with UMFPACK's row and column permutations and scaling) of a square SciPy matrix,
-    real or complex; ``analysis`` reuses a symbolic analysis of the same pattern (a mismatched one
-    is ignored and a new one made). :attr:`analysis` is the one used, to pass to the next LU."""
+    real or complex, or of one already packed (:meth:`Pencil.at`); ``analysis`` reuses a symbolic
+    analysis of the same pattern (a mismatched one is ignored and a new one made).
+    :attr:`analysis` is the one used, to pass to the next LU."""
 
-    def __init__(self, matrix: sp.spmatrix, analysis: Analysis | None = None):
-        pattern = _Pattern(matrix)
+    def __init__(self, matrix: sp.spmatrix | PackedMatrix, analysis: Analysis | None = None):
+        pattern = _packed(matrix)
         self._pattern = pattern
         self.analysis = analysis if analysis is not None and analysis.matches(pattern) else Analysis(pattern)
         self._control = _control()
