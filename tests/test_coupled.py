@@ -1,6 +1,7 @@
 """The coupled Jacobian against finite differences of the nonlinear residual (docs/model.md §5, §7),
 and the eigen-solver against analytic limits (docs/validation.md, heaving cylinder)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -93,6 +94,17 @@ def test_operators_assembled_on_every_core_equal_those_of_one_thread(plate_opera
         assert a.shape == b.shape and (a != b).nnz == 0, name
     for name in ("jfs", "mfs", "load_s", "load_mass_s", "loads0"):
         assert np.array_equal(getattr(plate_operators, name), getattr(one_thread, name)), name
+
+
+def test_operators_with_other_blocks_get_their_own_pencil(plate_operators):
+    """The pencil ``J_ff + s M_f`` is kept on the operators it was made from: operators made from
+    them with another ``J_ff`` (``dataclasses.replace``, as the time march does) factorise theirs."""
+    jff, mff = plate_operators.jff, plate_operators.mff
+    before = plate_operators.pencil
+    other = dataclasses.replace(plate_operators, jff=(2.0 * jff).tocsr())
+    assert other.pencil is not before and plate_operators.pencil is before
+    assert abs(other.pencil.at(0.3j).matrix - (2.0 * jff + 0.3j * mff)).max() == 0
+    assert abs(plate_operators.pencil.at(0.3j).matrix - (jff + 0.3j * mff)).max() == 0
 
 
 def test_bordered_umfpack_equals_superlu_on_coupled_matrix(plate_system):

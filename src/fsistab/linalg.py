@@ -17,7 +17,6 @@ instead (slower, kept so that solvers stay swappable and to cross-check).
 from __future__ import annotations
 
 import os
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -49,16 +48,9 @@ class FactorCounter:
     count: int = 0
 
 
-_PENCIL_MADE = threading.Lock()  # the first factorisations of a map start in several threads
-
-
 def _shifted(fluid: FluidOperators, shift: complex) -> umfpack.PackedMatrix:
-    """``J_ff + s M_f`` as UMFPACK reads it, real if ``s`` is: from the operators' pencil, made once
-    by the first thread that asks, the others waiting for it."""
-    with _PENCIL_MADE:
-        if not fluid.pencil:
-            fluid.pencil.append(umfpack.Pencil(fluid.jff, fluid.mff))
-    return fluid.pencil[0].at(shift)
+    """``J_ff + s M_f`` as UMFPACK reads it, real if ``s`` is (the operators' pencil)."""
+    return fluid.pencil.at(shift)
 
 
 def shared_analysis(

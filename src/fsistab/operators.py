@@ -21,12 +21,14 @@ checks and the base-flow variation of the sensitivities are sums over them.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
+from fsistab import umfpack
 from fsistab.bodies import frame_offset
 from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
 from fsistab.steady import (
@@ -135,9 +137,12 @@ class FluidOperators:
     # UMFPACK symbolic analyses of J_ff + s M_f by arithmetic (float, complex): the pattern is the
     # same at every shift, so the analysis is made once per operators (fsistab.linalg.FluidFactor)
     analyses: dict = field(default_factory=dict, compare=False, repr=False)
-    # J_ff and M_f as one UMFPACK pencil (fsistab.umfpack.Pencil), made at the first factorisation;
-    # not an argument, so that operators made by dataclasses.replace (other blocks) start without it
-    pencil: list = field(default_factory=list, init=False, compare=False, repr=False)
+
+    @functools.cached_property
+    def pencil(self) -> umfpack.Pencil:
+        """``J_ff`` and ``M_f`` as one UMFPACK pencil, made at the first factorisation and kept (not a
+        field: operators made by ``dataclasses.replace``, with other blocks, start without it)."""
+        return umfpack.Pencil(self.jff, self.mff)
 
     @property
     def n_fluid(self) -> int:
@@ -592,9 +597,9 @@ def fluid_operators(steady: SteadyState, terms=TERMS) -> FluidOperators:
     """Assemble every fluid block of docs/model.md §7 once at ``steady`` (one real assembly each): the
     sum of ``terms``, with the mesh's outlet sponge ``σ (u − θ u_θ)`` if it has one
     (:class:`fsistab.params.Sponge`), and the wall coupling of the solid state. The element loops
-    run on every core (NGSolve's task manager): the blocks are those of one thread to the bit, in
-    about half the time on two cores, the time every command spends before its first
-    factorisation."""
+    run on every core (NGSolve's task manager), the blocks those of one thread to the bit: every
+    command waits for them before its first factorisation (docs/performance.md, "The fluid
+    operators")."""
     from ngsolve import TaskManager
 
     with TaskManager():
