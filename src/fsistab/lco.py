@@ -295,6 +295,7 @@ def compute_point(
     import time
 
     from fsistab import workflows
+    from fsistab.mesh import NGSOLVE_LOCK
     from fsistab.store import read_cached, write_dataset
 
     start = settings.simulation.start if start is None else start
@@ -307,7 +308,8 @@ def compute_point(
     simulation = replace(settings.simulation, start=start)
     runs = Path(out) / "lco_runs" / path.stem
     moving = _moving(case, solid, velocity)
-    result = workflows.simulate(case, moving, simulation, cache_dir, runs, progress=lambda message: None)
+    with NGSOLVE_LOCK:  # one march at a time on a dask worker with several threads
+        result = workflows.simulate(case, moving, simulation, cache_dir, runs, progress=lambda message: None)
     ds = point_dataset(result.dataset, velocity, settings)
     ds.attrs.update(point_identity=identity, point_seconds=time.perf_counter() - t0)
     write_dataset(ds, path)

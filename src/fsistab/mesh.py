@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -37,6 +38,13 @@ from fsistab.params import (
 )
 
 PRESETS = ("coarse", "quick", "fast", "medium", "fine")
+
+#: Held by fsistab's work with Netgen and NGSolve. Neither is safe in two Python threads at once: two
+#: threads loading and curving meshes crash the process, and so does a mesh build beside an operator
+#: assembly, in NGSolve's task manager or not (tests/test_threads.py). Reentrant, so that a
+#: task holding it (a study point or a march on a dask worker with several threads) can build its
+#: mesh and operators; the threads that a workflow starts itself do sparse algebra only.
+NGSOLVE_LOCK = threading.RLock()
 
 
 @dataclass(frozen=True)
@@ -305,12 +313,17 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
     """
     import tempfile
 
-    import netgen.meshing
-    import ngsolve
-
     if cache_dir is None:
         with tempfile.TemporaryDirectory() as scratch:
             return build_mesh(spec, scratch)
+    with NGSOLVE_LOCK:
+        return _read_mesh(spec, cached_mesh_file(spec, Path(cache_dir)))
+
+
+def cached_mesh_file(spec: MeshSpec, cache_dir: Path) -> Path:
+    """The verified ``.vol.gz`` of ``spec`` in ``cache_dir``: checked, or generated with its sidecar,
+    by one process at a time (:func:`fsistab.store.entry_lock`); a damaged entry is moved aside
+    and rebuilt."""
     path = mesh_path(spec, cache_dir)
     with store.entry_lock(path):  # one process at a time checks or builds this entry
         if path.exists():
@@ -321,9 +334,17 @@ def build_mesh(spec: MeshSpec, cache_dir: Path | None = None):
         if not path.exists():
             # the file rounds coordinates: what is computed always comes from the file, so a cached
             # mesh and a fresh one are identical
-            with store.atomic_path(path, ".vol.gz") as tmp:
+            with NGSOLVE_LOCK, store.atomic_path(path, ".vol.gz") as tmp:
                 _generate(spec).Save(str(tmp))
             store.write_sidecar(path)  # after the mesh: a mesh without its sidecar is rebuilt
+    return path
+
+
+def _read_mesh(spec: MeshSpec, path: Path):
+    """The NGSolve mesh of the verified file ``path``, its wall curved (under :data:`NGSOLVE_LOCK`)."""
+    import netgen.meshing
+    import ngsolve
+
     ngmesh = netgen.meshing.Mesh(dim=2)
     try:
         ngmesh.Load(str(path))

@@ -31,6 +31,7 @@ import scipy.sparse as sp
 from fsistab import umfpack
 from fsistab.bodies import frame_offset
 from fsistab.forces import RIGID_MOTIONS, reaction_loads, wall_liftings
+from fsistab.mesh import NGSOLVE_LOCK
 from fsistab.steady import (
     SteadyState,
     momentum_form,
@@ -599,10 +600,11 @@ def fluid_operators(steady: SteadyState, terms=TERMS) -> FluidOperators:
     (:class:`fsistab.params.Sponge`), and the wall coupling of the solid state. The element loops
     run on every core (NGSolve's task manager), the blocks those of one thread to the bit: every
     command waits for them before its first factorisation (docs/performance.md, "The fluid
-    operators")."""
+    operators"). Under :data:`fsistab.mesh.NGSOLVE_LOCK`: no other thread of the process may call
+    NGSolve meanwhile."""
     from ngsolve import TaskManager
 
-    with TaskManager():
+    with NGSOLVE_LOCK, TaskManager():
         return _fluid_operators(steady, terms)
 
 

@@ -808,12 +808,14 @@ def compute_point(case: Case, settings: StudySettings, cache_dir: Path | None, o
     to the client). Idempotent: when the file is there and verifies, it is returned (attribute
     ``from_file``) and nothing is computed; dask runs a finished task again when the worker that
     held its result died before the client fetched it."""
+    from fsistab.mesh import NGSOLVE_LOCK
     from fsistab.store import write_dataset
 
     finished = finished_point(out, case, settings)
     if finished is not None:
         return finished.assign_attrs(from_file=1)
-    ds = run_point(case, settings, cache_dir)
+    with NGSOLVE_LOCK:  # one point at a time on a dask worker with several threads
+        ds = run_point(case, settings, cache_dir)
     ds.attrs["point_identity"] = point_identity(case, settings)
     path = write_dataset(ds, point_path(out, case, settings))
     return ds.assign_attrs(point_file=str(path))
