@@ -357,6 +357,17 @@ def test_local_cluster_gives_the_serial_results(serial, parallel):
     _assert_same_results(serial[1], ds)
 
 
+def test_a_worker_with_two_threads_gives_the_serial_results(base_case, serial, tmp_path):
+    """A scheduler's worker may run several tasks in threads; Netgen and NGSolve are not safe in
+    two threads at once, so its points take turns (``fsistab.mesh.NGSOLVE_LOCK``)."""
+    distributed = pytest.importorskip("distributed")
+    cluster = partial(distributed.LocalCluster, n_workers=1, processes=True, dashboard_address=None)
+    with cluster(threads_per_worker=2) as two_threads, distributed.Client(two_threads) as threaded:
+        ds = run_study(base_case, SETTINGS, tmp_path / "cache", tmp_path / "out", client=threaded)
+    assert ds.attrs["computed"] == 3 and ds.attrs["failed"] == 0
+    _assert_same_results(serial[1], ds)
+
+
 def test_rerun_on_the_cluster_computes_nothing(base_case, parallel, client):
     root, first = parallel
     files = _point_files(root / "out" / "points")

@@ -39,7 +39,8 @@ from fsistab.params import (
 
 PRESETS = ("coarse", "quick", "fast", "medium", "fine")
 
-#: Held by fsistab's work with Netgen and NGSolve. Neither is safe in two Python threads at once: two
+#: Held by the mesh builds, the operator assemblies and the tasks of studies and marches (the rest of
+#: the API is not for two threads at once). Netgen and NGSolve are not safe in two Python threads: two
 #: threads loading and curving meshes crash the process, and so does a mesh build beside an operator
 #: assembly, in NGSolve's task manager or not (tests/test_threads.py). Reentrant, so that a
 #: task holding it (a study point or a march on a dask worker with several threads) can build its
