@@ -310,6 +310,15 @@ class Motion:
         return CF((-ct + st * self.hdot, st + ct * self.hdot)) + self.thetadot * CF((-y, x))
 
 
+def motion_coefficients(q_solid: np.ndarray) -> np.ndarray:
+    """``(1, W_x, W_y, θ')``: the weights with which the solid state ``(h, θ, ḣ, θ')`` enters the
+    residual, affinely in the fluid state and in these (docs/model.md §4, §12): the grid velocity is
+    ``W = (W_x, W_y) + θ'(-Y, X)`` with ``(W_x, W_y) = R(θ)ᵀ(-1, ḣ)`` (:attr:`Motion.grid_velocity`),
+    and the frame's rotation ``θ' e_z∧U``."""
+    ct, st = math.cos(q_solid[1]), math.sin(q_solid[1])
+    return np.array([1.0, -ct + st * q_solid[2], st + ct * q_solid[2], q_solid[3]])
+
+
 def grid_velocity_direction(theta0: float, state: str):
     """``∂W/∂q_s`` for ``state`` in ``("theta", "hdot", "thetadot")`` at ``ḣ = θ' = 0``: the uniform
     ``W_θ``, ``W_ḣ`` of :func:`grid_velocity_derivatives` and the rotation ``(-Y, X)`` (docs/model.md §7)."""
@@ -334,7 +343,10 @@ class Term:
     """One term of the fluid's momentum equation, ``R_f(q) = Σ terms`` (docs/model.md §4, §7), by its parts:
 
     * ``residual``: its integrand in the nonlinear residual, for the trial state ``(U, P)`` and the
-      solid :class:`Motion` (the finite-difference checks of :class:`FluidResidual`);
+      solid :class:`Motion` (the finite-difference checks of :class:`FluidResidual`): affine in the
+      fluid state and in the weights of :func:`motion_coefficients`, but for its part of degree two
+      in the fluid state, which is ``quadratic`` (the time march evaluates it so,
+      :class:`fsistab.simulation.InertialFluidResidual`);
     * ``sources``: its parts that do not depend on the fluid state, as ``(weight(q_s), integrand of
       the test function)`` pairs, subtracted from the residual;
     * ``stiffness``, ``mass``: its integrands in ``J_ff`` and ``M_f`` at the steady state;
@@ -353,6 +365,9 @@ class Term:
     """
 
     def residual(self, fields: SteadyFields, motion: Motion, trial, test):
+        return None
+
+    def quadratic(self, fields: SteadyFields, trial, test):
         return None
 
     def sources(self, fields: SteadyFields, v) -> list:
@@ -381,6 +396,12 @@ class NavierStokes(Term):
 
     def residual(self, fields, motion, trial, test):
         return momentum_form(*trial, *test, motion.grid_velocity, fields.inv_reynolds)
+
+    def quadratic(self, fields, trial, test):
+        """The convection ``((∇U)U, v)``."""
+        from ngsolve import Grad, InnerProduct
+
+        return InnerProduct(Grad(trial[0]) * trial[0], test[0])
 
     def stiffness(self, fields, trial, test):
         return momentum_linearisation(
@@ -520,6 +541,12 @@ def residual_integrand(fields: SteadyFields, motion: Motion, trial, test, terms=
     """The nonlinear residual's integrand in the fluid state, for the solid :class:`Motion`
     (docs/model.md §4), without the terms' sources (:func:`residual_sources`)."""
     return _total(term.residual(fields, motion, trial, test) for term in terms)
+
+
+def quadratic_integrand(fields: SteadyFields, trial, test, terms=TERMS):
+    """The residual's part of degree two in the fluid state (docs/model.md §12): the rest of
+    :func:`residual_integrand` is affine in it and in :func:`motion_coefficients`."""
+    return _total(term.quadratic(fields, trial, test) for term in terms)
 
 
 def outlet_integrand(fields: SteadyFields, trial, test, terms=TERMS):
@@ -704,13 +731,18 @@ class FluidResidual:
 
     def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(R_f on the free dofs, loads (F_x, F_y, M) = -ℓᵀ R)`` for solid state ``(h, θ, ḣ, θ')``."""
-        self.motion.set(q_solid)
-        self._vector.FV().NumPy()[:] = self.full_state(q_solid, q_fluid)
-        self.form.Apply(self._vector, self._residual)
-        r = self._residual.FV().NumPy()
+        r = self.state_residual(q_solid, self.full_state(q_solid, q_fluid))
         for weight, vector in self._sources:
             r = r - weight(q_solid) * vector
         return r[self.index].copy(), -(self.lifting.T @ r)
+
+    def state_residual(self, q_solid: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """The residual's form on every dof at the full dof vector ``values`` and the solid state
+        ``q_solid``, without the sources (a view, overwritten by the next call)."""
+        self.motion.set(q_solid)
+        self._vector.FV().NumPy()[:] = values
+        self.form.Apply(self._vector, self._residual)
+        return self._residual.FV().NumPy()
 
     def linearisation(self, q_solid: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
         """``∂R_f/∂U`` on every dof at the full dof vector ``values`` and the solid state ``q_solid``

@@ -25,6 +25,7 @@ when it does not within the iterations allowed.
 
 from __future__ import annotations
 
+import functools
 import math
 import time as clock
 from collections.abc import Callable, Iterator
@@ -39,9 +40,9 @@ from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
     _to_scipy,
-    integrals,
     mass_integrand,
-    residual_integrand,
+    motion_coefficients,
+    quadratic_integrand,
     steady_fields,
 )
 
@@ -62,28 +63,70 @@ def full_mass_matrix(steady) -> sp.csr_matrix:
     return _to_scipy(form.mat, space.ndof)
 
 
+# solid states (h, θ, ḣ, θ') with independent weights (1, W_x, W_y, θ'): the affine parts' extraction
+EXTRACTION_STATES = ((0, 0, 0, 0), (0, 0, 1, 0), (0, math.pi / 2, 0, 0), (0, 0, 0, 1))
+
+
+def affine_parts(residual: FluidResidual) -> tuple[sp.csr_matrix, ...]:
+    """The matrices ``L_k`` (every dof, SciPy CSR) of the residual's part affine in the fluid state:
+    ``R(U; q_s) = Σ_k c_k(q_s) L_k U + Q(U)`` with ``c`` the weights of
+    :func:`fsistab.operators.motion_coefficients` and ``Q`` the part of degree two
+    (:func:`fsistab.operators.quadratic_integrand`), docs/model.md §12. The form's linearisation at
+    ``U = 0``, where ``Q``'s vanishes, is ``Σ_k c_k(q_s) L_k``: made at the four
+    :data:`EXTRACTION_STATES`, it gives the ``L_k`` by inverting their weights. So the terms
+    are written once (:class:`fsistab.operators.Term`) and evaluated at the cost of sparse products."""
+    zero = np.zeros(residual.steady.space.ndof)
+    states = [np.array(q, dtype=float) for q in EXTRACTION_STATES]
+    inverse = np.linalg.inv(np.array([motion_coefficients(q) for q in states]))
+    linearised = [FluidResidual.linearisation(residual, q, zero) for q in states]
+    combine = functools.partial(functools.reduce, lambda a, b: a + b)
+    return tuple(combine(w * m for w, m in zip(row, linearised, strict=True)).tocsr() for row in inverse)
+
+
 class InertialFluidResidual(FluidResidual):
     """:class:`fsistab.operators.FluidResidual` plus the fluid's inertia ``M_all U̇`` (docs/model.md
     §5), called alike (free-dof rows, body-axis loads), so that
     :class:`fsistab.coupled.CoupledResidual` built on it is the residual of the time-discrete
     system. ``U̇ = (c₀/Δt) U(q_s, q_f) + history`` on the full dof vector, ``history`` the discrete
     rate's part from the previous steps (:meth:`set_rate`). The loads are the reaction loads with
-    inertia, ``-ℓᵀ(M U̇ + R)``; the last ones computed are kept in ``loads``. The residual's form is
-    the same sum of terms, compiled (the march evaluates it a few times per step)."""
+    inertia, ``-ℓᵀ(M U̇ + R)``; the last ones computed are kept in ``loads``.
+
+    The march evaluates the residual several times per step, so as ``Σ_k c_k(q_s) L_k U + Q(U)``
+    (:func:`affine_parts`): sparse products and the convection's compiled form alone, instead of
+    every term's form at every quadrature point; the same residual to round-off. Its
+    linearisation likewise: ``Σ_k c_k L_k + Q'(U)``."""
 
     def __init__(self, steady):
-        from ngsolve import BilinearForm
+        from ngsolve import BilinearForm, dx
 
         super().__init__(steady)
         (u, p), (v, q) = steady.space.TnT()
-        fields = steady_fields(steady)
-        form = BilinearForm(steady.space)
-        form += integrals(residual_integrand(fields, self.motion, (u, p), (v, q)), fields, (u, p), (v, q))
-        self.form = form
+        self.parts = affine_parts(self)
+        quadratic = BilinearForm(steady.space)
+        quadratic += quadratic_integrand(steady_fields(steady), (u, p), (v, q)).Compile() * dx
+        self.quadratic = quadratic
         self.mass = full_mass_matrix(steady)
         self.scale = 0.0
         self.history = np.zeros(self.mass.shape[0])
         self.loads = np.zeros(3)
+
+    def state_residual(self, q_solid: np.ndarray, values: np.ndarray) -> np.ndarray:
+        self._vector.FV().NumPy()[:] = values
+        self.quadratic.Apply(self._vector, self._residual)
+        r = self._residual.FV().NumPy().copy()
+        for weight, part in zip(motion_coefficients(q_solid), self.parts, strict=True):
+            if weight:
+                r += weight * (part @ values)
+        return r
+
+    def linearisation(self, q_solid: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
+        self._vector.FV().NumPy()[:] = values
+        self.quadratic.AssembleLinearization(self._vector)
+        matrix = _to_scipy(self.quadratic.mat, self.steady.space.ndof)
+        for weight, part in zip(motion_coefficients(q_solid), self.parts, strict=True):
+            if weight:
+                matrix = matrix + weight * part
+        return matrix.tocsr()
 
     def set_rate(self, scale: float, history: np.ndarray) -> None:
         """``U̇ = scale·U + history`` for the next calls."""
