@@ -731,7 +731,10 @@ class FluidResidual:
 
     def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(R_f on the free dofs, loads (F_x, F_y, M) = -ℓᵀ R)`` for solid state ``(h, θ, ḣ, θ')``."""
-        r = self.state_residual(q_solid, self.full_state(q_solid, q_fluid))
+        return self.rows_and_loads(q_solid, self.state_residual(q_solid, self.full_state(q_solid, q_fluid)))
+
+    def rows_and_loads(self, q_solid: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(free-dof rows, -ℓᵀ R)`` of the residual ``r`` on every dof, its sources subtracted."""
         for weight, vector in self._sources:
             r = r - weight(q_solid) * vector
         return r[self.index].copy(), -(self.lifting.T @ r)

@@ -133,10 +133,10 @@ class InertialFluidResidual(FluidResidual):
         self.scale, self.history = float(scale), history
 
     def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r_fluid, loads = super().__call__(q_solid, q_fluid)
-        inertia = self.mass @ (self.scale * self.full_state(q_solid, q_fluid) + self.history)
-        self.loads = loads - self.lifting.T @ inertia
-        return r_fluid + inertia[self.index], self.loads
+        values = self.full_state(q_solid, q_fluid)
+        inertia = self.mass @ (self.scale * values + self.history)
+        r_fluid, self.loads = self.rows_and_loads(q_solid, self.state_residual(q_solid, values) + inertia)
+        return r_fluid, self.loads
 
 
 def load_coefficients(theta: float, loads: np.ndarray) -> tuple[float, float, float]:
