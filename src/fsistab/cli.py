@@ -149,6 +149,7 @@ class Options(SimpleNamespace):
             **outline,
             mesh_reynolds=mesh_reynolds,
             elastic_axis=axis,
+            mesh_sizes=getattr(self, "mesh_sizes", None),
             outlet=getattr(self, "outlet", "stress"),
         )
 

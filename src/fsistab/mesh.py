@@ -261,9 +261,17 @@ def mesh_spec(
 
 def spec_for(case) -> MeshSpec:
     """The mesh specification of a :class:`fsistab.params.Case`: its preset fitted to its
-    ``fitted_reynolds`` (its ``mesh_reynolds``, or its flow's Re), its body, domain, sponge and
-    outlet condition."""
-    return mesh_spec(case.body, case.preset, case.fitted_reynolds, case.domain, case.sponge, case.outlet)
+    ``fitted_reynolds`` (its ``mesh_reynolds``, or its flow's Re) with its ``mesh_sizes`` in place
+    of the fitted ones, its body, domain, sponge and outlet condition."""
+    return mesh_spec(
+        case.body,
+        case.preset,
+        case.fitted_reynolds,
+        case.domain,
+        case.sponge,
+        case.outlet,
+        **dict(case.mesh_sizes),
+    )
 
 
 def _generate(spec: MeshSpec):

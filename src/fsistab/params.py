@@ -144,6 +144,48 @@ def parse_sponge(text: str) -> Sponge | None | Literal["preset"]:
     return Sponge(*(_finite(name, part) for name, part in zip(names, parts, strict=False)))
 
 
+#: The element sizes and refinement extents (body lengths) of a mesh preset that ``--mesh-sizes``
+#: overrides (:class:`fsistab.mesh.MeshSizes`).
+MESH_SIZE_NAMES = (
+    "wall",
+    "corner",
+    "near",
+    "wake",
+    "far",
+    "middle",
+    "near_margin",
+    "wake_length",
+    "wake_half_width",
+)
+
+
+def parse_mesh_sizes(text: str | None) -> tuple[tuple[str, float], ...]:
+    """``NAME=VALUE,...`` (e.g. ``near=0.025,wake=0.1,wake_length=8``), names among
+    :data:`MESH_SIZE_NAMES`; ``None`` or empty: none. Checked by :class:`Case`."""
+    if text is None or not text.strip():
+        return ()
+    pairs = []
+    for part in text.split(","):
+        name, sep, value = part.partition("=")
+        if not sep:
+            example = "near=0.025,wake=0.1"
+            raise InputError(f"--mesh-sizes is NAME=VALUE,... (e.g. {example}), got {part.strip()!r}")
+        pairs.append((name.strip(), _finite(f"mesh size {name.strip()}", value)))
+    return tuple(pairs)
+
+
+def check_mesh_sizes(pairs) -> tuple[tuple[str, float], ...]:
+    """The overrides sorted by name, each name known and given once, each value positive."""
+    checked = [(str(name), value) for name, value in pairs]
+    names = [name for name, _ in checked]
+    unknown = [name for name in names if name not in MESH_SIZE_NAMES]
+    if unknown:
+        raise InputError(f"unknown mesh size {unknown[0]!r}: choose among {', '.join(MESH_SIZE_NAMES)}")
+    if len(set(names)) != len(names):
+        raise InputError(f"each mesh size may be given once, got {', '.join(names)}")
+    return tuple(sorted((name, _positive(f"mesh size {name}", value)) for name, value in checked))
+
+
 def default_sponge(body: Body, preset: str) -> Sponge | None:
     """The outlet and far-field layers of a mesh preset when none is chosen (the body's
     ``sponge_presets``), else none."""
@@ -339,7 +381,9 @@ class Case:
     Reynolds number the preset's sizes are fitted to (:func:`fsistab.mesh.preset_sizes`), None the
     flow's own: held fixed, one mesh serves flows at several Re, so that a study in Re is not
     crossed by changes of mesh (docs/how-to/studies.md, "One mesh for a range of Re"). ``outlet``
-    is the outflow condition (:data:`OUTLETS`), part of the steady state, not of the mesh."""
+    is the outflow condition (:data:`OUTLETS`), part of the steady state, not of the mesh.
+    ``mesh_sizes`` are ``(name, value)`` pairs that replace the fitted preset's sizes
+    (:data:`MESH_SIZE_NAMES`): the meshes of a convergence study (docs/how-to/meshes.md)."""
 
     body: Body
     flow: Flow
@@ -348,9 +392,11 @@ class Case:
     sponge: Sponge | None | Literal["preset"] = "preset"
     mesh_reynolds: float | None = None
     outlet: str = "stress"
+    mesh_sizes: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
         check_outlet(self.outlet)
+        object.__setattr__(self, "mesh_sizes", check_mesh_sizes(self.mesh_sizes))
         if self.mesh_reynolds is not None:
             value = _bounded("mesh Reynolds number (--mesh-reynolds)", self.mesh_reynolds, MAX_REYNOLDS)
             object.__setattr__(self, "mesh_reynolds", value)
@@ -380,6 +426,7 @@ class Case:
         mesh_reynolds: float | None = None,
         elastic_axis: float = 0.0,
         outlet: str = "stress",
+        mesh_sizes: str | None = None,
     ) -> Case:
         """From the command-line options (:func:`fsistab.bodies.make_body`). Every shape option is
         checked for every body: a value that makes no sense is refused even where it is not used.
@@ -395,6 +442,7 @@ class Case:
             sponge=parse_sponge(sponge),
             mesh_reynolds=mesh_reynolds,
             outlet=outlet,
+            mesh_sizes=parse_mesh_sizes(mesh_sizes),
         )
 
     @property
@@ -416,13 +464,22 @@ class Case:
     def tag(self) -> str:
         """``plate_Re2900_a0``: the stem of the files a command writes for this case, with
         ``_meshRe2900`` when the mesh is fitted to another Re than the flow's (another mesh; the
-        same Re is the same mesh, whose files keep their names)."""
+        same Re is the same mesh, whose files keep their names) and ``_sizes-near0.025-wake0.1``
+        when sizes are overridden."""
         tag = f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
         if self.elastic_axis:
             tag += f"_ea{self.elastic_axis:g}"
         if self.fitted_reynolds != self.flow.reynolds:
             tag += f"_meshRe{self.fitted_reynolds:g}"
-        return tag
+        return tag + self.sizes_tag
+
+    @property
+    def sizes_tag(self) -> str:
+        """``_sizes-near0.025-wake0.1`` when ``mesh_sizes`` override the preset's, else empty: the
+        files of another mesh get other names."""
+        if not self.mesh_sizes:
+            return ""
+        return "_sizes" + "".join(f"-{name}{value:g}" for name, value in self.mesh_sizes)
 
     def require_plate(self, what: str) -> None:
         if "pitch" not in self.body.allowed_dofs:
