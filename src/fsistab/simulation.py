@@ -25,7 +25,6 @@ when it does not within the iterations allowed.
 
 from __future__ import annotations
 
-import functools
 import math
 import time as clock
 from collections.abc import Callable, Iterator
@@ -79,8 +78,7 @@ def affine_parts(residual: FluidResidual) -> tuple[sp.csr_matrix, ...]:
     states = [np.array(q, dtype=float) for q in EXTRACTION_STATES]
     inverse = np.linalg.inv(np.array([motion_coefficients(q) for q in states]))
     linearised = [FluidResidual.linearisation(residual, q, zero) for q in states]
-    combine = functools.partial(functools.reduce, lambda a, b: a + b)
-    return tuple(combine(w * m for w, m in zip(row, linearised, strict=True)).tocsr() for row in inverse)
+    return tuple(sum(w * m for w, m in zip(row, linearised, strict=True)).tocsr() for row in inverse)
 
 
 class InertialFluidResidual(FluidResidual):
