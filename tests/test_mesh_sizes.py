@@ -7,14 +7,16 @@ work."""
 import json
 from dataclasses import replace
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from fsistab.bodies import Plate
 from fsistab.cli import app
 from fsistab.errors import InputError
-from fsistab.mesh import mesh_spec, preset_sizes, spec_for
-from fsistab.params import MESH_SIZE_NAMES, Case, Flow, parse_mesh_sizes
+from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics, preset_sizes, spec_for
+from fsistab.params import MESH_SIZE_NAMES, Case, Domain, Flow, parse_mesh_sizes
+from fsistab.resources import estimate
 
 runner = CliRunner()
 
@@ -82,14 +84,57 @@ def test_another_mesh_has_other_keys_and_file_names_whatever_the_order():
 
 def test_every_name_is_a_size_of_the_mesh():
     base = preset_sizes(Plate(), "medium", 2900.0)
+    region = {"band": "middle_band"}  # the band's size is the middle size unless given
     for name in MESH_SIZE_NAMES:
-        assert getattr(base, name) is not None
+        assert getattr(base, region.get(name, name)) is not None
         assert parse_mesh_sizes(f"{name}=2") == ((name, 2.0),)
 
 
 def test_the_middle_size_needs_a_preset_with_a_middle_box():
     with pytest.raises(InputError, match="middle"):
         spec_for(_case(mesh_sizes=(("middle", 2.0),)))
+
+
+def test_the_band_size_needs_a_preset_with_a_band_and_keeps_todays_keys_without_one():
+    with pytest.raises(InputError, match="no middle band"):
+        spec_for(_case(mesh_sizes=(("band", 1.0),)))
+    medium = Case.create("plate", 2900, preset="medium")
+    assert "band" not in spec_for(medium).sizes.key_inputs()
+    banded = Case.create("plate", 2900, preset="medium", mesh_sizes="middle=2,band=1")
+    sizes = spec_for(banded).sizes
+    assert (sizes.middle, sizes.band) == (2.0, 1.0)
+    coarser = Case.create("plate", 2900, preset="medium", mesh_sizes="middle=2")
+    assert spec_for(banded).key() != spec_for(coarser).key()
+
+
+def test_a_band_of_its_own_size_meshes_the_band_finer_than_the_box(tmp_path):
+    # a small domain with a middle box and band (1-body-length elements), so that it meshes quickly
+    small = {"domain": Domain(8.0, 16.0, 8.0), "sponge": None, "far": 2.0, "middle": 1.0}
+    small |= {"middle_box": (6.0, 14.0, 6.0), "middle_band": (16.0, 2.0), "wake_length": 3.0}
+    plain = mesh_spec(Plate(), "coarse", 2900.0, **small)
+    banded = mesh_spec(Plate(), "coarse", 2900.0, **small, band=0.4)
+    plain_mesh, banded_mesh = (build_mesh(spec, tmp_path) for spec in (plain, banded))
+    # inside the band, away from the wake box and the box's edges: 0.4 instead of 1
+    inside = {"x": (5.0, 13.0), "y": (1.0, 1.8)}
+    plain_edge, banded_edge = (_median_edge(mesh, **inside) for mesh in (plain_mesh, banded_mesh))
+    assert 0.7 < plain_edge < 1.3 and 0.7 < banded_edge / 0.4 < 1.3, (plain_edge, banded_edge)
+    # the size estimate knows the band's size (docs/performance.md: within a factor 1.25)
+    for spec, mesh in ((plain, plain_mesh), (banded, banded_mesh)):
+        assert 0.8 < estimate(spec).unknowns / mesh_statistics(mesh)["ndof"] < 1.25
+
+
+def _median_edge(mesh, x: tuple[float, float], y: tuple[float, float]) -> float:
+    """The median edge length of the triangles whose centroid lies in ``x × ±y``."""
+    from ngsolve import VOL
+
+    points = np.array([mesh[v].point for v in mesh.vertices])
+    triangles = np.array([[v.nr for v in element.vertices] for element in mesh.Elements(VOL)])
+    corners = points[triangles]
+    centre = corners.mean(axis=1)
+    across = np.abs(centre[:, 1])
+    chosen = (centre[:, 0] > x[0]) & (centre[:, 0] < x[1]) & (across > y[0]) & (across < y[1])
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)[chosen]
+    return float(np.median(edges))
 
 
 def test_the_command_builds_the_mesh_with_the_sizes(tmp_path):

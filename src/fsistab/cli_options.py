@@ -27,7 +27,8 @@ CASE_OPTIONS = {
                              "the flow's (one mesh for a range of Re: study, flow-neutral, onset)"),
     "mesh_sizes": option(str | None, "--mesh-sizes", "NAME=VALUE,... element sizes and refinement extents "
                           "(body lengths) in place of the fitted preset's: wall, corner, near, wake, far, "
-                          "middle, near_margin, wake_length, wake_half_width (e.g. near=0.025,wake=0.1)"),
+                          "middle, band, near_margin, wake_length, wake_half_width "
+                          "(e.g. near=0.025,wake=0.1)"),
     "aspect_ratio": option(float, "--aspect-ratio", "plate chord/thickness", 20.0),
     "corner_radius": option(float, "--corner-radius", "plate corner radius / thickness", 0.1),
     "trailing_edge": option(str, "--trailing-edge", "NACA trailing edge: closed or open (blunt)", "closed"),

@@ -104,15 +104,8 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
         regions.insert(0, far_wake_region)
         inner = wake + far_wake
     if sizes.middle is not None:
-        up, down, lateral = middle_box_extent(domain, sizes)
-        middle = _box(-up, down, lateral, whole)
-        if sizes.middle_band is not None:  # the wake's band of middle-sized elements, to the outlet
-            end, half_width = middle_band_extent(domain, sizes)
-            middle = middle + _box(0.0, end, half_width, whole)
-        middle_region = middle - inner
-        middle_region.maxh = sizes.middle
-        regions.insert(0, middle_region)
-        inner = middle
+        middle_regions, inner = _middle_regions(domain, sizes, inner, whole)
+        regions[:0] = middle_regions
     far_region = outer - inner
     far_region.maxh = sizes.far
     shape = Glue([far_region, *regions])
@@ -122,6 +115,28 @@ def fluid_half_geometry(body: Body, domain: Domain, sizes) -> OCCGeometry:
     if frame_offset(body):  # the frame of the elastic axis: mid-chord at X = -a
         shape = shape.Move((frame_offset(body), 0, 0))
     return OCCGeometry(shape, dim=2)
+
+
+def _middle_regions(domain: Domain, sizes, inner, whole: bool) -> tuple[list, object]:
+    """The middle box and, if ``sizes.middle_band`` is set, the wake's band to the outlet, outside
+    ``inner``: one region of size ``sizes.middle``, or with ``sizes.band`` set the band with that
+    size and the rest of the box with ``sizes.middle``. Returns the regions and the new ``inner``."""
+    up, down, lateral = middle_box_extent(domain, sizes)
+    middle = _box(-up, down, lateral, whole)
+    band = None
+    if sizes.middle_band is not None:  # the wake's band of middle-sized elements, to the outlet
+        end, half_width = middle_band_extent(domain, sizes)
+        band = _box(0.0, end, half_width, whole)
+    if band is None or sizes.band is None:
+        middle = middle if band is None else middle + band
+        region = middle - inner
+        region.maxh = sizes.middle
+        return [region], middle
+    band_region = band - inner
+    band_region.maxh = sizes.band
+    box_region = middle - band - inner
+    box_region.maxh = sizes.middle
+    return [box_region, band_region], middle + band
 
 
 def wall_projection(body: Body):

@@ -56,7 +56,8 @@ class MeshSizes:
     in a box reaching ``near_margin`` beyond the body (twice that behind it), ``wake`` in a box reaching
     ``wake_length`` downstream with half-width ``wake_half_width``, ``middle`` (if given) in the box
     ``[-u, d] × [-l, l]`` of ``middle_box = (u, d, l)`` and, if ``middle_band = (e, w)`` is given,
-    also in the band ``[0, e] × [-w, w]`` behind the body, ``far_wake = (h, e, w)`` (if given) size
+    also in the band ``[0, e] × [-w, w]`` behind the body (size ``band`` there, if given),
+    ``far_wake = (h, e, w)`` (if given) size
     ``h`` in the box ``[wake end, e] × [-w, w]`` that continues the wake box to ``e``, ``far``
     elsewhere.
 
@@ -81,6 +82,7 @@ class MeshSizes:
     middle_box: tuple[float, float, float] | None = None
     middle_band: tuple[float, float] | None = None
     far_wake: tuple[float, float, float] | None = None
+    band: float | None = None
 
     def __post_init__(self):
         for name in (
@@ -113,6 +115,10 @@ class MeshSizes:
             if len(band) != 2:
                 raise InputError(f"the middle band is (downstream end, half-width), got {self.middle_band}")
             object.__setattr__(self, "middle_band", band)
+        if self.band is not None:
+            if self.middle_band is None:
+                raise InputError("mesh size band: this mesh has no middle band behind the body")
+            _positive("mesh size band", self.band)
         if self.far_wake is not None:
             if not isinstance(self.far_wake, tuple | list) or len(self.far_wake) != 3:
                 raise InputError(f"the far wake is (size, downstream end, half-width), got {self.far_wake}")
@@ -124,11 +130,11 @@ class MeshSizes:
             object.__setattr__(self, "far_wake", box)
 
     def key_inputs(self) -> dict:
-        """The sizes as the mesh key sees them: without ``middle_band`` or ``far_wake`` when there is
-        none, so that the meshes made before they existed keep their keys (and their cached steady
-        states)."""
+        """The sizes as the mesh key sees them: without ``middle_band``, ``far_wake`` or ``band``
+        when there is none, so that the meshes made before they existed keep their keys (and their
+        cached steady states)."""
         inputs = asdict(self)
-        for name in ("middle_band", "far_wake"):
+        for name in ("middle_band", "far_wake", "band"):
             if inputs[name] is None:
                 del inputs[name]
         return inputs

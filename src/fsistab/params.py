@@ -153,6 +153,7 @@ MESH_SIZE_NAMES = (
     "wake",
     "far",
     "middle",
+    "band",
     "near_margin",
     "wake_length",
     "wake_half_width",

@@ -129,7 +129,8 @@ class _SizeField:
         if self.middle is not None:
             h = np.minimum(h, sizes.middle + s * rectangle_distance(x, y, *self.middle))
         if self.band is not None:
-            h = np.minimum(h, sizes.middle + s * rectangle_distance(x, y, *self.band))
+            band = sizes.middle if sizes.band is None else sizes.band
+            h = np.minimum(h, band + s * rectangle_distance(x, y, *self.band))
         if self.far_wake is not None:
             h = np.minimum(h, sizes.far_wake[0] + s * rectangle_distance(x, y, *self.far_wake))
         h = np.minimum(h, sizes.wake + s * rectangle_distance(x, y, *self.wake))
