@@ -15,7 +15,7 @@ from fsistab.bodies import Plate
 from fsistab.cli import app
 from fsistab.errors import InputError
 from fsistab.mesh import build_mesh, mesh_spec, mesh_statistics, preset_sizes, spec_for
-from fsistab.params import MESH_SIZE_NAMES, Case, Domain, Flow, parse_mesh_sizes
+from fsistab.params import MESH_SIZE_NAMES, Case, Domain, Flow, default_domain, parse_mesh_sizes
 from fsistab.resources import estimate
 
 runner = CliRunner()
@@ -55,7 +55,7 @@ def test_no_sizes_is_todays_mesh_keys_and_names():
         case = Case.create("plate", 2900, preset="coarse", mesh_sizes=text)
         assert case.mesh_sizes == ()
         assert spec_for(case) == mesh_spec(Plate(), "coarse", 2900.0)
-        assert case.tag == "plate_Re2900_a0" and case.sizes_tag == ""
+        assert case.tag == "plate_Re2900_a0" and case.mesh_tag == ""
 
 
 def test_sizes_replace_the_fitted_presets_and_nothing_else():
@@ -80,6 +80,13 @@ def test_another_mesh_has_other_keys_and_file_names_whatever_the_order():
     assert ours.tag == "plate_Re2900_a0_sizes-near0.025-wake0.1"
     held = _case(mesh_reynolds=5800.0, mesh_sizes=(("near", 0.025),))
     assert held.tag == "plate_Re2900_a0_meshRe5800_sizes-near0.025"
+
+
+def test_another_domain_has_other_file_names_and_the_presets_own_none():
+    assert _case(domain=default_domain(Plate(), "coarse")).tag == "plate_Re2900_a0"
+    assert _case(domain=Domain(40.0, 80.0, 40.0)).tag == "plate_Re2900_a0_domain40-80-40"
+    both = _case(domain=Domain(40.0, 80.0, 40.0), mesh_reynolds=5800.0, mesh_sizes=(("near", 0.025),))
+    assert both.tag == "plate_Re2900_a0_meshRe5800_domain40-80-40_sizes-near0.025"
 
 
 def test_every_name_is_a_size_of_the_mesh():

@@ -26,7 +26,7 @@ def _quiet(message: str) -> None:
 def mesh(result, out: Path) -> xr.Dataset:
     """The mesh and a close-up of the body (``fsistab mesh``)."""
     a = result.dataset.attrs
-    path = Path(out) / f"mesh_{a['body']}_{a['preset']}_Re{a['reynolds']:g}{a.get('sizes_tag', '')}.png"
+    path = Path(out) / f"mesh_{a['body']}_{a['preset']}_Re{a['reynolds']:g}{a.get('mesh_tag', '')}.png"
     figure = plots.plot_mesh(result.mesh, path, title=f"{a['body']}, {a['preset']}")
     return result.dataset.assign_attrs(figure=str(figure))
 

@@ -465,22 +465,27 @@ class Case:
     def tag(self) -> str:
         """``plate_Re2900_a0``: the stem of the files a command writes for this case, with
         ``_meshRe2900`` when the mesh is fitted to another Re than the flow's (another mesh; the
-        same Re is the same mesh, whose files keep their names) and ``_sizes-near0.025-wake0.1``
-        when sizes are overridden."""
+        same Re is the same mesh, whose files keep their names) and :attr:`mesh_tag` when the
+        domain or sizes are not the preset's."""
         tag = f"{self.kind}_Re{self.flow.reynolds:g}_a{self.flow.alpha0_deg:g}"
         if self.elastic_axis:
             tag += f"_ea{self.elastic_axis:g}"
         if self.fitted_reynolds != self.flow.reynolds:
             tag += f"_meshRe{self.fitted_reynolds:g}"
-        return tag + self.sizes_tag
+        return tag + self.mesh_tag
 
     @property
-    def sizes_tag(self) -> str:
-        """``_sizes-near0.025-wake0.1`` when ``mesh_sizes`` override the preset's, else empty: the
-        files of another mesh get other names."""
-        if not self.mesh_sizes:
-            return ""
-        return "_sizes" + "".join(f"-{name}{value:g}" for name, value in self.mesh_sizes)
+    def mesh_tag(self) -> str:
+        """``_domain40-80-40`` when the domain is not the preset's own and
+        ``_sizes-near0.025-wake0.1`` when ``mesh_sizes`` override the preset's, else empty: the
+        files of another mesh get other names (a domain study in one directory overwrites nothing)."""
+        tag = ""
+        if self.domain is not None and self.domain != default_domain(self.body, self.preset):
+            d = self.domain
+            tag += f"_domain{d.upstream:g}-{d.downstream:g}-{d.lateral:g}"
+        if self.mesh_sizes:
+            tag += "_sizes" + "".join(f"-{name}{value:g}" for name, value in self.mesh_sizes)
+        return tag
 
     def require_plate(self, what: str) -> None:
         if "pitch" not in self.body.allowed_dofs:

@@ -112,7 +112,7 @@ def mesh_summary(case: Case, cache_dir: Path, progress: Progress = None) -> Mesh
         "preset": case.preset,
         "mesh_reynolds": case.fitted_reynolds,
         "mesh_key": spec.key(),
-        "sizes_tag": case.sizes_tag,
+        "mesh_tag": case.mesh_tag,
     }
     return MeshResult(xr.Dataset(attrs=attrs), mesh)
 
@@ -246,7 +246,7 @@ def static_slopes_study(
     if first.mesh_reynolds is not None:  # one mesh for every Re
         ds.attrs["mesh_reynolds"] = first.mesh_reynolds
         name += f"_meshRe{first.mesh_reynolds:g}"
-    name += first.sizes_tag
+    name += first.mesh_tag
     return ds.assign_attrs(netcdf=str(write_dataset(ds, Path(out) / f"{name}.nc")))
 
 
@@ -905,7 +905,7 @@ def fixed_body_onset(
     where = f"a{case.flow.alpha0_deg:g}" if parameter == "reynolds" else f"Re{case.flow.reynolds:g}"
     if case.mesh_reynolds is not None:  # another mesh than the one fitted to the guess or --Re
         where += f"_meshRe{case.mesh_reynolds:g}"
-    where += case.sizes_tag
+    where += case.mesh_tag
     path = write_dataset(ds, Path(out) / f"onset_{case.kind}_{parameter}_{where}_{case.preset}.nc")
     return ds.assign_attrs(data=str(path))
 
