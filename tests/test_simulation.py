@@ -135,6 +135,27 @@ def test_a_diverging_step_is_retried_on_the_rebuilt_matrix_then_refused_in_one_l
     assert sample.iterations <= 2 and np.all(np.isfinite(new.current))
 
 
+def test_a_non_finite_rebuilt_matrix_is_refused_as_such(cylinder_60):
+    """A residual whose linearisation is not finite somewhere (as the far-field layer's was, in
+    NGSolve's automatic differentiation) is refused when the matrix is rebuilt, in words that say
+    so, not later as a "singular" factorisation."""
+    from fsistab.errors import ConvergenceError
+
+    system = CoupledSystem(cylinder_60, solid_for("cylinder", mass_ratio=10, reduced_velocity=5))
+    stepper = TimeStepper(system, 0.1)
+    linearisation = stepper.fluid.linearisation
+
+    def poisoned(q_solid, values):
+        matrix = linearisation(q_solid, values)
+        matrix.data[0] = np.nan
+        return matrix
+
+    stepper.fluid.linearisation = poisoned
+    with pytest.raises(ConvergenceError, match="rebuilt about the current state is not finite"):
+        stepper.refresh(stepper.steady_point())
+    assert stepper.refreshes == 0
+
+
 def test_growth_of_the_wake_mode_is_its_eigenvalue_at_second_order(cylinder_60):
     system = CoupledSystem(cylinder_60, solid_for("cylinder", dofs=()))
     pair = min(eigenpairs_near(system, [SHIFT], 4), key=lambda p: abs(p.value - SHIFT))

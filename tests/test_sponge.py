@@ -78,6 +78,41 @@ def test_far_layer_terms_match_finite_differences(plate_2900_alpha5):
     assert np.linalg.norm(difference @ theta) > 0  # the layer's target turns with the body too
 
 
+def test_the_march_s_iteration_matrix_carries_the_far_layer(plate_2900_alpha5):
+    """The time march rebuilds ``J_ff`` by NGSolve's automatic differentiation of the residual's
+    form (:meth:`fsistab.operators.FluidResidual.linearisation`), where ``σ_far``'s distance to the
+    middle box must stay finite inside the box (a square root at 0 gave NaN there). At a pitching,
+    heaving state off the steady flow, with the layer of the test above: finite, and equal to a
+    central difference of the residual (quadratic in the fluid state: exact to round-off), of
+    which the layer is a visible part."""
+    from fsistab.operators import FluidResidual
+
+    steady = plate_2900_alpha5
+    spec = steady.mesh_spec
+    sizes = dataclasses.replace(spec.sizes, middle=1.0, middle_box=(5.0, 10.0, 5.0), middle_band=(40.0, 2.0))
+
+    def residual(sponge):
+        layered = dataclasses.replace(spec, sizes=sizes, sponge=sponge)
+        return FluidResidual(dataclasses.replace(steady, mesh_spec=layered))
+
+    layer, outlet = residual(dataclasses.replace(SPONGE, far_sigma=1.0, far_ramp=3.0)), residual(SPONGE)
+    rng = np.random.default_rng(5)
+    q_solid, fluid0 = np.array([0.1, 0.12, 0.05, 0.03]), layer.steady_point()[1]
+    q_fluid = fluid0 + 1e-2 * rng.standard_normal(fluid0.size)
+    direction, eps, index = rng.standard_normal(fluid0.size), 1e-4, layer.index
+
+    def jff(form):
+        return form.linearisation(q_solid, form.full_state(q_solid, q_fluid))[index][:, index]
+
+    found = jff(layer)
+    assert np.isfinite(found.data).all()
+    plus, minus = (layer(q_solid, q_fluid + sign * eps * direction)[0] for sign in (1, -1))
+    difference = (plus - minus) / (2 * eps)
+    scale = np.max(np.abs(difference))
+    assert np.max(np.abs(found @ direction - difference)) < 1e-8 * scale
+    assert np.max(np.abs((found - jff(outlet)) @ direction)) > 1e-3 * scale
+
+
 def test_rotation_target_is_the_turned_steady_field(plate_2900_alpha5):
     """``u_θ = d/dδ [R(δ)ᵀ U⁰(R(δ) X)]`` at δ = 0, by central differences at points of the wake."""
     steady = plate_2900_alpha5

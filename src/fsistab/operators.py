@@ -195,12 +195,15 @@ def _positive_part(value):
 
 def _distance_outside(upstream: float, downstream: float, lateral: float, shift: float = 0.0):
     """Distance from ``(X, Y)`` to the box ``[shift - upstream, shift + downstream] × [-lateral,
-    lateral]`` (0 inside)."""
-    from ngsolve import sqrt, x, y
+    lateral]`` (0 inside). The square root is taken outside the box only: NGSolve linearises a form
+    by automatic differentiation, and ``√r²`` at ``r² = 0`` gives ``∞ · 0 = NaN`` there (the time
+    march's iteration matrix, :meth:`FluidResidual.linearisation`); the values are the same."""
+    from ngsolve import IfPos, sqrt, x, y
 
     dx = _positive_part(shift - upstream - x) + _positive_part(x - shift - downstream)
     dy = _positive_part(y - lateral) + _positive_part(-y - lateral)
-    return sqrt(dx * dx + dy * dy)
+    squared = dx * dx + dy * dy
+    return IfPos(squared, sqrt(squared), 0.0)
 
 
 def far_layer(sponge, sizes, shift: float = 0.0):

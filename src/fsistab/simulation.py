@@ -284,6 +284,8 @@ class TimeStepper:
         residual: a step converges to the same state."""
         fluid = self.system.fluid
         jff = self.fluid.linearisation(self.solid_state(q), self._full(q))
+        if not np.isfinite(jff.data).all():  # said here, not later as a "singular" factorisation
+            raise ConvergenceError("the iteration matrix rebuilt about the current state is not finite")
         index = fluid.free_dofs
         linearised = replace(
             fluid, jff=jff[index][:, index].tocsr(), analyses=dict(self._linearised.fluid.analyses)
