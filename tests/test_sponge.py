@@ -23,10 +23,21 @@ from fsistab.transfer import flow_identity
 
 # strong and long on coarse's 40-chord outlet, so that its terms are not lost among the others
 SPONGE = Sponge(sigma_max=1.0, zone=0.5)
+# with a strong far-field layer over a short ramp (placed by _layered)
+LAYER = Sponge(sigma_max=1.0, zone=0.5, far_sigma=1.0, far_ramp=3.0)
 
 
 def _with_sponge(steady, sponge=SPONGE):
     return dataclasses.replace(steady, mesh_spec=dataclasses.replace(steady.mesh_spec, sponge=sponge))
+
+
+def _layered(steady, sponge):
+    """``steady`` with ``sponge`` and a middle box ``[-5, 10] × [-5, 5]`` and band ``[0, 40] × [-2, 2]``
+    given to its sizes: they only place the far-field layer (the mesh is the steady state's), so
+    that on coarse's domain the layer covers most of it and its terms are not lost among the others."""
+    spec = steady.mesh_spec
+    sizes = dataclasses.replace(spec.sizes, middle=1.0, middle_box=(5.0, 10.0, 5.0), middle_band=(40.0, 2.0))
+    return dataclasses.replace(steady, mesh_spec=dataclasses.replace(spec, sizes=sizes, sponge=sponge))
 
 
 @pytest.fixture(scope="module")
@@ -61,17 +72,12 @@ def test_far_layer_terms_match_finite_differences(plate_2900_alpha5):
     Coarse mesh (``[-20, 40] × [-20, 20]``) with a middle box ``[-5, 10] × [-5, 5]`` and band
     ``[0, 40] × [-2, 2]`` given to its sizes (they only place the layer here; the mesh is coarse's),
     so that the layer covers most of the domain and its terms are not lost among the others."""
-    steady = plate_2900_alpha5
-    spec = steady.mesh_spec
-    sizes = dataclasses.replace(spec.sizes, middle=1.0, middle_box=(5.0, 10.0, 5.0), middle_band=(40.0, 2.0))
     solid = Solid(mass_ratio=3.0, reduced_velocity=2.0)
 
     def system(sponge):
-        layered = dataclasses.replace(spec, sizes=sizes, sponge=sponge)
-        return CoupledSystem(fluid_operators(dataclasses.replace(steady, mesh_spec=layered)), solid)
+        return CoupledSystem(fluid_operators(_layered(plate_2900_alpha5, sponge)), solid)
 
-    outlet = system(SPONGE)
-    layer = system(dataclasses.replace(SPONGE, far_sigma=1.0, far_ramp=3.0))
+    outlet, layer = system(SPONGE), system(LAYER)
     difference = _difference_matches_finite_differences(outlet, layer)
     theta = np.zeros(outlet.size)
     theta[1] = 1.0
@@ -87,15 +93,7 @@ def test_the_march_s_iteration_matrix_carries_the_far_layer(plate_2900_alpha5):
     which the layer is a visible part."""
     from fsistab.operators import FluidResidual
 
-    steady = plate_2900_alpha5
-    spec = steady.mesh_spec
-    sizes = dataclasses.replace(spec.sizes, middle=1.0, middle_box=(5.0, 10.0, 5.0), middle_band=(40.0, 2.0))
-
-    def residual(sponge):
-        layered = dataclasses.replace(spec, sizes=sizes, sponge=sponge)
-        return FluidResidual(dataclasses.replace(steady, mesh_spec=layered))
-
-    layer, outlet = residual(dataclasses.replace(SPONGE, far_sigma=1.0, far_ramp=3.0)), residual(SPONGE)
+    layer, outlet = (FluidResidual(_layered(plate_2900_alpha5, sponge)) for sponge in (LAYER, SPONGE))
     rng = np.random.default_rng(5)
     q_solid, fluid0 = np.array([0.1, 0.12, 0.05, 0.03]), layer.steady_point()[1]
     q_fluid = fluid0 + 1e-2 * rng.standard_normal(fluid0.size)
