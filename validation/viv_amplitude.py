@@ -10,6 +10,11 @@ cuIBM authors (repository ``Niemeyer-Research-Group/cuIBM``, ``scripts/validatio
 commit 883fc136837900a6d426473449129fea28e168d4; the case's Re and M_red read from cuIBM's set-up
 of it, ``validation/osc/VIV``): a third party's digitisation, about ±0.02 D.
 
+For the spread among solvers the same repository's own immersed-boundary marches of the case are
+drawn too (``scripts/validation/combined_viv.py``, commit ed2b4fcbf398928c0d011a764e72944d8f018cd2:
+the body's forcing external or embedded, the coupling loose or strong; maximum displacement, not
+published in a paper).
+
 Reads the diagram of ``fsistab lco`` (its NetCDF, ``data`` of the JSON output) and prints one
 Markdown row per U*: A/D (the mean period amplitude, with the march's state: over the last periods,
 or over the second half's for a modulated march, with the range of its period amplitudes), the
@@ -38,6 +43,29 @@ REFERENCE = (
     (7.0, 0.381, 0.371),
     (8.0, 0.0696, 0.0696),
 )
+
+# U*, A_max/D of cuIBM's own marches (external loose, external strong, embedded loose, embedded strong)
+OTHER_SOLVER = (
+    (3.0, 0.0704, 0.0743, 0.0716, 0.0741),
+    (4.0, 0.5675, 0.5600, 0.5718, 0.5443),
+    (5.0, 0.5202, 0.5069, 0.5344, 0.4823),
+    (6.0, 0.4533, 0.4343, 0.4677, 0.3941),
+    (7.0, 0.3880, 0.3535, 0.3887, 0.3100),
+    (8.0, 0.1200, 0.1045, 0.1401, 0.0882),
+)
+
+
+def spread_rows(ds) -> list[str]:
+    """One Markdown row per U* run: the range of cuIBM's four couplings and fsistab's largest |h|
+    against its top."""
+    out = []
+    for u, *values in OTHER_SOLVER:
+        near = np.isclose(ds.reduced_velocity.values, u)
+        if near.any():
+            peak = ds.heave_largest.values[int(np.argmax(near))]
+            low, top = min(values), max(values)
+            out.append(f"| {u:g} | {low:.3f}–{top:.3f} | {peak:.3f} | {peak - top:+.3f} |")
+    return out
 
 
 def rows(ds) -> list[str]:
@@ -69,6 +97,9 @@ def draw(ds, path: str) -> None:
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(ref[:, 0], ref[:, 1], "s--", mfc="none", label="Borazjani et al. 2008 (digitised)")
     ax.plot(ref[:, 0], ref[:, 2], "^--", mfc="none", label="Ahn & Kallinderis 2006 (digitised)")
+    other = np.array(OTHER_SOLVER)
+    ax.fill_between(other[:, 0], other[:, 1:].min(axis=1), other[:, 1:].max(axis=1), color="0.85",
+                    label="cuIBM's own marches, four couplings (range)")  # fmt: skip
     ok = ds.heave_saturated.values.astype(bool)
     u, a = ds.reduced_velocity.values, ds.heave_amplitude.values
     ax.plot(u, a, "k-", lw=0.8)
@@ -108,6 +139,9 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows(ds)))
+    print("\n| U* | cuIBM's four couplings | fsistab: largest |h| | − their top |")
+    print("|---|---|---|---|")
+    print("\n".join(spread_rows(ds)))
     if args.figure:
         draw(ds, args.figure)
 
