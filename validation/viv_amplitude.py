@@ -12,8 +12,8 @@ of it, ``validation/osc/VIV``): a third party's digitisation, about ±0.02 D.
 
 For the spread among solvers the same repository's own immersed-boundary marches of the case are
 drawn too (``scripts/validation/combined_viv.py``, commit ed2b4fcbf398928c0d011a764e72944d8f018cd2:
-the body's forcing external or embedded, the coupling loose or strong; maximum displacement, not
-published in a paper).
+labelled external or embedded, loose or strong coupling; maximum displacement, not published in a
+paper).
 
 Reads the diagram of ``fsistab lco`` (its NetCDF, ``data`` of the JSON output) and prints one
 Markdown row per U*: A/D (the mean period amplitude, with the march's state: over the last periods,
