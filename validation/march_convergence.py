@@ -4,13 +4,17 @@ Given time series of the same march (``simulate_*.nc``: the same case and start,
 steps or meshes), prints one Markdown row per half period: the time and the peak of the signal
 (``pitch`` in degrees, or ``heave`` in body lengths, about ``--level``) of each series, placed
 between samples (:func:`fsistab.lco.half_period_peaks`), and each series' relative difference from
-the first one given (give the finest first). Half periods are matched by their order, and a
-series' peak is only compared while the two are within a tenth of a period of each other. A last
-row gives each series' time step, unknowns, chord iterations per step (over the series read) and
-wall time per step (of the march's last run, ``seconds_per_step``).
+the first one given (give the finest first). ``--signal ratio``: the heave's peak over the pitch's
+(radians) in each half period, divided by the heave/pitch ratio ``|ĥ/θ̂|`` of the linear mode the
+march was released in (:func:`linear_mode_ratio`), so that marches on meshes whose flutter modes
+differ in shape compare by what the march adds to the linear mode. Half periods are matched by
+their order, and a series' peak is only compared while the two are within a tenth of a period of
+each other (unless ``--by-order``). A last row gives each series' time step, unknowns, chord
+iterations per step (over the series read) and wall time per step (of the march's last run,
+``seconds_per_step``).
 
-Usage: python validation/march_convergence.py FINEST.nc OTHER.nc [...] [--signal pitch|heave]
-       [--level 0] [--labels "dt 0.025" "dt 0.05" ...] [--until T]
+Usage: python validation/march_convergence.py FINEST.nc OTHER.nc [...] [--signal pitch|heave|ratio]
+       [--level 0] [--labels "dt 0.025" "dt 0.05" ...] [--until T] [--by-order]
 """
 
 import argparse
@@ -22,29 +26,57 @@ from fsistab.lco import half_period_peaks
 from fsistab.store import read_dataset
 
 
+def linear_mode_ratio(ds) -> float:
+    """``|ĥ/θ̂|`` of the mode a body released in pitch started in, from the first sample: the release
+    sets ``(h, θ, ḣ, θ') = Re((ĥ, θ̂, σĥ, σθ̂))`` with ``θ̂`` real (the amplitude), so
+    ``Re(ĥ/θ̂) = h/θ`` and ``Im(ĥ/θ̂) = (Re σ · h − ḣ)/(θ Im σ)`` for the mode's eigenvalue ``σ``
+    (the series' ``start_growth_rate``, ``start_frequency``; a checkpoint's ``start_eigenvalue``)."""
+    if ds.attrs.get("perturbation_of") != "pitch":
+        raise SystemExit("--signal ratio needs marches released in pitch (--perturbation-of pitch)")
+    if "start_eigenvalue" in ds:
+        rate, frequency = (float(v) for v in ds["start_eigenvalue"].values)
+    else:
+        rate, frequency = float(ds.attrs["start_growth_rate"]), float(ds.attrs["start_frequency"])
+    h, theta, h_rate = (float(ds[name].values[0]) for name in ("heave", "pitch", "heave_rate"))
+    return abs(complex(h / theta, (rate * h - h_rate) / (theta * frequency)))
+
+
 def peaks(path: str, signal: str, level: float, until: float) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The half-period peaks of ``signal`` up to ``until`` (degrees for the pitch) and the march's
-    cost attributes."""
+    """The half-period peaks of ``signal`` up to ``until`` (degrees for the pitch; for ``ratio``, the
+    heave's over the pitch's, over the linear mode's ratio) and the march's cost attributes."""
     ds = read_dataset(path)
     keep = ds.time.values <= until
-    values = ds[signal].values[keep]
-    if signal == "pitch":
-        values = np.degrees(values)
-    at, peak = half_period_peaks(ds.time.values[keep], values, level)
+    if signal == "ratio":
+        at, pitch = half_period_peaks(ds.time.values[keep], ds["pitch"].values[keep], level)
+        heave = half_period_peaks(ds.time.values[keep], ds["heave"].values[keep])[1]
+        n = min(len(pitch), len(heave))
+        at, peak = at[:n], heave[:n] / pitch[:n] / linear_mode_ratio(ds)
+    else:
+        values = ds[signal].values[keep]
+        if signal == "pitch":
+            values = np.degrees(values)
+        at, peak = half_period_peaks(ds.time.values[keep], values, level)
     iterations = ds["chord_iterations"].values[keep][1:] if "chord_iterations" in ds else np.array([math.nan])
     cost = {
         "time_step": float(ds.attrs["time_step"]),
-        "ndof": int(ds.attrs["ndof"]),
+        # a march's checkpoint (an interrupted run) holds its state, whose length is the unknowns
+        "ndof": int(ds.attrs["ndof"]) if "ndof" in ds.attrs else ds.sizes.get("current_state_0", 0),
         "iterations": float(np.mean(iterations)),
         "seconds": float(ds.attrs.get("seconds_per_step", math.nan)),
+        "mode_ratio": linear_mode_ratio(ds) if signal == "ratio" else None,
     }
     return at, peak, cost
 
 
-def table(series: list[tuple[np.ndarray, np.ndarray, dict]], labels: list[str]) -> list[str]:
-    """Markdown rows: per half period, each series' time and peak and its difference from the first."""
+def table(
+    series: list[tuple[np.ndarray, np.ndarray, dict]], labels: list[str], by_order: bool = False
+) -> list[str]:
+    """Markdown rows: per half period, each series' time and peak and its difference from the first
+    (``by_order``: half periods matched by their order alone, for marches whose frequencies differ)."""
     reference_at, reference = series[0][0], series[0][1]
-    period = 2 * float(np.median(np.diff(reference_at))) if len(reference_at) > 1 else math.inf
+    period = (
+        2 * float(np.median(np.diff(reference_at))) if len(reference_at) > 1 and not by_order else math.inf
+    )
     head = " | ".join(f"{label}: t, peak | − {labels[0]}" for label in labels[1:])
     lines = [f"| half period | {labels[0]}: t, peak | {head} |", "|---" * (2 + 2 * (len(labels) - 1)) + "|"]
     for k, (t0, p0) in enumerate(zip(reference_at, reference, strict=True)):
@@ -57,7 +89,7 @@ def table(series: list[tuple[np.ndarray, np.ndarray, dict]], labels: list[str]) 
         lines.append(f"| {k + 1} | {t0:.2f}, {p0:.4f} | " + " | ".join(cells) + " |")
     costs = [
         f"Δt {c['time_step']:g}, {c['ndof']} unknowns, {c['iterations']:.1f} it/step, "
-        f"{c['seconds']:.2f} s/step"
+        f"{c['seconds']:.2f} s/step" + (f", mode's abs(h/θ) {c['mode_ratio']:.4f}" if c["mode_ratio"] else "")
         for _, _, c in series
     ]
     lines.append(f"| march | {costs[0]} | " + " | ".join(f"{c} | " for c in costs[1:]) + "|")
@@ -69,10 +101,15 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("series", nargs="+", help="simulate_*.nc time series, the finest first")
-    parser.add_argument("--signal", choices=("pitch", "heave"), default="pitch")
+    parser.add_argument("--signal", choices=("pitch", "heave", "ratio"), default="pitch")
     parser.add_argument("--level", type=float, default=0.0, help="the level the half periods cross")
     parser.add_argument("--labels", nargs="+", default=None, help="one label per series")
     parser.add_argument("--until", type=float, default=math.inf, help="read the series up to this time")
+    parser.add_argument(
+        "--by-order",
+        action="store_true",
+        help="match half periods by their order alone (meshes or domains whose frequencies differ)",
+    )
     args = parser.parse_args()
     if len(args.series) < 2:
         parser.error("give at least two series of the same march")
@@ -80,7 +117,7 @@ def main() -> None:
     if len(labels) != len(args.series):
         parser.error(f"give one label per series ({len(args.series)}), got {len(labels)}")
     series = [peaks(path, args.signal, args.level, args.until) for path in args.series]
-    print("\n".join(table(series, labels)))
+    print("\n".join(table(series, labels, args.by_order)))
 
 
 if __name__ == "__main__":
