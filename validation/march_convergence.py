@@ -35,8 +35,10 @@ def linear_mode_ratio(ds) -> float:
         raise SystemExit("--signal ratio needs marches released in pitch (--perturbation-of pitch)")
     if "start_eigenvalue" in ds:
         rate, frequency = (float(v) for v in ds["start_eigenvalue"].values)
-    else:
+    elif "start_growth_rate" in ds.attrs:
         rate, frequency = float(ds.attrs["start_growth_rate"]), float(ds.attrs["start_frequency"])
+    else:
+        raise SystemExit("--signal ratio needs marches released along an eigenmode, not from a state")
     h, theta, h_rate = (float(ds[name].values[0]) for name in ("heave", "pitch", "heave_rate"))
     return abs(complex(h / theta, (rate * h - h_rate) / (theta * frequency)))
 
