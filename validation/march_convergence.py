@@ -48,11 +48,12 @@ def peaks(path: str, signal: str, level: float, until: float) -> tuple[np.ndarra
     heave's over the pitch's, over the linear mode's ratio) and the march's cost attributes."""
     ds = read_dataset(path)
     keep = ds.time.values <= until
+    mode_ratio = linear_mode_ratio(ds) if signal == "ratio" else None
     if signal == "ratio":
         at, pitch = half_period_peaks(ds.time.values[keep], ds["pitch"].values[keep], level)
         heave = half_period_peaks(ds.time.values[keep], ds["heave"].values[keep])[1]
         n = min(len(pitch), len(heave))
-        at, peak = at[:n], heave[:n] / pitch[:n] / linear_mode_ratio(ds)
+        at, peak = at[:n], heave[:n] / pitch[:n] / mode_ratio
     else:
         values = ds[signal].values[keep]
         if signal == "pitch":
@@ -65,7 +66,7 @@ def peaks(path: str, signal: str, level: float, until: float) -> tuple[np.ndarra
         "ndof": int(ds.attrs["ndof"]) if "ndof" in ds.attrs else ds.sizes.get("current_state_0", 0),
         "iterations": float(np.mean(iterations)),
         "seconds": float(ds.attrs.get("seconds_per_step", math.nan)),
-        "mode_ratio": linear_mode_ratio(ds) if signal == "ratio" else None,
+        "mode_ratio": mode_ratio,
     }
     return at, peak, cost
 
