@@ -144,7 +144,7 @@ def main() -> None:
     parser.add_argument("--alpha", type=float, default=0.0)
     parser.add_argument("--width", type=float, default=10.0)
     parser.add_argument("--far-sigma", type=float, default=0.2)
-    parser.add_argument("--masses", type=float, nargs="*", default=[1000.0, 10.0])
+    parser.add_argument("--masses", type=float, nargs="*", default=[1000.0, 10.0], choices=list(RANGES))
     parser.add_argument("--factorisations", type=int, default=0)
     args = parser.parse_args()
     domain = None if args.domain is None else Domain(*args.domain)
