@@ -264,6 +264,21 @@ def _threshold_sweep(case: Case, solid: Solid, sweep: SweepSettings):
     return scale, velocities, replace(solid, reduced_velocity=float(velocities[0])), FactorCounter()
 
 
+def _sweep_attrs(case: Case, sweep: SweepSettings, counter) -> dict:
+    """The attributes a threshold sweep's datasets share: the case, the sweep and its factorisations."""
+    return {
+        "body": case.kind,
+        "reynolds": case.flow.reynolds,
+        "alpha0_deg": case.flow.alpha0_deg,
+        "preset": case.preset,
+        "mesh_reynolds": case.fitted_reynolds,
+        "mass_ratio": sweep.mass_ratio,
+        "velocity_range": list(sweep.velocity_range),
+        "points": sweep.points,
+        "factorisations": counter.count,
+    }
+
+
 @_workflow
 def critical_points(
     case: Case,
@@ -312,19 +327,11 @@ def critical_points(
             "frequency_ratio": ("threshold", frequency * velocity / scale),
         },
         attrs={
-            "body": case.kind,
-            "reynolds": case.flow.reynolds,
-            "alpha0_deg": case.flow.alpha0_deg,
-            "preset": case.preset,
-            "mesh_reynolds": case.fitted_reynolds,
-            "mass_ratio": sweep.mass_ratio,
-            "velocity_range": list(sweep.velocity_range),
-            "points": sweep.points,
+            **_sweep_attrs(case, sweep, counter),
             "method": sweep.method,
             "frequencies_sampled": len(details.get("frequencies", ())),
             "branches_tracked": len(details.get("branches", ())),
             "unresolved_intervals": len(details.get("unresolved", ())),
-            "factorisations": counter.count,
             "conventions": "U* and m in the body's conventions (docs/model.md §2, §10); frequency in U/L",
         },
     )
@@ -991,15 +998,7 @@ def sensitivity(
         factors[0j] = adjoint.steady_factor(fluid, counter)
     maps = _sensitivity_maps(fluid, solid, sweep, thresholds, results, factors[0j], counter, say)
     attrs = {
-        "body": case.kind,
-        "reynolds": case.flow.reynolds,
-        "alpha0_deg": case.flow.alpha0_deg,
-        "preset": case.preset,
-        "mesh_reynolds": case.fitted_reynolds,
-        "mass_ratio": sweep.mass_ratio,
-        "velocity_range": list(sweep.velocity_range),
-        "points": sweep.points,
-        "factorisations": counter.count,
+        **_sweep_attrs(case, sweep, counter),
         "conventions": case.body.conventions + "; alpha0 derivatives per degree",
     }
     ds = adjoint.sensitivity_dataset(thresholds, results, adjoint.PARAMETERS, attrs)
