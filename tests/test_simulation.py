@@ -285,6 +285,24 @@ def test_simulate_command_json_and_bad_input(tmp_path):
     assert abs(payload["last"]["heave"]) < 1e-8  # the steady state stays
 
 
+def test_the_matrix_is_rebuilt_when_the_next_step_would_cost_more_than_the_average_since_the_last():
+    """The renewal rule of :func:`rebuild_due`, on counts of the plate's cycle: a matrix that ages
+    fast (12 → 57 iterations over four steps) is rebuilt after its second step, when the third,
+    predicted at 23, costs more than the 21 per step spent so far with the rebuild's 11; a steady
+    count never is; a count creeping up is, once it passes the falling average; a free rebuild
+    follows the first step on a matrix, not a step that was cheaper than the one before."""
+    from fsistab.simulation import rebuild_due
+
+    assert not rebuild_due([13], 11.0)
+    assert rebuild_due([13, 18], 11.0)  # 18 + 5 = 23 ≥ (11 + 31)/2 = 21
+    assert not rebuild_due([13, 16], 11.0)  # 19 < 20
+    assert not any(rebuild_due([6] * k, 11.0) for k in range(1, 200))
+    creeping = [5, 5, 5, 5, 6, 6, 7, 8]
+    due = [rebuild_due(creeping[: k + 1], 11.0) for k in range(len(creeping))]
+    assert due == [False] * 6 + [True, True]  # 8 ≥ (11 + 39)/7 = 7.1 at the seventh step
+    assert rebuild_due([3], 0.0) and rebuild_due([9, 4], 0.0) is False
+
+
 def test_rebuilding_the_iteration_matrix_changes_iterations_not_states(cylinder_60):
     """Relinearised about the current field after every step, the march reaches the same states:
     only the chord iteration's matrix changes, never the equations."""
@@ -293,7 +311,7 @@ def test_rebuilding_the_iteration_matrix_changes_iterations_not_states(cylinder_
     start[0] = 0.05  # a heave displaced far from the steady state: a nonlinear start
     results = []
     for refresh_after in (0, 1):
-        stepper = TimeStepper(system, 0.1, refresh_after=refresh_after, refresh_every=1)
+        stepper = TimeStepper(system, 0.1, refresh_after=refresh_after, rebuild_cost=0.0)
         samples = [s for _, s in march(stepper, MarchState(0.0, 0, start.copy()), 0.3)]
         results.append(np.array([[s.solid[0], s.lift, s.drag] for s in samples]))
         assert stepper.refreshes == (0 if refresh_after == 0 else 3)

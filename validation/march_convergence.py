@@ -92,7 +92,8 @@ def table(
         lines.append(f"| {k + 1} | {t0:.2f}, {p0:.4f} | " + " | ".join(cells) + " |")
     costs = [
         f"Δt {c['time_step']:g}, {c['ndof']} unknowns, {c['iterations']:.1f} it/step, "
-        f"{c['seconds']:.2f} s/step" + (f", mode's abs(h/θ) {c['mode_ratio']:.4f}" if c["mode_ratio"] else "")
+        + (f"{c['seconds']:.2f} s/step" if math.isfinite(c["seconds"]) else "s/step not recorded")
+        + (f", mode's abs(h/θ) {c['mode_ratio']:.4f}" if c["mode_ratio"] else "")
         for _, _, c in series
     ]
     lines.append(f"| march | {costs[0]} | " + " | ".join(f"{c} | " for c in costs[1:]) + "|")

@@ -18,7 +18,8 @@ coupled matrix of the eigenvalue solver, factorised once per ``(c₀, Δt)``
 (:class:`fsistab.linalg.ShiftedSolver`, the solid unknowns bordered). Near the steady state it is
 the exact Jacobian; far from it (a saturated wake) the iteration converges linearly, accelerated
 by Anderson mixing, and the fluid block of its matrix is rebuilt about the current flow and
-motion when a step needs many iterations (:meth:`TimeStepper.refresh`). A step stops when the update's largest
+motion (:meth:`TimeStepper.refresh`) when the iterations it saves are expected to outweigh the
+rebuild (:func:`rebuild_due`). A step stops when the update's largest
 entry is below the tolerance, and fails (ConvergenceError, with the advice to reduce the step)
 when it does not within the iterations allowed.
 """
@@ -176,9 +177,12 @@ class TimeStepper:
     """BDF2 steps of ``M q̇ + R(q) = 0`` for ``system`` (module docstring), ``time_step`` Δt in the
     body's time unit. ``tolerance``: largest entry of the last chord update; ``max_iterations`` per
     step. ``counter`` counts the factorisations (one per BDF order used); ``depth``: the previous
-    iterates of the step's Anderson mixing (0: the plain chord iteration). A step that needed more
-    than ``refresh_after`` iterations rebuilds the iteration matrix at its new state
-    (:meth:`refresh`), at most once every ``refresh_every`` steps; 0 keeps the steady state's."""
+    iterates of the step's Anderson mixing (0: the plain chord iteration). After a step that needed
+    more than ``refresh_after`` iterations the iteration matrix is rebuilt at the new state
+    (:meth:`refresh`) when :func:`rebuild_due` says so; ``refresh_after = 0`` keeps the steady
+    state's. ``rebuild_cost``: a rebuild's cost (a linearisation and a factorisation) in chord
+    iterations for that rule, fixed so that a march takes the same path on any machine and load
+    (its measured range and the rule's cost: docs/performance.md, "The time march")."""
 
     system: CoupledSystem
     time_step: float
@@ -187,15 +191,15 @@ class TimeStepper:
     counter: FactorCounter = field(default_factory=FactorCounter)
     depth: int = 4
     refresh_after: int = 6
-    refresh_every: int = 4
+    rebuild_cost: float = 10.0
 
     def __post_init__(self):
         self.fluid = InertialFluidResidual(self.system.fluid.steady)
         self.residual = CoupledResidual(self.system, self.fluid)
         self._solvers: dict[int, ShiftedSolver] = {}
         self._linearised = self.system  # the system whose J + (c₀/Δt) M is factorised
-        # the first rebuild may come at once (a start far from the steady state)
-        self.refreshes, self.steps, self._last_refresh = 0, 0, -self.refresh_every
+        self.refreshes, self.steps, self._last_refresh = 0, 0, -1
+        self._since_rebuild: list[int] = []  # chord iterations of the steps on the current matrix
 
     def steady_point(self) -> np.ndarray:
         """The steady state as a coupled vector."""
@@ -245,7 +249,8 @@ class TimeStepper:
         # the loads are those of the last evaluation, at most the tolerance away from q
         new = MarchState(state.time + self.time_step, state.step + 1, q, state.current)
         self.steps += 1
-        if 0 < self.refresh_after < iterations and self.steps - self._last_refresh >= self.refresh_every:
+        self._since_rebuild.append(iterations)
+        if 0 < self.refresh_after < iterations and rebuild_due(self._since_rebuild, self.rebuild_cost):
             self.refresh(q)
         return new, self.sample(new.time, q, self.fluid.loads, iterations, change)
 
@@ -294,6 +299,7 @@ class TimeStepper:
         self._solvers.clear()
         self.refreshes += 1
         self._last_refresh = self.steps
+        self._since_rebuild = []
 
     def sample(self, time: float, q: np.ndarray, loads: np.ndarray, iterations: int = 0, update=0.0):
         q_solid = self.solid_state(q)
@@ -307,6 +313,22 @@ class TimeStepper:
         self.fluid.set_rate(0.0, np.zeros(self.fluid.mass.shape[0]))
         self.residual(state.current)
         return self.sample(state.time, state.current, self.fluid.loads)
+
+
+def rebuild_due(iterations: list[int], cost: float) -> bool:
+    """Whether to rebuild the chord iteration's matrix after the steps ``iterations`` (their chord
+    iterations since the last rebuild, the newest last), a rebuild costing ``cost`` iterations.
+
+    A renewal rule: the iterations per step since the last rebuild, the rebuild's cost included,
+    ``(cost + Σ nᵢ)/k``, fall while the matrix is still good and rise once the steps grow dearer
+    than that average; rebuild when the next step, predicted by the last two
+    (``n_k + (n_k − n_{k−1})``), costs at least the average. A matrix that ages quickly (a wake
+    shedding vortices at a large amplitude, where the iterations grow 12, 18, 31, 57 over four
+    steps) is rebuilt every other step; a steady count is never rebuilt for (its average stays
+    above it by ``cost/k``)."""
+    k, last = len(iterations), iterations[-1]
+    predicted = last + (last - iterations[-2]) if k >= 2 else last
+    return predicted >= (cost + sum(iterations)) / k
 
 
 class AndersonMixing:
