@@ -322,10 +322,9 @@ def rebuild_due(iterations: list[int], cost: float) -> bool:
     A renewal rule: the iterations per step since the last rebuild, the rebuild's cost included,
     ``(cost + Σ nᵢ)/k``, fall while the matrix is still good and rise once the steps grow dearer
     than that average; rebuild when the next step, predicted by the last two
-    (``n_k + (n_k − n_{k−1})``), costs at least the average. A matrix that ages quickly (a wake
-    shedding vortices at a large amplitude, where the iterations grow 12, 18, 31, 57 over four
-    steps) is rebuilt every other step; a steady count is never rebuilt for (its average stays
-    above it by ``cost/k``)."""
+    (``n_k + (n_k − n_{k−1})``), costs at least the average (docs/model.md §12). A matrix that
+    ages within a few steps (a wake shedding vortices at a large amplitude) is rebuilt every other
+    step or so; a steady count never is (its average stays above it by ``cost/k``)."""
     k, last = len(iterations), iterations[-1]
     predicted = last + (last - iterations[-2]) if k >= 2 else last
     return predicted >= (cost + sum(iterations)) / k
