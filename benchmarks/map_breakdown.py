@@ -2,7 +2,8 @@
 Re = 2900 on ``quick``, 1 ≤ m ≤ 10⁴), with the CPU time of the threads in each part summed over
 the threads that ran it (``time.thread_time``): UMFPACK's numeric factorisations, its solves
 (one right-hand side each) and the METIS ordering (as in ``benchmarks/critical.py``), and the
-reduced models' orthonormalisation and projections ``VᴴAV`` (:mod:`fsistab.reduced_model`).
+reduced models' orthonormalisation and projections ``VᴴAV`` (:mod:`fsistab.reduced_model`), and
+the writes of the samples' and models' files (:class:`fsistab.store.ResumableTable`).
 Prints the map's wall and CPU time, peak memory, and the parts; with ``--phases``, also each batch
 of exact samples (``MapEngine.prefetch``) and each reduced model: when it ran, its factorisations,
 and how many cores the timed parts kept busy meanwhile (docs/performance.md, "Setup around the
@@ -23,7 +24,7 @@ import time
 
 from critical import _Breakdown
 
-from fsistab import map_engine, reduced_model, umfpack
+from fsistab import map_engine, reduced_model, store, umfpack
 from fsistab.cli import main as fsistab_main
 
 # the timed parts (their threads' CPU counts as busy) and the phases (their wall intervals)
@@ -91,6 +92,8 @@ def main() -> None:
         ("_projected", "the models' projections"),
     ):
         setattr(reduced_model, name, breakdown._timed(label, getattr(reduced_model, name)))
+    # each write of the samples' and models' files (the whole file, checksummed: fsistab.store)
+    store.ResumableTable.save = breakdown._timed("writing the map's files", store.ResumableTable.save)
     if args.phases:
         parts, phases = _Intervals(PARTS), _Intervals(PHASES)
     sys.argv = ["fsistab", "neutral", *(args.options or ["--mesh", "quick"]), "--out", args.out]

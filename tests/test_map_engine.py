@@ -13,6 +13,7 @@ one neutral curve, a power law ``m ∝ ω⁻²``, ``U* ∝ ω⁻¹`` for a const
 """
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ from fsistab.linalg import FactorCounter
 from fsistab.map_engine import MapEngine, MapSources
 from fsistab.map_refinement import FIT_MIN_STEP, RefinementPolicy, initial_frequencies, resonance, runs
 from fsistab.map_roots import AxisSample, NeutralRoot, neutral_roots
-from fsistab.map_samples import SAMPLE_FIELDS, SampleStore
+from fsistab.map_samples import SAMPLE_FIELDS, SAVE_EVERY, SampleStore
 from fsistab.map_sources import Certified, RationalFitSource, ResonanceSource
 from fsistab.map_tracker import RootTracker, _match
 from fsistab.params import MAX_FREQUENCY, Solid
@@ -79,8 +80,8 @@ def _policy(**kwargs) -> RefinementPolicy:
     return RefinementPolicy(**{**settings, **kwargs})
 
 
-def _engine(policy, slope=False):
-    counter, store = FactorCounter(), SampleStore()
+def _engine(policy, slope=False, store=None):
+    counter, store = FactorCounter(), store if store is not None else SampleStore()
     sources = MapSources(_Synthetic(counter, slope), ResonanceSource(None), RationalFitSource(store))
     tracker = RootTracker(PITCH, policy.wide, 0.0, np.zeros(3))
     return MapEngine(policy, sources, store, tracker, counter, lambda message: None), counter
@@ -218,20 +219,35 @@ def test_the_loop_refines_a_curve_that_is_not_a_power_law_until_it_is_resolved()
     assert FIT_MIN_STEP < policy.min_step
 
 
+class _Clock:
+    """A clock that advances only when told to: ``step`` seconds at each reading."""
+
+    def __init__(self, step: float = 0.0):
+        self.now, self.step = 0.0, step
+
+    def __call__(self) -> float:
+        self.now += self.step
+        return self.now
+
+
+def _saved(path) -> list[float]:
+    return SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS)).frequencies()
+
+
 def test_the_store_saves_exact_samples_at_once_and_counts_them_when_read_back(tmp_path):
-    """Three exact samples and two from a certified model: the exact ones are saved as they come,
-    the reduced ones with the next save; read back, the samples are sorted by frequency and the
-    three exact ones are the factorisations a resumed map reuses."""
+    """Three exact samples and two from a certified model, with each save far shorter than the
+    time between samples: the exact ones are saved as they come, the reduced ones with the next
+    save; read back, the samples are sorted by frequency and the three exact ones are the
+    factorisations a resumed map reuses."""
     path = tmp_path / "samples.nc"
-    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
+    clock = _Clock(step=1.0)  # every reading 1 s later: each save "takes" 1 s, 1 s passes between
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS), clock=clock)
     for omega in (2.0, 0.5, 1.0):
+        clock.now += 100.0  # a sample takes 100 s: at least SAVE_EVERY saves' time
         store.keep(_pitch_sample(omega))
+        assert not store.unsaved
     store.keep(AxisSample(1.5, _pitch_sample(1.5).transfer, np.zeros((3, 4)), reduced=True))
-    assert SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS)).frequencies() == [
-        0.5,
-        1.0,
-        2.0,
-    ]
+    assert store.unsaved and _saved(path) == [0.5, 1.0, 2.0]
     store.keep(AxisSample(0.7, _pitch_sample(0.7).transfer, np.zeros((3, 4)), reduced=True))
     store.save()
     again = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS))
@@ -239,6 +255,57 @@ def test_the_store_saves_exact_samples_at_once_and_counts_them_when_read_back(tm
     assert again[1.5].reduced and not again[2.0].reduced
     assert again.snap(1.0 * (1 + 1e-12)) == 1.0 and again.snap(1.01) == 1.01
     assert again.exact_frequencies().tolist() == [0.5, 1.0, 2.0]
+
+
+def test_exact_samples_faster_than_the_saves_are_saved_together(tmp_path):
+    """Samples that come quicker than SAVE_EVERY saves' time wait for the next save: the first is
+    saved at once (no save timed yet), the next ones once SAVE_EVERY times the last save's
+    duration has passed since it ended, and :meth:`SampleStore.save` writes the rest."""
+    path = tmp_path / "samples.nc"
+    clock = _Clock(step=0.5)  # a save "takes" 0.5 s (two readings), each keep reads once more
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS), clock=clock)
+    store.keep(_pitch_sample(1.0))
+    assert _saved(path) == [1.0] and not store.unsaved
+    for omega in (1.1, 1.2):  # 1 s and 1.5 s after the save ended: less than SAVE_EVERY × 0.5 s
+        store.keep(_pitch_sample(omega))
+        assert store.unsaved and _saved(path) == [1.0]
+    clock.now += SAVE_EVERY * 0.5
+    store.keep(_pitch_sample(1.3))
+    assert _saved(path) == [1.0, 1.1, 1.2, 1.3] and not store.unsaved
+    store.keep(_pitch_sample(1.4))
+    assert store.unsaved
+    store.save()
+    assert _saved(path) == [1.0, 1.1, 1.2, 1.3, 1.4] and not store.unsaved
+    saves = clock.now
+    store.save()  # nothing new: no write, the clock not read
+    assert clock.now == saves
+
+
+def test_the_engine_saves_what_it_holds_when_interrupted(tmp_path):
+    """A map interrupted at its third exact sample: the two before it, kept but not yet saved
+    (each save "took" longer than the run), are in the file all the same: the engine saves
+    however its loop ends."""
+    path = tmp_path / "samples.nc"
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS), clock=_Clock())
+    store._last_save_seconds = 1e9  # as if a save took forever: no exact sample is saved at once
+    engine, counter = _engine(_policy(), store=store)
+
+    class Interrupted(Exception):
+        pass
+
+    synthetic = engine.sources.exact
+
+    def interrupted(frequencies, later=None):
+        for omega in frequencies:
+            if counter.count == 2:
+                raise Interrupted
+            yield synthetic.sample(omega)
+
+    engine.sources.exact = SimpleNamespace(samples=interrupted, sample=synthetic.sample)
+    with pytest.raises(Interrupted):
+        engine.run(np.array([0.3, 0.6, 1.2]))
+    assert not store.unsaved and len(_saved(path)) == 2
+    assert SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS)).reused_factorisations == 2
 
 
 # --- on the coarse plate --------------------------------------------------------------------------

@@ -5,8 +5,9 @@ policy has nothing left to refine.
 Each round: survey the intervals (:meth:`fsistab.map_refinement.RefinementPolicy.survey`), certify
 rational fits where exact samples cannot go on (``stuck``) or before exact bisections (``pending``),
 keep the round within the budget, then sample the round's frequencies — exact ones ``threads`` at a
-time, each saved as it finishes; with sharp resonances, their reduced models built meanwhile in
-another thread, the frequencies they may cover waiting for them — and add their roots.
+time, each kept as it finishes (and saved: :class:`fsistab.map_samples.SampleStore`); with sharp
+resonances, their reduced models built meanwhile in another thread, the frequencies they may cover
+waiting for them — and add their roots.
 """
 
 from __future__ import annotations
@@ -76,7 +77,13 @@ class MapEngine:
 
     def run(self, initial) -> MapRun:
         """The map from the ``initial`` frequencies (and every saved one) until nothing is left to
-        refine or the budget is spent."""
+        refine or the budget is spent; the samples not yet saved are saved however it stops."""
+        try:
+            return self._run(initial)
+        finally:
+            self.store.save()
+
+    def _run(self, initial) -> MapRun:
         first = self.policy.first_frequencies(initial, self.store.frequencies())
         resonances, certified = self.sources.resonances, self.sources.certified
         if (
@@ -99,10 +106,8 @@ class MapEngine:
         while refined := self.round(first_round, interpolated):
             interpolated = self.interpolated()
             first_round = False
-            self.store.save()  # the round's reduced samples: a rerun samples the same frequencies
+            self.store.save()  # the round's samples not yet saved: a rerun samples the same frequencies
             self.say(f"{len(self.tracker.roots)} frequencies, {refined} intervals refined")
-        if self.store.any_reduced():
-            self.store.save()
         self.unresolved.update(self.policy.range_ends(self.tracker))
         return MapRun(self.tracker, static, self.unresolved, interpolated)
 

@@ -2,13 +2,21 @@
 store (:class:`fsistab.store.ResumableTable`): the fluid's whole contribution to the map, reusable
 for any solid parameters (docs/model.md §7).
 
-A sample is saved as soon as it is computed if it cost a factorisation; one from a certified model
-(a reduced fluid model or a rational fit) with the next save. A rerun reads them back: the map then
-samples the same frequencies for free.
+A sample that cost a factorisation is saved as soon as it is computed, unless the last save
+ended less than :data:`SAVE_EVERY` times that save's own duration ago: then with the next one.
+Each save rewrites the whole file, about 0.1–0.3 s, where a sample on a coarse mesh takes a
+tenth of a second, so saving every sample would spend more time writing than sampling; this
+way writing stays below about a tenth of the run, and a run killed outright loses at most that
+many save-durations of samples (the map saves what it holds at the end of each round and when it
+stops, interrupted or not). A sample from a certified model (a reduced fluid model or a rational
+fit) is saved with the next save. A rerun reads them back: the map then samples the same
+frequencies for free.
 """
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +28,9 @@ from fsistab.transfer import flow_identity
 
 SAMPLE_FIELDS = {"sample": ("frequency", "transfer", "transfer_rate", "reduced")}
 SAME_FREQUENCY = 1e-9  # a frequency this close (relative) to a stored one is that one
+# an exact sample is saved at once when the last save ended at least this many times that save's
+# duration ago (module docstring): writing stays below about 1/SAVE_EVERY of the run
+SAVE_EVERY = 10.0
 
 
 def samples_table(path: Path, fluid: FluidOperators) -> ResumableTable:
@@ -53,14 +64,17 @@ def read_samples(table: ResumableTable) -> dict[float, AxisSample]:
 class SampleStore:
     """The samples of one map by frequency: those saved in ``table`` by earlier runs (checksummed;
     a damaged file is reported and moved aside by the table), then those added. Without a table
-    nothing is saved."""
+    nothing is saved. ``clock`` (seconds) times the saves (module docstring)."""
 
-    def __init__(self, table: ResumableTable | None = None):
+    def __init__(self, table: ResumableTable | None = None, clock: Callable[[], float] = time.monotonic):
         self.table = table
         self._samples: dict[float, AxisSample] = read_samples(table) if table is not None else {}
         # the factorisations behind the samples read back (one per exact sample): a resumed map's
         # cost in total is this run's plus theirs
         self.reused_factorisations = sum(not s.reduced for s in self._samples.values())
+        self._clock = clock
+        self._unsaved = False
+        self._last_save_end, self._last_save_seconds = clock(), 0.0
 
     @classmethod
     def at(cls, path: Path | None, fluid: FluidOperators) -> SampleStore:
@@ -78,15 +92,31 @@ class SampleStore:
         return list(self._samples)
 
     def keep(self, sample: AxisSample) -> AxisSample:
-        """Store a new sample; an exact one is saved at once, a reduced one with the next save."""
+        """Store a new sample; an exact one is saved at once unless the last save was too recent
+        (:data:`SAVE_EVERY`), a reduced one with the next save."""
         self._samples[sample.frequency] = sample
         if self.table is not None:
-            self.table.append(sample_record(sample), save=not sample.reduced)
+            self.table.append(sample_record(sample), save=False)
+            self._unsaved = True
+            since = self._clock() - self._last_save_end
+            if not sample.reduced and since >= SAVE_EVERY * self._last_save_seconds:
+                self.save()
         return sample
 
+    @property
+    def unsaved(self) -> bool:
+        """Whether samples were kept since the last save."""
+        return self._unsaved
+
     def save(self) -> None:
-        if self.table is not None:
-            self.table.save()
+        """Write the samples kept since the last save (nothing when there are none)."""
+        if self.table is None or not self._unsaved:
+            return
+        start = self._clock()
+        self.table.save()
+        self._last_save_end = self._clock()
+        self._last_save_seconds = self._last_save_end - start
+        self._unsaved = False
 
     def snap(self, omega: float) -> float:
         """The stored frequency equal to ``omega`` up to rounding, else ``omega``."""
