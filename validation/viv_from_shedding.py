@@ -5,8 +5,9 @@ instead of from the steady state: does the start pick the cycle?
 Two marches of ``fsistab simulate`` (its workflow, checkpointed in the cache: a rerun reuses them):
 
 1. the cylinder held: heave only with a mass ratio of ``--held-mass-ratio`` (10⁶: it moves by
-   about 10⁻⁶ D), from the steady state plus ``--perturbation`` times the mode nearest
-   ``--shift``, until the shedding has saturated (``--held-duration``);
+   about 10⁻⁶ D; its U* is ``--held-reduced-velocity``, one march for every release), from the
+   steady state plus ``--perturbation`` times the mode nearest ``--shift``, until the shedding
+   has saturated (``--held-duration``);
 2. for each ``--reduced-velocity``, the cylinder of check c (``m* = 4 M_red/π`` with
    ``M_red = 2``) started from the last state of march 1 (``--start``: the fluid shedding, the
    cylinder at rest), for ``--duration``.
@@ -70,6 +71,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=80.0)
     parser.add_argument("--held-mass-ratio", type=float, default=1e6)
     parser.add_argument("--held-duration", type=float, default=150.0)
+    parser.add_argument("--held-reduced-velocity", type=float, default=5.0, help="irrelevant at m = 10⁶")
     parser.add_argument("--perturbation", type=float, default=1e-3)
     parser.add_argument("--shift", type=complex, default=0.2 + 0.8j)
     parser.add_argument("--cache", default=None)
@@ -84,7 +86,7 @@ def main() -> None:
 
     held = _march(
         case,
-        solid(args.held_mass_ratio, args.reduced_velocity[0]),
+        solid(args.held_mass_ratio, args.held_reduced_velocity),
         SimulationSettings(args.held_duration, args.time_step, args.perturbation, args.shift, **iterations),
         cache,
         out / "held",

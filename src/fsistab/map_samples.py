@@ -4,13 +4,13 @@ for any solid parameters (docs/model.md §7).
 
 A sample that cost a factorisation is saved as soon as it is computed, unless the last save
 ended less than :data:`SAVE_EVERY` times that save's own duration ago: then with the next one.
-Each save rewrites the whole file, about 0.1–0.3 s, where a sample on a coarse mesh takes a
-tenth of a second, so saving every sample would spend more time writing than sampling; this
-way writing stays below about a tenth of the run, and a run killed outright loses at most that
-many save-durations of samples (the map saves what it holds at the end of each round and when it
-stops, interrupted or not). A sample from a certified model (a reduced fluid model or a rational
-fit) is saved with the next save. A rerun reads them back: the map then samples the same
-frequencies for free.
+Each save rewrites the whole file (checksummed), which on a coarse mesh takes longer than a
+sample (docs/performance.md, "Writing the samples"), so saving every sample would spend more time
+writing than sampling; this way writing stays below about a tenth of the run, and a run killed
+outright loses at most that many save-durations of samples (the map saves what it holds at the
+end of each round and when it stops, interrupted or not). A sample from a certified model (a
+reduced fluid model or a rational fit) is saved with the next save. A rerun reads them back: the
+map then samples the same frequencies for free.
 """
 
 from __future__ import annotations

@@ -374,7 +374,7 @@ def transfer_neutral_map(
     Where the samples come from (:mod:`fsistab.map_sources`): with ``reduced``
     (:class:`fsistab.reduced_model.ReducedModels`), reduced models certified on intervals, built near
     exact samples (defaults ``tolerance`` 3e-3, ``min_step`` 1e-7, ``max_samples`` 4000); without,
-    exact samples (``threads`` at a time, each kept and saved as it finishes), reduced models of
+    exact samples (``threads`` at a time, each kept as it finishes and saved by the store), reduced models of
     ``resonance_blocks`` Krylov blocks at a sharp resonance and at ``s = 0`` (0: none), and certified
     rational fits of the exact samples, tried before exact bisections with ``fit_first`` (defaults
     ``EXACT_TOLERANCE``, 1e-3, 400 not counting fitted frequencies). With ``samples_path`` the samples
