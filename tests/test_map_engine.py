@@ -282,12 +282,12 @@ def test_exact_samples_faster_than_the_saves_are_saved_together(tmp_path):
 
 
 def test_the_engine_saves_what_it_holds_when_interrupted(tmp_path):
-    """A map interrupted at its third exact sample: the two before it, kept but not yet saved
-    (each save "took" longer than the run), are in the file all the same: the engine saves
-    however its loop ends."""
+    """A map interrupted at its third exact sample: the first is saved at once, the second kept
+    but not yet saved (it came sooner after that save than SAVE_EVERY saves' time), and both are
+    in the file all the same: the engine saves however its loop ends."""
     path = tmp_path / "samples.nc"
-    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS), clock=_Clock())
-    store._last_save_seconds = 1e9  # as if a save took forever: no exact sample is saved at once
+    clock = _Clock(step=1.0)  # a save "takes" 1 s; the next sample comes 1 s after it
+    store = SampleStore(ResumableTable(path, {"flow": "synthetic"}, SAMPLE_FIELDS), clock=clock)
     engine, counter = _engine(_policy(), store=store)
 
     class Interrupted(Exception):

@@ -368,6 +368,25 @@ def test_records_of_several_kinds_state_and_finish_survive_a_rerun(tmp_path):
         again.finish({"case": "y"})
 
 
+def test_finishing_again_with_nothing_new_leaves_the_file_as_it_is(tmp_path):
+    """A complete table read back and finished with the same attributes, nothing appended: the
+    file keeps its bytes (a march started from it is fingerprinted by them). Other attributes, or
+    a record appended, write it anew."""
+    path = tmp_path / "t.nc"
+    table = store.ResumableTable(path, {"case": "x"}, state=("mode",))
+    table.append({"value": 1.0}, state={"mode": np.zeros(3)})
+    table.finish({"stop": "duration"})
+    written = path.read_bytes()
+    again = store.ResumableTable(path, {"case": "x"}, state=("mode",))
+    assert again.finish({"stop": "duration"}) == path and path.read_bytes() == written
+    again.finish({"stop": "interrupted"})
+    reread = store.ResumableTable(path, {"case": "x"}, state=("mode",))
+    assert path.read_bytes() != written and reread.final_attrs == {"stop": "interrupted"}
+    again.append({"value": 2.0})
+    again.finish({"stop": "interrupted"})
+    assert len(store.ResumableTable(path, {"case": "x"}, state=("mode",))) == 2
+
+
 @given(
     shapes=st.lists(st.tuples(st.integers(0, 4), st.integers(1, 3)), min_size=1, max_size=4),
     complex_=st.booleans(),

@@ -24,6 +24,7 @@ Usage: python validation/viv_from_shedding.py [--reduced-velocity 5 6] [--time-s
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from fsistab.lco import saturation
@@ -36,7 +37,9 @@ REDUCED_MASS = 2.0  # M_red = m / (ρ D²) of the benchmark (Ahn & Kallinderis 2
 
 
 def _march(case, solid, settings, cache: Path, out: Path):
-    return simulate(case, solid, settings, cache, out, lambda message: None).dataset
+    """The march's time series; its progress (simulated time, steps per second) on stderr."""
+    say = lambda message: print(message, file=sys.stderr, flush=True)  # noqa: E731
+    return simulate(case, solid, settings, cache, out, say).dataset
 
 
 def held_shedding(ds, periods: int = 6) -> str:

@@ -607,11 +607,16 @@ class ResumableTable:
             self.save()
 
     def finish(self, attrs: Mapping | None = None) -> Path:
-        """Mark the table complete with ``attrs`` (how the run ended, e.g. ``stop``) and save it."""
+        """Mark the table complete with ``attrs`` (how the run ended, e.g. ``stop``) and save it.
+        A table read back complete with the same ``attrs``, nothing appended since, is left as it
+        is, its file unwritten: a rerun that had nothing to add keeps the file's bytes, so what was
+        started from it (a march's ``--start``, fingerprinted by those bytes) is still found."""
         final = {str(k): _plain(v) for k, v in (attrs or {}).items()}
         clash = set(final) & {*self.identity, *_RESERVED}
         if clash:
             raise ValueError(f"final attributes {sorted(clash)} clash with the identity or the layout")
+        if self._final == final and self.path.is_file():
+            return self.path
         self._final = final
         return self.save()
 
