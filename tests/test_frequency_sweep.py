@@ -148,6 +148,28 @@ def test_sweep_finds_a_narrow_window_and_the_eigenvalues_confirm_it(plate_operat
         assert any(p.growth_rate > 0 for p in pairs) == unstable
 
 
+def test_a_crossing_newton_misses_is_found_from_closer_samples(plate_operators):
+    """Coarse plate, m = 1000, U* from 0.05 to 0.1, across the fixed plate's wake resonance: the
+    cubic's estimate of one crossing lies outside the pair of exact samples placed around it, and
+    Newton from it does not converge; from the exact samples that cut its interval into parts it
+    does. The four VIV crossings (a lock-in window with a narrow stable gap), none unresolved; the
+    coupled eigenvalues in the gap and on each side of it confirm the sides."""
+    solid = Solid(mass_ratio=1000.0, reduced_velocity=0.05)
+    result = sweep_thresholds(plate_operators, solid, (0.05, 0.1))
+    assert result.unresolved == ()
+    onset, restabilisation = ("viv", "onset"), ("viv", "restabilisation")
+    assert [(t.kind, t.boundary) for t in result.thresholds] == [onset, restabilisation] * 2
+    v = [t.reduced_velocity for t in result.thresholds]
+    for velocity, unstable in (
+        (0.5 * (v[0] + v[1]), True),
+        (0.5 * (v[1] + v[2]), False),
+        (0.5 * (v[2] + v[3]), True),
+    ):
+        system = CoupledSystem(plate_operators, replace(solid, reduced_velocity=velocity))
+        pairs = eigenpairs_near(system, [1j * result.thresholds[2].frequency], 8)
+        assert any(p.growth_rate > 0 for p in pairs) == unstable
+
+
 def test_bad_range_refused_before_any_factorisation(plate_operators):
     counter = FactorCounter()
     with pytest.raises(InputError, match="velocity range"):

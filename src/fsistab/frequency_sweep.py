@@ -48,8 +48,10 @@ samples need no refined solves (they only bracket) and are factorised two at a t
 (:func:`fsistab.transfer.transfer_samples`); each costs one factorisation of ``K_ff(iω)``,
 independent of ``m`` and ``U*``, against an eigenvalue problem per U* point and branch for the
 branch tracking of :func:`fsistab.critical.track_thresholds`. A narrow window is resolved only down
-to a relative step ``MIN_STEP`` in ω; intervals left unresolved there, and crossings whose Newton
-iteration does not converge (two crossings about to merge), are reported, not fatal.
+to a relative step ``MIN_STEP`` in ω; intervals left unresolved there are reported, not fatal. A
+crossing whose Newton iteration does not converge from the cubic's estimate (near a sharp wake
+resonance, or beside another crossing) is tried again from the cubics between exact samples
+``RETRY_PARTS`` times closer, ``RETRY_DEPTH`` times at most; then it is reported, not fatal.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 :class:`fsistab.params.Solid` (docs/model.md §2, §10).
@@ -109,6 +111,10 @@ BAND_MARGIN = 1.3  # the initial band: in-vacuo frequencies of the range, widene
 # Newton on det T stops after a relative step below this: converging quadratically from the
 # interpolated start, the next step (not taken) would be below NEWTON_STEP² ~ 1e-16
 NEWTON_STEP = 1e-8
+# a crossing whose Newton does not converge: its bracket cut into this many parts (their exact
+# samples factorised together) and each part's crossings tried, this many times at most
+RETRY_PARTS = 4
+RETRY_DEPTH = 2
 RELEVANT_MARGIN = 1.5  # roots with 1/Re u within this factor of the velocity range are followed closely
 
 
@@ -387,43 +393,78 @@ def _widen_band(samples: _Samples, static, low: float, high: float) -> None:
         samples.add(max(by_frequency) * INITIAL_RATIO**2)
 
 
-def _newton_starts(intervals, low: float, high: float) -> list[tuple[float, float, float, float]]:
-    """``(ω, U*, a, b)`` for each bracketed crossing with U* near the range: its interpolated
-    position and two frequencies a quarter of its interval apart around it, whose exact samples
-    bring the interpolant's error down by about ``4⁴`` so that Newton on ``det T`` starts closer."""
+def _newton_starts(intervals, low: float, high: float) -> list[tuple[float, float, float, float, tuple]]:
+    """``(ω, U*, a, b, (w0, w1))`` for each crossing bracketed by ``[w0, w1]`` with U* near the
+    range: its interpolated position and two frequencies a quarter of its interval apart around it,
+    whose exact samples bring the interpolant's error down by about ``4⁴`` so that Newton on
+    ``det T`` starts closer."""
     starts = []
     for w0, w1, crossings in intervals:
         for omega, velocity in crossings or []:
             if low / 1.1 <= velocity <= high * 1.1:
                 eighth = 0.125 * (w1 - w0)
-                starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth)))
+                starts.append((omega, velocity, max(w0, omega - eighth), min(w1, omega + eighth), (w0, w1)))
     return starts
 
 
 def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: float, unresolved: list):
     """Each crossing of ``starts`` converged on the exact transfer function (:func:`_converge`)
-    from its start on the cubic between the two closer samples; one that does not converge (e.g.
-    two crossings about to merge) is added to ``unresolved`` and reported, not fatal. The
-    thresholds in ``[low, high]``, each once."""
-    by_frequency, solid, say = samples.by_frequency, samples.solid, samples.say
-    linear = linear_solid(solid, samples.fluid.theta0)  # the cubics' roots: W at the steady pitch
+    from its start on the cubic between the two closer samples, or from closer samples
+    (:func:`_converge_bracket`); one that does not converge even so (e.g. two crossings about to
+    merge) is added to ``unresolved`` and reported, not fatal. The thresholds in ``[low, high]``,
+    each once."""
     found = []
-    for omega, velocity, a, b in starts:
-        closer = _follow(by_frequency[a], by_frequency[b], [], linear, relevant, strict=False)
-        if closer:
-            omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
+    for omega, velocity, a, b, interval in starts:
         try:
-            threshold = _converge(samples.fluid, solid, omega, velocity, samples.counter)
+            thresholds = _converge_bracket(
+                samples, (omega, velocity), (a, b), relevant, RETRY_DEPTH, interval
+            )
         except ConvergenceError as error:
             unresolved.append((a, b))
-            say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
+            samples.say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
             continue
-        if low <= threshold.reduced_velocity <= high and not any(
-            abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
-            and abs(threshold.frequency - p.frequency) < 1e-7
-            for p in found
-        ):
-            found.append(threshold)
+        for threshold in thresholds:
+            if low <= threshold.reduced_velocity <= high and not any(
+                abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
+                and abs(threshold.frequency - p.frequency) < 1e-7
+                for p in found
+            ):
+                found.append(threshold)
+    return found
+
+
+def _converge_bracket(
+    samples: _Samples, start, bracket, relevant, depth: int, interval=None
+) -> list[NeutralPoint]:
+    """The crossing of ``bracket = (a, b)`` (two exact samples) converged by Newton from the
+    cubic's crossing nearest ``start = (ω, U*)``; if Newton does not converge there, ``interval``
+    (exact samples at its ends; default the bracket: the cubic's estimate may lie outside the
+    bracket around it) cut into ``RETRY_PARTS`` (their samples factorised together) and every
+    crossing of each part's cubic converged the same way, ``depth`` times at most. Raises the first
+    ConvergenceError when none converges."""
+    (omega, velocity), (a, b) = start, bracket
+    by_frequency, solid = samples.by_frequency, samples.solid
+    linear = linear_solid(solid, samples.fluid.theta0)  # the cubics' roots: W at the steady pitch
+    closer = _follow(by_frequency[a], by_frequency[b], [], linear, relevant, strict=False)
+    if closer:
+        omega, velocity = min(closer, key=lambda s: abs(s[0] / omega - 1) + abs(s[1] / velocity - 1))
+    try:
+        return [_converge(samples.fluid, solid, omega, velocity, samples.counter)]
+    except ConvergenceError as error:
+        if depth == 0:
+            raise
+        first = error
+    w0, w1 = interval or bracket
+    cuts = [w0 + (w1 - w0) * k / RETRY_PARTS for k in range(RETRY_PARTS + 1)]
+    samples.add(*cuts[1:-1])
+    found = []
+    for part in zip(cuts[:-1], cuts[1:], strict=True):
+        ends = by_frequency[part[0]], by_frequency[part[1]]
+        for crossing in _follow(*ends, [], linear, relevant, strict=False) or []:
+            with contextlib.suppress(ConvergenceError):
+                found += _converge_bracket(samples, crossing, part, relevant, depth - 1)
+    if not found:
+        raise first
     return found
 
 
@@ -476,7 +517,7 @@ def sweep_thresholds(
         # the exact samples around every crossing factorised together; G(0) is made meanwhile in
         # the other thread
         starts = _newton_starts(intervals, low, high)
-        samples.add(*(w for _, _, a, b in starts for w in (a, b)))
+        samples.add(*(w for _, _, a, b, _ in starts for w in (a, b)))
         if static is not None:
             static.prefetch()
         found = _converge_crossings(samples, starts, relevant, low, high, unresolved)
