@@ -148,14 +148,16 @@ def test_sweep_finds_a_narrow_window_and_the_eigenvalues_confirm_it(plate_operat
         assert any(p.growth_rate > 0 for p in pairs) == unstable
 
 
-def test_a_crossing_newton_misses_is_found_from_closer_samples(plate_operators):
-    """Coarse plate, m = 1000, U* from 0.05 to 0.1, across the fixed plate's wake resonance: the
-    cubic's estimate of one crossing lies outside the pair of exact samples placed around it, and
-    Newton from it does not converge; from the exact samples that cut its interval into parts it
-    does. The four VIV crossings (a lock-in window with a narrow stable gap), none unresolved; the
+def test_crossings_the_cubics_miss_near_the_wake_resonance_are_found(plate_operators):
+    """Coarse plate, m = 1000, U* from 0.03 to 0.12, across the fixed plate's wake resonance
+    (ω ≈ 10.8, damping 0.07). Two crossings there are missed by the cubics: Newton from one's
+    estimate does not converge (it is found from the exact samples that cut its interval), and a
+    narrow stable gap inside the lock-in window is not bracketed at all (the exact signs of
+    ``Im u`` at the samples around it disagree with the parity of the crossings converged between
+    them, and the audit finds both of its edges). The four VIV crossings, none unresolved; the
     coupled eigenvalues in the gap and on each side of it confirm the sides."""
-    solid = Solid(mass_ratio=1000.0, reduced_velocity=0.05)
-    result = sweep_thresholds(plate_operators, solid, (0.05, 0.1))
+    solid = Solid(mass_ratio=1000.0, reduced_velocity=0.03)
+    result = sweep_thresholds(plate_operators, solid, (0.03, 0.12))
     assert result.unresolved == ()
     onset, restabilisation = ("viv", "onset"), ("viv", "restabilisation")
     assert [(t.kind, t.boundary) for t in result.thresholds] == [onset, restabilisation] * 2

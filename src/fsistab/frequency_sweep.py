@@ -53,6 +53,16 @@ crossing whose Newton iteration does not converge from the cubic's estimate (nea
 resonance, or beside another crossing) is tried again from the cubics between exact samples
 ``RETRY_PARTS`` times closer, ``RETRY_DEPTH`` times at most; then it is reported, not fatal.
 
+The error estimate is itself an estimate: near the wake resonance the cubic and the quintics can
+agree with each other and not with ``G``, and a root path that the exact samples show crossing
+zero three times is followed crossing it once. So the crossings are audited against what is
+exact (:func:`_audit`): between every two neighbouring exact samples, the number of neutral
+points converged on a root must have the parity of the change of sign of its exact ``Im u``.
+Where it does not, a crossing was missed (or Newton converged onto its neighbour): Newton is run
+from the cubic's crossings away from the points found there, then the interval is cut into
+``RETRY_PARTS`` by exact samples and each part audited, ``RETRY_DEPTH`` times at most; an
+interval still at odds is reported unresolved. A sweep whose crossings agree costs nothing more.
+
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 :class:`fsistab.params.Solid` (docs/model.md §2, §10).
 """
@@ -407,13 +417,12 @@ def _newton_starts(intervals, low: float, high: float) -> list[tuple[float, floa
     return starts
 
 
-def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: float, unresolved: list):
+def _converge_crossings(samples: _Samples, starts, relevant, unresolved: list) -> list[NeutralPoint]:
     """Each crossing of ``starts`` converged on the exact transfer function (:func:`_converge`)
     from its start on the cubic between the two closer samples, or from closer samples
     (:func:`_converge_bracket`); one that does not converge even so (e.g. two crossings about to
-    merge) is added to ``unresolved`` and reported, not fatal. The thresholds in ``[low, high]``,
-    each once."""
-    found = []
+    merge) is added to ``unresolved`` and reported, not fatal. Each neutral point once."""
+    found: list[NeutralPoint] = []
     for omega, velocity, a, b, interval in starts:
         try:
             thresholds = _converge_bracket(
@@ -423,13 +432,89 @@ def _converge_crossings(samples: _Samples, starts, relevant, low: float, high: f
             unresolved.append((a, b))
             samples.say(f"frequency sweep: the crossing in ω ∈ [{a:.6g}, {b:.6g}] is unresolved: {error}")
             continue
-        for threshold in thresholds:
-            if low <= threshold.reduced_velocity <= high and not any(
-                abs(threshold.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
-                and abs(threshold.frequency - p.frequency) < 1e-7
-                for p in found
-            ):
-                found.append(threshold)
+        found += [t for t in thresholds if not _known(t, found)]
+    return found
+
+
+def _known(point: NeutralPoint, found) -> bool:
+    """Whether ``point`` is one of ``found`` (U* and ω within 1e-7: Newton's tolerance)."""
+    return any(
+        abs(point.reduced_velocity - p.reduced_velocity) < 1e-7 * p.reduced_velocity
+        and abs(point.frequency - p.frequency) < 1e-7
+        for p in found
+    )
+
+
+def _parity_mismatch(left: SweepSample, right: SweepSample, found, solid: Solid, band) -> bool:
+    """Whether a root's exact ``Im u`` changes sign between the two samples an odd (even) number of
+    times while an even (odd) number of the neutral points ``found`` in ``[left, right)`` lie on it:
+    a crossing was missed, or converged onto its neighbour. Only roots whose cubic path keeps
+    ``Re u`` inside ``band`` (``1/U*`` of the range) are checked, so that every crossing of theirs
+    was to be converged; a point is put on the root whose path passes nearest ``1/U*`` at its
+    frequency."""
+    h = right.frequency - left.frequency
+    path = _paths(_loads_interpolant([left, right], left.frequency, h), left.frequency, h, solid)
+    if path is None:
+        return False
+    taus, roots = path
+    on_root = np.zeros(roots.shape[1], dtype=int)
+    for p in found:
+        if left.frequency <= p.frequency < right.frequency:
+            k = int(np.argmin(np.abs(taus - (p.frequency - left.frequency) / h)))
+            on_root[int(np.argmin(np.abs(roots[k] - 1.0 / p.reduced_velocity)))] += 1
+    for i in range(roots.shape[1]):
+        u = roots[:, i]  # exact at both ends
+        if np.all((band[0] <= u.real) & (u.real <= band[1])):
+            if on_root[i] % 2 != int(np.sign(u[0].imag) != np.sign(u[-1].imag)):
+                return True
+    return False
+
+
+def _audit(samples: _Samples, interval, found, relevant, band, depth: int, unresolved: list) -> list:
+    """The neutral points missing from ``found`` in ``interval`` (two exact samples), by the
+    parity of the exact signs of ``Im u`` at its ends (:func:`_parity_mismatch`): Newton from the
+    cubic's crossings in the range away from the points found there, then, while a mismatch
+    remains, the interval cut into ``RETRY_PARTS`` by exact samples and each part audited,
+    ``depth`` times at most; an interval still mismatched then is added to ``unresolved``."""
+    (w0, w1), by_frequency = interval, samples.by_frequency
+    linear = linear_solid(samples.solid, samples.fluid.theta0)
+    if not _parity_mismatch(by_frequency[w0], by_frequency[w1], found, linear, band):
+        return []
+    new: list[NeutralPoint] = []
+    near = 0.125 * (w1 - w0)
+    crossings = _follow(by_frequency[w0], by_frequency[w1], [], linear, relevant, strict=False) or []
+    for omega, velocity in crossings:
+        if band[0] <= 1.0 / velocity <= band[1] and not any(
+            abs(p.frequency - omega) < near for p in found if w0 <= p.frequency < w1
+        ):
+            with contextlib.suppress(ConvergenceError):
+                point = _converge(samples.fluid, samples.solid, omega, velocity, samples.counter)
+                new += [] if _known(point, found + new) else [point]
+    if not _parity_mismatch(by_frequency[w0], by_frequency[w1], found + new, linear, band):
+        return new
+    if depth == 0:
+        unresolved.append((w0, w1))
+        samples.say(
+            f"frequency sweep: the crossings found in ω ∈ [{w0:.6g}, {w1:.6g}] disagree with the"
+            " signs of Im u at its ends; it is unresolved"
+        )
+        return new
+    cuts = [w0 + (w1 - w0) * k / RETRY_PARTS for k in range(RETRY_PARTS + 1)]
+    samples.add(*cuts[1:-1])
+    for part in zip(cuts[:-1], cuts[1:], strict=True):
+        new += _audit(samples, part, found + new, relevant, band, depth - 1, unresolved)
+    return new
+
+
+def _audited(samples: _Samples, found, relevant, band, unresolved: list) -> list[NeutralPoint]:
+    """``found`` and the neutral points its audit adds (:func:`_audit`) in every interval between
+    the exact samples made so far (the bisection's and the Newton brackets') that does not
+    overlap one already reported unresolved."""
+    frequencies = sorted(samples.by_frequency)
+    reported = list(unresolved)
+    for w0, w1 in zip(frequencies[:-1], frequencies[1:], strict=True):
+        if not any(a < w1 and w0 < b for a, b in reported):
+            found = found + _audit(samples, (w0, w1), found, relevant, band, RETRY_DEPTH, unresolved)
     return found
 
 
@@ -520,7 +605,9 @@ def sweep_thresholds(
         samples.add(*(w for _, _, a, b, _ in starts for w in (a, b)))
         if static is not None:
             static.prefetch()
-        found = _converge_crossings(samples, starts, relevant, low, high, unresolved)
+        found = _converge_crossings(samples, starts, relevant, unresolved)
+        found = _audited(samples, found, relevant, (1.0 / high, 1.0 / low), unresolved)
+        found = [t for t in found if low <= t.reduced_velocity <= high]
         if static is not None:
             found += _divergence(static.get(), solid, static_fluid, (low, high))
     found.sort(key=lambda t: t.reduced_velocity)
