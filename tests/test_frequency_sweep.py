@@ -342,3 +342,39 @@ def test_a_crossing_newton_cannot_converge_is_reported_not_fatal(plate_operators
     low, high = result.unresolved[0]
     assert low < 0.1876 < high  # the flutter frequency (the branch tracking's, REFERENCE §E's coarse value)
     assert any("unresolved" in m and "did not converge" in m for m in messages)
+
+
+@pytest.mark.parametrize(
+    ("zeros", "points_found", "mismatch"),
+    [
+        ((1.5,), 0, True),  # Im u changes sign once: a crossing is missing
+        ((1.5,), 1, False),
+        ((1.5,), 2, True),  # two points on the root where the signs say one (or three)
+        ((1.2, 1.8), 0, False),  # the same sign at both ends: none, or two
+        ((1.2, 1.8), 1, True),
+        ((1.2, 1.8), 2, False),
+    ],
+)
+def test_parity_audit_compares_the_crossings_found_with_the_exact_signs(zeros, points_found, mismatch):
+    """Heave alone, no damping: ``u = (ω/Ω) √(1 + A_hh/(m ω²))``, so ``Im u`` has the sign of
+    ``Im A_hh``, here ``i Π(ω − ω_k)`` with zeros between the samples at ω = 1 and 2. The audit
+    flags the interval when the number of neutral points found on that root does not have the
+    parity of the change of sign of ``Im u`` at the two samples (the root ``−u``, outside the range,
+    is not checked)."""
+    from fsistab.frequency_sweep import _parity_mismatch
+    from fsistab.neutral_point import NeutralPoint
+
+    solid = Solid(mass_ratio=10.0, reduced_velocity=1.0, dofs=("heave",), freq_ratio=1.0)
+    polynomial = np.polynomial.Polynomial.fromroots(zeros) * 1j
+
+    def sample(w: float):
+        loads, slope = np.zeros((2, 2), complex), np.zeros((2, 2), complex)
+        loads[0, 0], slope[0, 0] = polynomial(w), polynomial.deriv()(w)
+        return _synthetic_sample(w, loads, slope)
+
+    def velocity(w: float) -> float:  # U* where Im u = 0: A_hh = 0 there
+        return 1.0 / (w / solid.freq_ratio)
+
+    found = [NeutralPoint(10.0, velocity(w), w) for w in (1.5, 1.25)[:points_found]]
+    band = (1.0 / 1.2, 1.0 / 0.4)  # U* from 0.4 to 1.2
+    assert _parity_mismatch(sample(1.0), sample(2.0), found, solid, band) == mismatch
