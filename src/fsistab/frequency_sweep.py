@@ -62,6 +62,8 @@ Where it does not, a crossing was missed (or Newton converged onto its neighbour
 from the cubic's crossings away from the points found there, then the interval is cut into
 ``RETRY_PARTS`` by exact samples and each part audited, ``RETRY_DEPTH`` times at most; an
 interval still at odds is reported unresolved. A sweep whose crossings agree costs nothing more.
+Parity cannot see a pair: a window whose two edges both lie between two samples, where the cubic
+shows neither and its error estimate fails, is still missed.
 
 Units: frequencies in ``U∞/L``, U* and m in the generic conventions of
 :class:`fsistab.params.Solid` (docs/model.md §2, §10).
