@@ -501,11 +501,17 @@ def _audit(samples: _Samples, interval, found, relevant, band, depth: int, unres
             " signs of Im u at its ends; it is unresolved"
         )
         return new
-    cuts = [w0 + (w1 - w0) * k / RETRY_PARTS for k in range(RETRY_PARTS + 1)]
-    samples.add(*cuts[1:-1])
-    for part in zip(cuts[:-1], cuts[1:], strict=True):
+    for part in _cut(samples, w0, w1):
         new += _audit(samples, part, found + new, relevant, band, depth - 1, unresolved)
     return new
+
+
+def _cut(samples: _Samples, w0: float, w1: float) -> list[tuple[float, float]]:
+    """``[w0, w1]`` cut into ``RETRY_PARTS`` equal parts, the exact samples at the cuts made (and
+    factorised) together."""
+    cuts = [w0 + (w1 - w0) * k / RETRY_PARTS for k in range(RETRY_PARTS + 1)]
+    samples.add(*cuts[1:-1])
+    return list(zip(cuts[:-1], cuts[1:], strict=True))
 
 
 def _audited(samples: _Samples, found, relevant, band, unresolved: list) -> list[NeutralPoint]:
@@ -541,11 +547,8 @@ def _converge_bracket(
         if depth == 0:
             raise
         first = error
-    w0, w1 = interval or bracket
-    cuts = [w0 + (w1 - w0) * k / RETRY_PARTS for k in range(RETRY_PARTS + 1)]
-    samples.add(*cuts[1:-1])
     found = []
-    for part in zip(cuts[:-1], cuts[1:], strict=True):
+    for part in _cut(samples, *(interval or bracket)):
         ends = by_frequency[part[0]], by_frequency[part[1]]
         for crossing in _follow(*ends, [], linear, relevant, strict=False) or []:
             with contextlib.suppress(ConvergenceError):
