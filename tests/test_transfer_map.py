@@ -19,6 +19,8 @@ from fsistab.critical import divergence_point, flutter_point
 from fsistab.eigen import eigenpairs_near
 from fsistab.errors import CacheError, InputError
 from fsistab.linalg import FactorCounter
+from fsistab.map_roots import track_rates
+from fsistab.map_tracker import _fold_outside, _pair_fold
 from fsistab.params import Solid
 from fsistab.reduced_model import relative_error
 from fsistab.store import ResumableTable
@@ -153,6 +155,80 @@ def test_root_tangents_match_roots_at_neighbouring_frequencies(fluid, sample_03)
         ends = [min(side, key=lambda r: np.abs(r.plane - root.plane).max()) for side in sides]
         difference = (ends[0].plane - ends[1].plane) / (2 * d)
         assert np.allclose(difference, root.tangent, rtol=1e-4, atol=1e-4 * np.abs(root.tangent).max())
+
+
+def test_track_rates_match_tracks_at_neighbouring_frequencies(fluid):
+    """The rates ``(dv/dω, d(1/m)/dω)`` of every resultant track, against central differences of
+    the tracks of exact samples at ω ± 1e-5 (tracks of any sign of m)."""
+    d, omega = 1e-5, 0.6
+
+    def tracks(w):
+        loads, rate = second_order_loads(_sample(fluid, w), fluid.theta0, fluid.loads0)
+        return resultant_tracks(loads, w, Solid()), loads, rate
+
+    centre, loads, rate = tracks(omega)
+    rates = track_rates(centre, loads, rate, omega, Solid())
+    (up, *_), (down, *_) = tracks(omega + d), tracks(omega - d)
+    assert len(centre) >= 2 and len(up) == len(down) == len(centre)
+    for (v, _), expected in zip(centre, rates, strict=True):
+        ends = [side[np.argmin(np.abs(side[:, 0] - v))] for side in (up, down)]
+        difference = np.array([ends[0][0] - ends[1][0], 1 / ends[0][1] - 1 / ends[1][1]]) / (2 * d)
+        np.testing.assert_allclose(difference, expected, rtol=1e-4, atol=1e-6)
+
+
+def _cubic_fold(omega_b, a, b, eps_b, c, omega):
+    """The pair at ``omega`` of the branch ``ω = ω_b + a (v − 1)² + b (v − 1)³``,
+    ``ε = 1/m = ε_b + c (v − 1)``, and their rates ``(dv/dω, dε/dω)``."""
+    roots = np.roots([b, a, 0.0, omega_b - omega])
+    v = np.sort(1.0 + roots[np.abs(roots.imag) < 1e-12].real)
+    v = v[np.argsort(np.abs(v - 1.0))[:2]]  # the two sides of the fold
+    slope = 2 * a * (v - 1) + 3 * b * (v - 1) ** 2
+    eps = eps_b + c * (v - 1)
+    return np.column_stack([v, 1 / eps]), np.column_stack([1 / slope, c / slope])
+
+
+def test_a_fold_is_placed_by_the_rates_of_its_pair():
+    """A branch that is a cubic in v through its fold: the Hermite interpolation of the pair's ends
+    reproduces it, so the fold's offset and the range of 1/m between the pair are exact (to the
+    201-point evaluation); a pair born (a > 0) or dying (a < 0) both."""
+    for a, b in ((2.0, 0.3), (-2.0, 0.3), (5.0, -1.0)):
+        pair, rates = _cubic_fold(9.2, a, b, -0.45, 0.8, 9.2 + 0.1 * np.sign(a))
+        offset, low, high = _pair_fold(pair, rates)
+        assert offset == pytest.approx(-0.1 * np.sign(a), rel=1e-4)
+        assert (low, high) == pytest.approx(sorted(1 / pair[:, 1]), abs=1e-12)  # ε linear in v: its ends
+    pair, rates = _cubic_fold(9.2, 2.0, 0.0, -0.45, 0.8, 9.3)
+    assert _pair_fold(pair, np.abs(rates)) is None  # both slopes of one sign: no fold between
+    pair, rates = _cubic_fold(9.2, 2.0, 4.0, -0.45, 0.8, 9.2 + 0.01)
+    assert _pair_fold(pair, rates)[0] == pytest.approx(-0.01, rel=1e-4)  # cubic term 14 % of the quadratic
+    pair, rates = _cubic_fold(9.2, 2.0, 4.0, -0.45, 0.8, 9.2 + 0.05)
+    assert _pair_fold(pair, rates) is None  # 32 %: refused, though the cubic is exact here
+
+
+def test_a_pair_born_at_a_fold_inside_the_interval_outside_the_band_settles_at_any_step():
+    """The plate at Re 2900 (``quick``): between ω = 8.9096 and 9.6915 a pair of tracks is born at
+    m < 0 (at ω ≈ 9.18, where samples 0.012 apart show its birth; its two roots at 9.6915 are 19 %
+    apart in v, not young). Its rates place the fold inside the interval, so it is settled without
+    bisecting; with the interval to 10.4735 the pair's two sides are no longer one resolved fold. A
+    fold outside the interval, a branch through m = ∞ or into the band is not settled."""
+    band = (0.25, 4e4)
+    before, before_rates = np.array([[0.8221, -3.5603]]), np.array([[-0.0457, -0.04338]])
+    after = np.array([[0.80657, -3.37409], [0.87697, -1.32049], [1.04472, -4.04942]])
+    after_rates = np.array([[-0.00242, -0.00474], [-0.12412, -0.51901], [0.07878, 0.13966]])
+    fold = (8.90957, 9.69153, before_rates, after_rates)
+    assert _born_outside(before, after, band, fold)
+    assert not _born_outside(before, after, band)  # not young: the proximity test alone bisects
+    dying = (8.90957, 9.69153, after_rates, before_rates)
+    assert not _born_outside(after, before, band, dying)  # the shape of a birth is no death
+    later = np.array([[0.62516, -0.52843], [0.8164, -3.32882], [1.13749, -7.97347]])
+    later_rates = np.array([[-0.90561, -4.23871], [0.00689, -0.02068], [0.14876, 0.16255]])
+    assert not _born_outside(before, later, band, (8.90957, 10.47349, before_rates, later_rates))
+    pair, rates = after[1:], after_rates[1:]
+    assert _fold_outside(pair, rates, 0.78, True, band)
+    assert not _fold_outside(pair, rates, 0.5, True, band)  # the fold 0.44 below: outside 0.8 × 0.5
+    assert not _fold_outside(pair, rates, 0.78, False, band)  # a birth is no death
+    for eps in ((-0.02, 0.01), (0.5, 2.0), (1e-5, 0.1)):  # through ∞; into the band; across its top
+        through = np.column_stack([pair[:, 0], 1 / np.array(eps)])
+        assert not _fold_outside(through, np.column_stack([rates[:, 0], [0.0, 0.0]]), 0.78, True, band)
 
 
 @pytest.mark.parametrize("seed", range(30))

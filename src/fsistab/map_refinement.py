@@ -9,7 +9,8 @@ round after round, looks at every interval between neighbouring samples (:meth:`
   before the exact bisections too (``pending``); a fold in ω (a pair born or dying) is no step's;
 - a curve that may cross the whole mass range inside the interval (:func:`fsistab.map_tracker._swept`):
   bisect down to ``SWEEP_STEP``, unless the change is a pole of the neutral mass or a pair born
-  outside the range;
+  outside the range (its fold placed inside the interval by the tracks' rates, or a young pair at
+  ``min_step``);
 - a weakly damped fluid pole between the samples (:func:`unresolved_resonance`): sample at its
   frequency, with exact samples through a reduced model there if the resonance is sharp
   (:func:`sharp_resonance`, first round only);
@@ -146,8 +147,8 @@ class RefinementPolicy:
             smallest, reason = SWEEP_STEP, "sweep"
             if w1 - w0 < smallest * w1 and not tracker.swept(w0, w1, settled=True):
                 return  # at the finest step: a pole of m, or roots born outside the range
-            if w1 - w0 < self.min_step * w1 and tracker.born_outside(w0, w1):
-                return  # a young pair born outside the range on one side: it never entered it
+            if tracker.born_outside(w0, w1, young=w1 - w0 < self.min_step * w1):
+                return  # a pair born outside the range on one side, at a fold found: never in it
             if self.fit_first and self.exact and not certified.spanned(w0, w1):
                 found.pending.append((w0, w1))
         elif (pole := unresolved_resonance(samples(w0), samples(w1))) is not None:

@@ -265,6 +265,33 @@ def resultant_tracks(loads: np.ndarray, omega: float, solid: Solid) -> np.ndarra
     return np.array(rows).reshape(-1, 2)
 
 
+def track_rates(
+    tracks: np.ndarray, loads: np.ndarray, rate: np.ndarray, omega: float, solid: Solid
+) -> np.ndarray:
+    """How each resultant track (:func:`resultant_tracks`) moves with the frequency: ``(k, 2)`` rows
+    ``(dv/dω, dε/dω)``, ``ε = 1/m``, from ``G = det(W(iω, u) − ε A(iω)) = 0`` (``ε^n F(1/ε)``, n the
+    active dofs; docs/model.md §8) differentiated along the track,
+    ``[G_ε, G_u] d(ε, u) = −i G_s dω`` (real and imaginary parts), ``v = u/ω``. ``ε`` rather than
+    ``m``: smooth through ``m = ∞``, where a track changes the sign of its ``m``. NaN where the
+    track folds in ω (the system is singular there)."""
+    a, s = _dof_indices(solid), 1j * omega
+    rows = []
+    for v, m in tracks:
+        eps, u = 1.0 / m, v * omega
+        w, w_u, w_s = (d[np.ix_(a, a)] for d in _weights(solid, s, u))
+        adj = _adjugate(w - eps * loads[np.ix_(a, a)])
+        g_eps = -np.trace(adj @ loads[np.ix_(a, a)])
+        g_u = np.trace(adj @ w_u)
+        g_s = np.trace(adj @ (w_s - eps * rate[np.ix_(a, a)]))
+        jac = np.array([[g_eps.real, g_u.real], [g_eps.imag, g_u.imag]])
+        if abs(np.linalg.det(jac)) <= 1e-14 * np.abs(jac).max() ** 2:
+            rows.append((math.nan, math.nan))
+            continue
+        d_eps, d_u = np.linalg.solve(jac, np.array([(-1j * g_s).real, (-1j * g_s).imag]))
+        rows.append(((d_u - v) / omega, d_eps))
+    return np.array(rows).reshape(-1, 2)
+
+
 def undamped_resonances(solid: Solid) -> list[float]:
     """The ``v = u/ω`` where the highest power of ``m̂`` in ``Σ P_k(v) m̂^k`` vanishes for every
     ``ω``: the in-vacuo resonance of an undamped dof (``S_h = 0`` at ``v = 1/Ω`` when ``ζ_h = 0``,

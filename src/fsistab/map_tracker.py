@@ -7,8 +7,9 @@ Between two samples every neutral root is predicted at the other from its exact 
 within the tolerance (:func:`_resolved`). The resultant's real roots, with their ``m`` of any sign,
 show a curve that crosses the whole mass range inside one interval and leaves no root at either end
 (:func:`_swept`, :func:`_side_jump`); a pair born outside the range on one side never entered it
-(:func:`_born_outside`). :class:`RootTracker` holds the roots and tracks by frequency; what to do
-about an interval is the refinement policy's (:mod:`fsistab.map_refinement`).
+(:func:`_born_outside`: young at the finest bisection, or its fold in ω placed inside the interval
+by the tracks' rates, :func:`_pair_fold`). :class:`RootTracker` holds the roots and tracks by
+frequency; what to do about an interval is the refinement policy's (:mod:`fsistab.map_refinement`).
 """
 
 from __future__ import annotations
@@ -25,11 +26,16 @@ from fsistab.map_roots import (
     log_step,
     resultant_tracks,
     second_order_loads,
+    track_rates,
 )
 from fsistab.params import Solid
 
 SWEEP_STEP = 1e-5  # relative step down to which a curve crossing the mass range is looked for
 YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was born just before (_born_outside)
+# a pair's fold placed by its rates (_pair_fold) is trusted when the cubic term of its branch ω(v)
+# is at most this share of the quadratic one, and the fold lies within this share of the interval
+FOLD_CUBIC = 0.25
+FOLD_INSIDE = 0.8
 SAME_FREQUENCY = 1e-9  # two frequencies this close (relative) are one (saved grids, bisections)
 
 
@@ -44,6 +50,7 @@ class RootTracker:
         self.theta0, self.loads0 = theta0, loads0
         self.roots: dict[float, list[NeutralRoot]] = {}
         self.tracks: dict[float, np.ndarray] = {}
+        self.rates: dict[float, np.ndarray] = {}
 
     def knows(self, omega: float) -> bool:
         """Whether ``omega`` was added already, up to rounding (``SAME_FREQUENCY``)."""
@@ -54,6 +61,7 @@ class RootTracker:
         omega = sample.frequency
         loads, rate = second_order_loads(sample, self.theta0, self.loads0)
         self.tracks[omega] = resultant_tracks(loads, omega, self.solid)
+        self.rates[omega] = track_rates(self.tracks[omega], loads, rate, omega, self.solid)
         self.roots[omega] = _roots_on_tracks(self.tracks[omega], loads, rate, omega, self.solid, self.wide)
 
     @property
@@ -75,9 +83,14 @@ class RootTracker:
         """:func:`_swept` between the tracks at ``w0`` and ``w1``, on the followed range."""
         return _swept(self.tracks[w0], self.tracks[w1], self.wide, settled)
 
-    def born_outside(self, w0: float, w1: float) -> bool:
-        """:func:`_born_outside` between the tracks at ``w0`` and ``w1``, on the followed range."""
-        return _born_outside(self.tracks[w0], self.tracks[w1], self.wide)
+    def born_outside(self, w0: float, w1: float, young: bool = False) -> bool:
+        """:func:`_born_outside` between the tracks at ``w0`` and ``w1``, on the followed range: by
+        the pair's fold (:func:`_pair_fold`) at any step, and also as a pair close together in v
+        if ``young`` (the interval is at the finest bisection)."""
+        left, right = self.tracks[w0], self.tracks[w1]
+        fold = (w0, w1, self.rates[w0], self.rates[w1])
+        at_fold = _born_outside(left, right, self.wide, fold)
+        return at_fold or (young and _born_outside(left, right, self.wide))
 
     def leaves(self, omega: float, inner: tuple[float, float]) -> bool:
         """:func:`_leaves` at the frequency ``omega``."""
@@ -153,10 +166,13 @@ def _side_jump(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -
     return bool(+lost or +gained)
 
 
-def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]) -> bool:
+def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float], fold=None) -> bool:
     """Whether the only change between two frequencies is a pair of real resultant roots born (or
     dying) on one side outside ``band``, close together at the frequency where they exist
-    (``|Δv| ≤ YOUNG_PAIR v``), with every other root matched and not sweeping (:func:`_swept`).
+    (``|Δv| ≤ YOUNG_PAIR v``), with every other root matched and not sweeping (:func:`_swept`);
+    or, given ``fold = (w0, w1, left rates, right rates)`` (:func:`fsistab.map_roots.track_rates`),
+    not close but with the fold placed inside the interval by the pair's rates and the branch
+    between its two roots outside ``band`` on one side (:func:`_fold_outside`).
 
     A pair is born where the track folds in ``ω`` (a double real root): from there both roots move
     as ``√(ω − ω_b)`` to leading order, in ``v`` and in ``m``, so between the birth and the sample
@@ -168,13 +184,66 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
         return False
     longer, shorter, free = _born(left, right)
     (v1, m1), (v2, m2) = longer[free]
-    if abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
+    if fold is not None:
+        w0, w1, left_rates, right_rates = fold
+        born = len(right) > len(left)
+        rates = (right_rates if born else left_rates)[free]
+        if not _fold_outside(longer[free], rates, w1 - w0, born, band):
+            return False
+    elif abs(v1 - v2) > YOUNG_PAIR * max(v1, v2):
         return False
     side = _side(m1, band)
     if side != _side(m2, band) or side == 1:
         return False
     kept = np.delete(longer, free, axis=0)
     return not _swept(shorter, kept, band)
+
+
+def _pair_fold(pair: np.ndarray, rates: np.ndarray) -> tuple[float, float, float] | None:
+    """A pair of resultant roots at one frequency (rows ``(v, m)``) and their rates (rows
+    ``(dv/dω, dε/dω)``, ``ε = 1/m``) as the two sides of one branch through a fold in ω: on the
+    segment between them, the cubic Hermite interpolants of ``ω(v)`` (both ends at the sample's
+    frequency, slopes ``dω/dv``) and of ``ε(v)``. Returns the fold's offset from the sample (the
+    extreme of ``ω(v)``: < 0 for a pair born below the sample, > 0 for one dying above it) and the
+    lowest and highest ``ε`` on the segment; None if the two are not one fold resolved by its ends:
+    slopes ``dω/dv`` of one sign (no extreme between), a cubic term above ``FOLD_CUBIC`` of the
+    quadratic one, or a rate that could not be formed.
+
+    Near a fold ``ω(v)`` is smooth with an extreme while ``v(ω)`` goes as ``√(ω − ω_b)``: in ``v`` the
+    branch between the pair is one segment, resolved by its ends as a neutral curve is by its
+    tangents (:func:`_match`), and ``ε`` is smooth there even through ``m = ∞``."""
+    order = np.argsort(pair[:, 0])
+    (va, ma), (vb, mb) = pair[order]
+    (dva, dea), (dvb, deb) = rates[order]
+    width = vb - va
+    if not np.all(np.isfinite(rates)) or width <= 0 or dva * dvb >= 0:
+        return None
+    slope_a, slope_b = width / dva, width / dvb  # dω/dt on t ∈ [0, 1], v = va + t (vb − va)
+    if abs(slope_a + slope_b) > FOLD_CUBIC * abs(slope_b - slope_a):
+        return None
+    t = np.linspace(0.0, 1.0, 201)
+    h00, h10, h01, h11 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t, 3 * t**2 - 2 * t**3, t**3 - t**2
+    omega = h10 * slope_a + h11 * slope_b
+    eps = h00 / ma + h10 * dea * width / dva + h01 / mb + h11 * deb * width / dvb
+    offset = omega.min() if slope_a < 0 else omega.max()
+    return float(offset), float(eps.min()), float(eps.max())
+
+
+def _fold_outside(pair: np.ndarray, rates: np.ndarray, step: float, born: bool, band) -> bool:
+    """Whether a pair of resultant roots that exists at one end of an interval ``step`` wide (the
+    upper end if ``born``) comes from a fold in ω inside it (:func:`_pair_fold`: on the side
+    where the pair does not exist, within ``FOLD_INSIDE`` of the width), with the branch between
+    its roots on one side outside ``band`` (``ε = 1/m`` of one sign, ``m`` on one side)."""
+    fold = _pair_fold(pair, rates)
+    if fold is None:
+        return False
+    offset, low, high = fold
+    if (offset >= 0 if born else offset <= 0) or abs(offset) > FOLD_INSIDE * step:
+        return False
+    if low <= 0 <= high:
+        return False  # through m = ∞ (or ε = 0 touched): both sides of the band's upper end
+    sides = {_side(1 / low, band), _side(1 / high, band)}
+    return len(sides) == 1 and 1 not in sides
 
 
 def _match(
