@@ -26,7 +26,7 @@ from fsistab.map_refinement import FIT_MIN_STEP, RefinementPolicy, initial_frequ
 from fsistab.map_roots import AxisSample, NeutralRoot, neutral_roots
 from fsistab.map_samples import SAMPLE_FIELDS, SAVE_EVERY, SampleStore
 from fsistab.map_sources import Certified, RationalFitSource, ResonanceSource
-from fsistab.map_tracker import RootTracker, _match
+from fsistab.map_tracker import RootTracker, _born_outside, _match
 from fsistab.params import MAX_FREQUENCY, Solid
 from fsistab.reduced_model import ReducedModels, models_table, read_models
 from fsistab.store import ResumableTable
@@ -78,6 +78,60 @@ def _policy(**kwargs) -> RefinementPolicy:
         exact=True,
     )
     return RefinementPolicy(**{**settings, **kwargs})
+
+
+def _plate_sample(omega: float, loads, rates) -> AxisSample:
+    """A sample from the lift and moment rows of ``G`` and ``dG/ds`` in the columns ``θ, ḣ, θ̇`` (the
+    drag row and the heave column vanish for the plate at α0 = 0)."""
+    g, dg = np.zeros((3, 4), complex), np.zeros((3, 4), complex)
+    g[1:, 1:], dg[1:, 1:] = loads, rates
+    return AxisSample(omega, g, dg)
+
+
+# `quick` (the plate at Re 2900) at ω = 8.9096 and 9.6915, eight digits: a pair of tracks is born
+# between them at m ≈ −2.3 (near ω = 9.18)
+PLATE_BIRTH = {
+    8.909566872610508: (
+        [
+            [-0.79181306 - 6.4384933j, -0.79180541 - 6.4384939j, 0.036024678 + 0.30112755j],
+            [0.56407377 + 0.26410447j, 0.56407346 + 0.26410508j, -0.070765526 - 0.19561854j],
+        ],
+        [
+            [-0.77108098 - 0.52243016j, -0.77108032 - 0.5224302j, 0.038013793 - 0.011980077j],
+            [0.055602555 - 0.06083999j, 0.055602553 - 0.060839964j, -0.016858583 + 0.0084182335j],
+        ],
+    ),
+    9.69152663054872: (
+        [
+            [-0.49939952 - 7.0854973j, -0.4993918 - 7.0854976j, 0.039613516 + 0.36340065j],
+            [0.62307741 + 0.28918837j, 0.6230771 + 0.289189j, -0.073338443 - 0.20226639j],
+        ],
+        [
+            [-0.98199014 - 0.22829473j, -0.98198987 - 0.22829498j, 0.087887187 - 0.024778417j],
+            [0.031063885 - 0.08480936j, 0.031063907 - 0.08480936j, 0.0042708188 - 0.004384172j],
+        ],
+    ),
+}
+
+
+def test_a_pair_born_outside_the_mass_range_is_settled_without_bisecting():
+    """The refinement policy on the plate's two samples (the steady drag's rotation left out,
+    ``loads0 = 0``; no neutral root in the range at either,
+    a pair of tracks born in between, 19 % apart in v at the upper one): the interval is a possible
+    sweep, and the pair's rates place its fold inside it with the branch at m < 0, so nothing is
+    sampled, fitted or left unresolved. Before, it was bisected until the pair was young."""
+    policy = _policy()
+    tracker = RootTracker(Solid(), policy.wide, 0.0, np.zeros(3))
+    samples = {w: _plate_sample(w, *data) for w, data in PLATE_BIRTH.items()}
+    for sample in samples.values():
+        tracker.add(sample)
+    w0, w1 = tracker.grid
+    assert not tracker.roots[w0] and not tracker.roots[w1]
+    assert (len(tracker.tracks[w0]), len(tracker.tracks[w1])) == (1, 3) and tracker.swept(w0, w1)
+    nothing = Certified(ResonanceSource(None), RationalFitSource(SampleStore()))
+    survey = policy.survey(tracker, samples.get, nothing, {}, sharp=False)
+    assert not (survey.todo or survey.pending or survey.stuck or survey.unresolved)
+    assert not _born_outside(tracker.tracks[w0], tracker.tracks[w1], policy.wide)  # bisected before
 
 
 def _engine(policy, slope=False, store=None):
