@@ -269,26 +269,20 @@ def track_rates(
     tracks: np.ndarray, loads: np.ndarray, rate: np.ndarray, omega: float, solid: Solid
 ) -> np.ndarray:
     """How each resultant track (:func:`resultant_tracks`) moves with the frequency: ``(k, 2)`` rows
-    ``(dv/dω, dε/dω)``, ``ε = 1/m``, from ``G = det(W(iω, u) − ε A(iω)) = 0`` (``ε^n F(1/ε)``, n the
-    active dofs; docs/model.md §8) differentiated along the track,
-    ``[G_ε, G_u] d(ε, u) = −i G_s dω`` (real and imaginary parts), ``v = u/ω``. ``ε`` rather than
-    ``m``: smooth through ``m = ∞``, where a track changes the sign of its ``m``. NaN where the
-    track folds in ω (the system is singular there)."""
-    a, s = _dof_indices(solid), 1j * omega
+    ``(dv/dω, dε/dω)``, ``ε = 1/m``: ``F = det(m W − A) = 0`` differentiated along the track
+    (:func:`characteristic_function`), ``[F_m, F_u] d(m, u) = −i F_s dω`` (real and imaginary
+    parts), then ``dε = −dm/m²`` and ``v = u/ω`` (docs/model.md §8). ``ε`` rather than ``m``: smooth
+    through ``m = ∞``, where a track changes the sign of its ``m``. NaN where the track folds in ω
+    (the system is singular there)."""
     rows = []
     for v, m in tracks:
-        eps, u = 1.0 / m, v * omega
-        w, w_u, w_s = (d[np.ix_(a, a)] for d in _weights(solid, s, u))
-        adj = _adjugate(w - eps * loads[np.ix_(a, a)])
-        g_eps = -np.trace(adj @ loads[np.ix_(a, a)])
-        g_u = np.trace(adj @ w_u)
-        g_s = np.trace(adj @ (w_s - eps * rate[np.ix_(a, a)]))
-        jac = np.array([[g_eps.real, g_u.real], [g_eps.imag, g_u.imag]])
+        _, f_m, f_u, f_s = characteristic_function(loads, rate, solid, 1j * omega, m, v * omega)
+        jac = np.array([[f_m.real, f_u.real], [f_m.imag, f_u.imag]])
         if abs(np.linalg.det(jac)) <= 1e-14 * np.abs(jac).max() ** 2:
             rows.append((math.nan, math.nan))
             continue
-        d_eps, d_u = np.linalg.solve(jac, np.array([(-1j * g_s).real, (-1j * g_s).imag]))
-        rows.append(((d_u - v) / omega, d_eps))
+        d_m, d_u = np.linalg.solve(jac, np.array([(-1j * f_s).real, (-1j * f_s).imag]))
+        rows.append(((d_u - v) / omega, -d_m / (m * m)))
     return np.array(rows).reshape(-1, 2)
 
 
