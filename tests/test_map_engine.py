@@ -26,7 +26,7 @@ from fsistab.map_refinement import FIT_MIN_STEP, RefinementPolicy, initial_frequ
 from fsistab.map_roots import AxisSample, NeutralRoot, neutral_roots
 from fsistab.map_samples import SAMPLE_FIELDS, SAVE_EVERY, SampleStore
 from fsistab.map_sources import Certified, RationalFitSource, ResonanceSource
-from fsistab.map_tracker import RootTracker, _born_outside, _match
+from fsistab.map_tracker import RootTracker, _born_outside, _match, _neutral_fold
 from fsistab.params import MAX_FREQUENCY, Solid
 from fsistab.reduced_model import ReducedModels, models_table, read_models
 from fsistab.store import ResumableTable
@@ -132,6 +132,108 @@ def test_a_pair_born_outside_the_mass_range_is_settled_without_bisecting():
     survey = policy.survey(tracker, samples.get, nothing, {}, sharp=False)
     assert not (survey.todo or survey.pending or survey.stuck or survey.unresolved)
     assert not _born_outside(tracker.tracks[w0], tracker.tracks[w1], policy.wide)  # bisected before
+
+
+# `quick` at ω near the nose of the flutter curve (m ≈ 14.4, U* ≈ 0.855), eight digits: a pair
+# of neutral roots at 1.02242, none at 1.02305, where the curve folds back in ω
+PLATE_NOSE = {
+    0.9868629702114634: (
+        [
+            [-1.8521919 - 0.15032928j, -1.8521818 - 0.15043294j, -0.21058896 + 0.091338473j],
+            [0.51089065 - 0.07566618j, 0.51088887 - 0.075635105j, -0.088455304 - 0.046218356j],
+        ],
+        [
+            [-0.16555691 - 0.16868349j, -0.16869648 - 0.16023859j, 0.26025421 + 0.13966596j],
+            [-0.13477306 - 0.020813759j, -0.13396614 - 0.023346511j, -0.098509268 - 0.018734736j],
+        ],
+    ),
+    1.0071790018994755: (
+        [
+            [-1.8339916 - 0.16056087j, -1.8341119 - 0.16057314j, -0.20707789 + 0.094582233j],
+            [0.5072845 - 0.076118234j, 0.50731994 - 0.076114441j, -0.089869079 - 0.047472529j],
+        ],
+        [
+            [-1.1888798 - 0.85329493j, -1.1793552 - 0.85242038j, -0.13927797 - 0.25613915j],
+            [0.1703939 + 0.14856943j, 0.16769285 + 0.14835917j, 0.02625455 + 0.086371683j],
+        ],
+    ),
+    1.0173370177434815: (
+        [
+            [-1.8277827 - 0.17143737j, -1.8278688 - 0.17136062j, -0.20560816 + 0.09264968j],
+            [0.50644781 - 0.074797519j, 0.50647339 - 0.074818719j, -0.090409875 - 0.047091512j],
+        ],
+        [
+            [-0.87520823 - 0.58240381j, -0.86874018 - 0.58952136j, -0.19312209 - 0.060893317j],
+            [0.072507914 + 0.078849509j, 0.070710442 + 0.080854335j, 0.035422716 + 0.029558207j],
+        ],
+    ),
+    1.0224160256654846: (
+        [
+            [-1.8242255 - 0.17587139j, -1.8242707 - 0.17577202j, -0.20537128 + 0.09167317j],
+            [0.50587483 - 0.074421685j, 0.50588895 - 0.074449143j, -0.090542279 - 0.046916986j],
+        ],
+        [
+            [-0.93698154 - 0.81891j, -0.93464051 - 0.82747991j, -0.19998371 - 0.035518298j],
+            [0.094382361 + 0.14554246j, 0.093739791 + 0.14792848j, 0.035889288 + 0.023412077j],
+        ],
+    ),
+    1.023050901655735: (
+        [
+            [-1.8236983 - 0.17647711j, -1.823738 - 0.17637641j, -0.20534974 + 0.091544751j],
+            [0.50578055 - 0.074358544j, 0.50579316 - 0.074386364j, -0.090556888 - 0.046893834j],
+        ],
+        [
+            [-0.97202318 - 0.84121286j, -0.97021077 - 0.84977595j, -0.20470501 - 0.032246603j],
+            [0.10476044 + 0.15124059j, 0.10426429 + 0.15362174j, 0.037083982 + 0.022580609j],
+        ],
+    ),
+    1.0274950335874875: (
+        [
+            [-1.8198639 - 0.18151127j, -1.8198674 - 0.18141009j, -0.20529539 + 0.090534345j],
+            [0.50509471 - 0.073688334j, 0.50509728 - 0.073716278j, -0.090633219 - 0.046703007j],
+        ],
+        [
+            [-1.3093852 - 0.82909677j, -1.3108013 - 0.83657496j, -0.25250393 + 0.01699481j],
+            [0.200286 + 0.14135183j, 0.20067433 + 0.14341414j, 0.049407152 + 0.0091462283j],
+        ],
+    ),
+}
+NOSE_DRAG = np.array([0.0340665, 0.0, 0.0])  # `quick`'s steady loads: C_D / 2
+
+
+def _nose_tracker(frequencies, policy) -> tuple[RootTracker, dict]:
+    tracker = RootTracker(Solid(), policy.wide, 0.0, NOSE_DRAG)
+    samples = {w: _plate_sample(w, *PLATE_NOSE[w]) for w in frequencies}
+    for sample in samples.values():
+        tracker.add(sample)
+    return tracker, samples
+
+
+def test_the_flutter_curve_fold_in_frequency_is_left_once_its_pair_places_it():
+    """The plate's flutter nose on `quick`. With samples at 0.98686, 1.00718 and 1.0275 the pair at
+    1.00718 is not matched to 0.98686 (its tangents go as 1/√(ω − ω_b)): both intervals are
+    bisected. Once 1.01734 is sampled, its pair is matched to 1.00718 and its tangents place the
+    fold at 1.02267, between the last sample with the pair (1.02242) and the first without it
+    (1.02305): the interval is left as a fold, the curve joined through it, with nothing sampled in
+    it (the map bisected it four more rounds before)."""
+    policy = _policy()
+    nothing = Certified(ResonanceSource(None), RationalFitSource(SampleStore()))
+    w = sorted(PLATE_NOSE)
+    tracker, samples = _nose_tracker([w[0], w[1], w[5]], policy)
+    assert [len(tracker.roots[x]) for x in tracker.grid] == [2, 2, 0]
+    assert not tracker.fold_placed(w[1], w[5], policy.tolerance, policy.inner)
+    survey = policy.survey(tracker, samples.get, nothing, {}, sharp=False)
+    assert sorted(x[-1] for x in survey.todo) == pytest.approx([0.99702, 1.01734], abs=1e-5)
+
+    tracker, samples = _nose_tracker([w[0], w[1], w[2], w[5]], policy)
+    survey = policy.survey(tracker, samples.get, nothing, {}, sharp=False)
+    assert survey.unresolved == {(w[2], w[5]): "fold"}
+    assert [x[1:3] for x in survey.todo] == [(w[0], w[1])]  # the pair at 1.00718 still unmatched below
+    fold = w[2] + _neutral_fold(*tracker.roots[w[2]])
+    assert fold == pytest.approx(1.02267, abs=1e-5)
+    closest, _ = _nose_tracker([w[3], w[4]], policy)
+    assert len(closest.roots[w[3]]) == 2 and not closest.roots[w[4]]
+    assert w[3] < fold < w[4]
 
 
 def _engine(policy, slope=False, store=None):

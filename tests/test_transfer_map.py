@@ -8,6 +8,7 @@ and a small map against the Newton thresholds of the continuation method.
 import logging
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import numpy.polynomial.polynomial as npoly
@@ -470,6 +471,42 @@ def test_the_two_branches_of_a_fold_in_frequency_are_joined():
     assert crossing[0] == pytest.approx(1.0, abs=1e-12) and crossing[2] > 0
     separate = _assemble(roots, {w: np.ones((2, 2)) for w in grid}, (0.5, 2.0))
     assert len(separate) == 2 and not separate[0].crossings_at(1.0)  # no birth seen: no join
+
+
+def test_a_fold_in_frequency_is_placed_by_its_pair_and_drawn_through_it():
+    """The curve of the test above, ω = 1 + p² along p = log m (log U* = 0.1 p): from the pair at
+    ω = 1.01 or 1.04 and their exact tangents the fold is placed at ω = 1 (the branch is a parabola
+    in the chord's parameter, which the Hermite reproduces); tangents of one sign are no fold. The
+    curve joined through it carries the parabola's points between the pair, ω included, and the
+    map drawn from it has them all, each with the unstable side of its crossing rate."""
+    from fsistab.map_tracker import _neutral_fold
+    from fsistab.transfer_map import FOLD_POINTS, NeutralRoot, _assemble, as_neutral_map
+
+    def root(p):
+        omega = 1 + p * p
+        return NeutralRoot(omega, math.exp(p), math.exp(0.1 * p), 1 / (2 * p), 0.1 / (2 * p), 1.0)
+
+    for omega in (1.01, 1.04):
+        p = math.sqrt(omega - 1)
+        assert _neutral_fold(root(-p), root(p)) == pytest.approx(1 - omega, rel=1e-4)
+    same_sign = replace(root(0.1), dlog_mass=-5.0, dlog_velocity=-0.5)
+    assert _neutral_fold(root(-0.1), same_sign) is None
+
+    grid = [0.99, 1.01, 1.02, 1.04]
+    roots = {w: [root(s * math.sqrt(w - 1)) for s in (-1, 1)] if w > 1 else [] for w in grid}
+    (curve,) = _assemble(roots, {w: np.ones((len(roots[w]), 2)) for w in grid}, (0.5, 2.0))
+    points = np.array(curve.points())
+    assert len(points) == len(curve.roots) + FOLD_POINTS
+    p = np.log(points[:, 0])
+    np.testing.assert_allclose(points[:, 2], 1 + p * p, rtol=1e-12)  # ω along the parabola, fold too
+    np.testing.assert_allclose(np.log(points[:, 1]), 0.1 * p, atol=1e-12)
+    assert np.all(points[:, 3] > 0)  # the crossing rate keeps its sign through the fold
+    nose = min(abs(p))
+    assert nose < 0.1 / (FOLD_POINTS + 1) + 1e-12  # a point next to the fold, not only the pair at ±0.1
+    tmap = SimpleNamespace(curves=[curve], mass_range=(0.5, 2.0), divergence_lambdas=np.array([]))
+    tmap.factorisations, tmap.unresolved = 4, ()
+    (drawn,) = as_neutral_map(tmap, Solid()).curves
+    assert len(drawn.points) == len(points) and drawn.unstable_sides == (1,) * len(points)
 
 
 def test_crossings_at_any_mass_are_those_of_a_dense_scan_of_the_curve():

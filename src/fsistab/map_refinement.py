@@ -6,7 +6,9 @@ round after round, looks at every interval between neighbouring samples (:meth:`
 - roots not matched by their tangents (:class:`fsistab.map_tracker.RootTracker`): bisect, down to
   ``min_step``; with exact samples an interval already at ``min_step`` goes on with a certified
   rational fit of the samples around it (``stuck``), and with ``fit_first`` such a fit is tried
-  before the exact bisections too (``pending``); a fold in ω (a pair born or dying) is no step's;
+  before the exact bisections too (``pending``); a fold in ω (a pair born or dying) is no step's,
+  and is left as soon as the pair's tangents place it inside the interval with the pair matched
+  beyond it (:meth:`fsistab.map_tracker.RootTracker.fold_placed`);
 - a curve that may cross the whole mass range inside the interval (:func:`fsistab.map_tracker._swept`):
   bisect down to ``SWEEP_STEP``, unless the change is a pole of the neutral mass or a pair born
   outside the range (its fold placed inside the interval by the tracks' rates, or a young pair at
@@ -135,6 +137,9 @@ class RefinementPolicy:
             # a fold in ω is no step's to resolve; curves too fast for the step are refined on with
             # a rational fit
             fold = tracker.fold(w0, w1)
+            if fold and tracker.fold_placed(w0, w1, self.tolerance, self.inner):
+                found.unresolved[(w0, w1)] = "fold"  # the curve is joined through it, between its pair
+                return
             covered = not fold and certified.spanned(w0, w1)
             if not covered and not fold and self.exact and w1 - w0 < self.min_step * w1:
                 found.stuck.append((w0, w1))  # a rational fit of the samples around may go on

@@ -8,8 +8,10 @@ within the tolerance (:func:`_resolved`). The resultant's real roots, with their
 show a curve that crosses the whole mass range inside one interval and leaves no root at either end
 (:func:`_swept`, :func:`_side_jump`); a pair born outside the range on one side never entered it
 (:func:`_born_outside`: young at the finest bisection, or its fold in ω placed inside the interval
-by the tracks' rates, :func:`_pair_fold`). :class:`RootTracker` holds the roots and tracks by
-frequency; what to do about an interval is the refinement policy's (:mod:`fsistab.map_refinement`).
+by the tracks' rates, :func:`_pair_fold`). A neutral curve's own fold in ω is placed the same way,
+from its pair of roots and their tangents (:func:`_neutral_fold`). :class:`RootTracker` holds the
+roots and tracks by frequency; what to do about an interval is the refinement policy's
+(:mod:`fsistab.map_refinement`).
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ YOUNG_PAIR = 0.05  # a pair of resultant roots this close in v (relative) was bo
 FOLD_CUBIC = 0.25
 FOLD_INSIDE = 0.8
 SAME_FREQUENCY = 1e-9  # two frequencies this close (relative) are one (saved grids, bisections)
+_T = np.linspace(0.0, 1.0, 201)  # the branch parameter of a fold's Hermite interpolants, t ∈ [0, 1]
+_BASIS = (2 * _T**3 - 3 * _T**2 + 1, _T**3 - 2 * _T**2 + _T, 3 * _T**2 - 2 * _T**3, _T**3 - _T**2)
 
 
 class RootTracker:
@@ -91,6 +95,33 @@ class RootTracker:
         fold = (w0, w1, self.rates[w0], self.rates[w1])
         at_fold = _born_outside(left, right, self.wide, fold)
         return at_fold or (young and _born_outside(left, right, self.wide))
+
+    def fold_placed(self, w0: float, w1: float, tolerance: float, inner: tuple[float, float]) -> bool:
+        """Whether ``[w0, w1]`` holds the fold in ω of a neutral curve, placed by its pair: every
+        root is matched within ``tolerance`` but two at one end (none of ``inner`` at the other);
+        both of the pair are matched to the sample beyond that end, so the pair is close enough to
+        the fold for its tangents (which go as ``1/√(ω − ω_b)``) to be resolved; and their exact
+        tangents place the fold inside the interval (:func:`_neutral_fold`, within ``FOLD_INSIDE``
+        of its width). The curve is then joined through the fold between the pair, along the same
+        kind of interpolant (:class:`fsistab.transfer_map.TransferCurve`)."""
+        grid, (left, right) = self.grid, (self.roots[w0], self.roots[w1])
+        matches = _match(left, right, log_step(w0, w1), tolerance)
+        free_left = [i for i in range(len(left)) if i not in {i for i, _, _ in matches}]
+        free_right = [j for j in range(len(right)) if j not in {j for _, j, _ in matches}]
+        inside = lambda roots, free: any(inner[0] <= roots[k].mass_ratio <= inner[1] for k in free)  # noqa: E731
+        k0, k1 = grid.index(w0), grid.index(w1)
+        if len(free_left) == 2 and not inside(right, free_right) and k0 > 0:
+            pair, sign = [left[i] for i in free_left], 1.0
+            beyond = _match(self.roots[grid[k0 - 1]], left, log_step(grid[k0 - 1], w0), tolerance)
+            ends = {j for _, j, _ in beyond} >= set(free_left)
+        elif len(free_right) == 2 and not inside(left, free_left) and k1 + 1 < len(grid):
+            pair, sign = [right[j] for j in free_right], -1.0
+            beyond = _match(right, self.roots[grid[k1 + 1]], log_step(w1, grid[k1 + 1]), tolerance)
+            ends = {i for i, _, _ in beyond} >= set(free_right)
+        else:
+            return False
+        offset = _neutral_fold(*pair)
+        return ends and offset is not None and 0 < sign * offset <= FOLD_INSIDE * (w1 - w0)
 
     def leaves(self, omega: float, inner: tuple[float, float]) -> bool:
         """:func:`_leaves` at the frequency ``omega``."""
@@ -199,34 +230,57 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
     return not _swept(shorter, kept, band)
 
 
+def _fold_frequency(width: float, rate_a: float, rate_b: float) -> tuple[np.ndarray, float] | None:
+    """A branch through a fold in ω, seen from one sampled frequency at two points ``width`` apart
+    in a parameter ``x`` along it that moves at ``rate_a``, ``rate_b`` (``dx/dω``) there: the
+    cubic Hermite of ``ω(x)`` on ``t ∈ [0, 1]`` (``_T``; zero at both ends, slopes ``dω/dx``) and
+    its extreme, the fold's offset from the sample (< 0: the fold lies below it). None if the two
+    are not one fold resolved by its ends: rates of one sign (no extreme between), a cubic term
+    above ``FOLD_CUBIC`` of the quadratic one, or a rate that could not be formed.
+
+    Near a fold ``ω(x)`` is smooth with an extreme while ``x(ω)`` goes as ``√(ω − ω_b)``: in ``x``
+    the branch between the pair is one segment, resolved by its ends as a neutral curve is by its
+    tangents (:func:`_match`)."""
+    if not np.all(np.isfinite([rate_a, rate_b])) or width <= 0 or rate_a * rate_b >= 0:
+        return None
+    slope_a, slope_b = width / rate_a, width / rate_b  # dω/dt, x = x_a + t width
+    if abs(slope_a + slope_b) > FOLD_CUBIC * abs(slope_b - slope_a):
+        return None
+    omega = _BASIS[1] * slope_a + _BASIS[3] * slope_b
+    return omega, float(omega.min() if slope_a < 0 else omega.max())
+
+
 def _pair_fold(pair: np.ndarray, rates: np.ndarray) -> tuple[float, float, float] | None:
     """A pair of resultant roots at one frequency (rows ``(v, m)``) and their rates (rows
-    ``(dv/dω, dε/dω)``, ``ε = 1/m``) as the two sides of one branch through a fold in ω: on the
-    segment between them, the cubic Hermite interpolants of ``ω(v)`` (both ends at the sample's
-    frequency, slopes ``dω/dv``) and of ``ε(v)``. Returns the fold's offset from the sample (the
-    extreme of ``ω(v)``: < 0 for a pair born below the sample, > 0 for one dying above it) and the
-    lowest and highest ``ε`` on the segment; None if the two are not one fold resolved by its ends:
-    slopes ``dω/dv`` of one sign (no extreme between), a cubic term above ``FOLD_CUBIC`` of the
-    quadratic one, or a rate that could not be formed.
-
-    Near a fold ``ω(v)`` is smooth with an extreme while ``v(ω)`` goes as ``√(ω − ω_b)``: in ``v`` the
-    branch between the pair is one segment, resolved by its ends as a neutral curve is by its
-    tangents (:func:`_match`), and ``ε`` is smooth there even through ``m = ∞``."""
+    ``(dv/dω, dε/dω)``, ``ε = 1/m``) as the two sides of one branch through a fold in ω
+    (:func:`_fold_frequency` in ``x = v``), with the cubic Hermite of ``ε(v)`` on the same segment.
+    Returns the fold's offset from the sample (< 0 for a pair born below the sample, > 0 for one
+    dying above it) and the lowest and highest ``ε`` on the segment, or None (no resolved fold).
+    ``ε`` is smooth along the branch even through ``m = ∞``."""
     order = np.argsort(pair[:, 0])
     (va, ma), (vb, mb) = pair[order]
     (dva, dea), (dvb, deb) = rates[order]
     width = vb - va
-    if not np.all(np.isfinite(rates)) or width <= 0 or dva * dvb >= 0:
+    fold = _fold_frequency(width, dva, dvb)
+    if fold is None or not np.all(np.isfinite(rates)):
         return None
-    slope_a, slope_b = width / dva, width / dvb  # dω/dt on t ∈ [0, 1], v = va + t (vb − va)
-    if abs(slope_a + slope_b) > FOLD_CUBIC * abs(slope_b - slope_a):
-        return None
-    t = np.linspace(0.0, 1.0, 201)
-    h00, h10, h01, h11 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t, 3 * t**2 - 2 * t**3, t**3 - t**2
-    omega = h10 * slope_a + h11 * slope_b
+    h00, h10, h01, h11 = _BASIS
     eps = h00 / ma + h10 * dea * width / dva + h01 / mb + h11 * deb * width / dvb
-    offset = omega.min() if slope_a < 0 else omega.max()
-    return float(offset), float(eps.min()), float(eps.max())
+    return fold[1], float(eps.min()), float(eps.max())
+
+
+def _neutral_fold(a: NeutralRoot, b: NeutralRoot) -> float | None:
+    """Two neutral roots at one frequency as the two sides of a neutral curve through a fold in ω
+    (:func:`_fold_frequency`, the parameter along the chord from ``a`` to ``b`` in
+    ``(log m, log U*)``, its rates the exact tangents projected on the chord): the fold's offset
+    from the sample, or None. The curve itself is joined through the fold by
+    :class:`fsistab.transfer_map.TransferCurve` between the same two roots."""
+    chord = b.plane - a.plane
+    width = float(np.linalg.norm(chord))
+    if width == 0:
+        return None
+    fold = _fold_frequency(width, float(chord @ a.tangent) / width, float(chord @ b.tangent) / width)
+    return None if fold is None else fold[1]
 
 
 def _fold_outside(pair: np.ndarray, rates: np.ndarray, step: float, born: bool, band) -> bool:

@@ -141,11 +141,18 @@ from fsistab.symmetry import antisymmetric_operators
 # root-matching tolerance in (log m, log U*) with exact samples (one factorisation each): the Hermite
 # interpolants between samples are then good to about its square, 1e-3
 EXACT_TOLERANCE = 3e-2
+FOLD_POINTS = 9  # points of a curve's interpolant through a fold in ω, drawn between its pair
 
 
 def _geometric(omega0: float, step: float, tau: float) -> float:
     """``ω`` at ``τ ∈ [0, 1]`` of a segment from ``omega0`` that is ``step`` long in ``log ω``."""
     return float(omega0 * math.exp(step * tau))
+
+
+def _through_fold(omega0: float, rate0: float, rate1: float, tau: float) -> float:
+    """``ω`` at ``τ ∈ [0, 1]`` of a segment through a fold in ω from and back to ``omega0``: the
+    cubic Hermite with ``dω/dτ`` equal to ``rate0``, ``rate1`` at its ends (its extreme is the fold)."""
+    return float(omega0 + (tau**3 - 2 * tau**2 + tau) * rate0 + (tau**3 - tau**2) * rate1)
 
 
 def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: float) -> np.ndarray:
@@ -171,8 +178,8 @@ class TransferCurve:
     def _segments(self):
         """Per interval: the roots, the cubic Hermite of ``(log m, log U*)`` in ``τ ∈ [0, 1]``
         (values and exact tangents), ``ω(τ)`` along it (geometric, ``log ω`` linear in ``τ``;
-        constant across a fold) and ``rate/(d log m/dτ)`` at both ends (made once per curve,
-        :attr:`_segment_table`)."""
+        across a fold the cubic through it, :func:`_through_fold`) and ``rate/(d log m/dτ)`` at
+        both ends (made once per curve, :attr:`_segment_table`)."""
         return iter(segment for segment, _ in self._segment_table)
 
     @cached_property
@@ -199,7 +206,9 @@ class TransferCurve:
                 unit = lambda t: t / max(float(np.linalg.norm(t)), 1e-300)  # noqa: E731
                 start, end = folds[k] * chord * unit(r0.tangent), -folds[k] * chord * unit(r1.tangent)
                 plane = _hermite(r0.plane, start, r1.plane, end, 1.0)
-                omega = partial(_geometric, r0.frequency, 0.0)
+                # dω/dτ = |d plane/dτ| / |tangent| at both ends, ω back to the pair's at τ = 1
+                rates = [s * chord / np.linalg.norm(r.tangent) for s, r in ((folds[k], r0), (-folds[k], r1))]
+                omega = partial(_through_fold, r0.frequency, *rates)
             else:
                 step = log_step(r0.frequency, r1.frequency)
                 plane = _hermite(r0.plane, r0.log_tangent, r1.plane, r1.log_tangent, step)
@@ -208,6 +217,22 @@ class TransferCurve:
             ends = (npoly.polyval(0.0, slope), npoly.polyval(1.0, slope))
             q = tuple(r.crossing_rate / d if d else 0.0 for r, d in zip((r0, r1), ends, strict=True))
             yield r0, r1, plane, omega, q
+
+    def points(self) -> list[tuple[float, float, float, float]]:
+        """``(m, U*, ω, crossing rate)`` along the curve: the exact roots and, on each segment
+        through a fold in ω, ``FOLD_POINTS`` points of its interpolant between them. A map drawn
+        as lines between points (:func:`as_neutral_map`) would otherwise cut the curve's nose there
+        with the chord between the pair, which the sampling leaves far from the fold."""
+        folds = dict(self.folds)
+        points = []
+        for k, (r0, _, coef, omega, (q0, q1)) in enumerate(self._segments()):
+            points.append((r0.mass_ratio, r0.reduced_velocity, r0.frequency, r0.crossing_rate))
+            for tau in np.linspace(0.0, 1.0, FOLD_POINTS + 2)[1:-1] if k in folds else ():
+                log_m, log_u = npoly.polyval(tau, coef)
+                rate = (q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0]))
+                points.append((math.exp(log_m), math.exp(log_u), omega(tau), float(rate)))
+        last = self.roots[-1]
+        return [*points, (last.mass_ratio, last.reduced_velocity, last.frequency, last.crossing_rate)]
 
     def velocities_at(self, mass_ratio: float) -> list[tuple[float, float]]:
         """``(U*, ω)`` of every point of the curve at ``mass_ratio`` (Hermite interpolation)."""
@@ -648,9 +673,10 @@ def _join_folds(chains: list[list[NeutralRoot]], links: dict) -> list[tuple[list
 
 def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
     """The transfer map in the form of :class:`fsistab.neutral_map.NeutralMap` (same dataset, figure and
-    JSON as the continuation method): each curve's exact roots inside the mass range (and the next
-    one outside, so that lines reach the edges) with, per root, the unstable side (the sign of its
-    crossing rate), and its frequency following (:func:`fsistab.neutral_map.frequency_following`, on
+    JSON as the continuation method): each curve's points (:meth:`TransferCurve.points`: its exact
+    roots and its interpolant through folds in ω) inside the mass range (and the next one outside,
+    so that lines reach the edges) with, per point, the unstable side (the sign of its crossing
+    rate), and its frequency following (:func:`fsistab.neutral_map.frequency_following`, on
     the roots in the mass range, as its kind), turning points from the Hermite
     interpolants, the divergence line of the largest ``λ`` (lowest ``U*_D``, ``moment_slope =
     λ r_θ²``: the torsional formula's slope), crossings of all curves and the unresolved
@@ -659,18 +685,19 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
     low, high = tmap.mass_range
     curves = []
     for curve in tmap.curves:
-        inside = [low <= r.mass_ratio <= high for r in curve.roots]
+        along = curve.points()
+        inside = [low <= m <= high for m, *_ in along]
         keep = [
-            r
-            for k, r in enumerate(curve.roots)
+            p
+            for k, p in enumerate(along)
             if inside[k] or (k > 0 and inside[k - 1]) or (k + 1 < len(inside) and inside[k + 1])
         ]
-        neutral = tuple(NeutralPoint(r.mass_ratio, r.reduced_velocity, r.frequency) for r in keep)
+        neutral = tuple(NeutralPoint(m, u, w) for m, u, w, _ in keep)
         folds = tuple(
             TurningPoint(m, u, w, localised=True) for m, u, w in curve.turning_points() if low <= m <= high
         )
-        onset = np.mean([r.crossing_rate > 0 for r in keep]) >= 0.5
-        inside_roots = [r for r in keep if low <= r.mass_ratio <= high]
+        onset = np.mean([rate > 0 for *_, rate in keep]) >= 0.5
+        inside_roots = [r for r in curve.roots if low <= r.mass_ratio <= high]
         curves.append(
             NeutralCurve(
                 neutral,
@@ -678,7 +705,7 @@ def as_neutral_map(tmap: TransferMap, template: Solid, points: int = 200):
                 boundary="onset" if onset else "restabilisation",
                 turning_points=folds,
                 stops=("", ""),
-                unstable_sides=tuple(int(np.sign(r.crossing_rate)) for r in keep),
+                unstable_sides=tuple(int(np.sign(rate)) for *_, rate in keep),
                 frequency_following=frequency_following(*_points_of(inside_roots)),
             )
         )
