@@ -462,7 +462,10 @@ def test_adjacent_unresolved_intervals_are_one_place():
     assert note.startswith("502 unresolved frequency intervals")
     assert "ω ∈ [0.01629, 0.01634] (500 intervals): sweep" in note
     assert len(note.splitlines()) == 4  # the header and three places
-    assert plots._unresolved_note([(1.7, 1.7001, "fold")]).startswith("1 unresolved frequency interval (")
+    assert plots._unresolved_note([(1.7, 1.7001, "fold")]).startswith(
+        "1 unresolved frequency interval (curves drawn through their folds):"
+    )
+    assert "(curves may be missing there):" in plots._unresolved_note([(1.7, 1.7001, "fold"), *other])
     # apart by more than the gap (1 %): two places
     assert len(plots.unresolved_clusters([(1.0, 1.1, "sweep"), (1.12, 1.2, "sweep")])) == 2
 

@@ -714,7 +714,9 @@ def unresolved_clusters(unresolved, gap: float = UNRESOLVED_GAP) -> list[tuple[f
 
 def _unresolved_note(unresolved) -> str:
     """The unresolved frequency intervals of the transfer method, merged into clusters
-    (:func:`unresolved_clusters`), one line each (the first few)."""
+    (:func:`unresolved_clusters`), one line each (the first few), under a header that says whether
+    a curve may be missing there (not where every interval is a fold, which curves are drawn
+    through)."""
     unresolved = list(unresolved)
     if not unresolved:
         return ""
@@ -727,7 +729,10 @@ def _unresolved_note(unresolved) -> str:
         rest = clusters[UNRESOLVED_LISTED:]
         lines.append(f"and {sum(c[3] for c in rest)} more in {len(rest)} places")
     count = len(unresolved)
-    header = f"{count} unresolved frequency interval{'s' if count > 1 else ''} (curves may be missing there):"
+    # a fold in ω is joined through by the map (fsistab.transfer_map); other reasons may hide a curve
+    folds = all(reason == "fold" for _, _, reason in unresolved)
+    why = "curves drawn through their folds" if folds else "curves may be missing there"
+    header = f"{count} unresolved frequency interval{'s' if count > 1 else ''} ({why}):"
     return "\n".join([header, *lines])
 
 
