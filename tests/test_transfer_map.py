@@ -478,7 +478,8 @@ def test_a_fold_in_frequency_is_placed_by_its_pair_and_drawn_through_it():
     ω = 1.01 or 1.04 and their exact tangents the fold is placed at ω = 1 (the branch is a parabola
     in the chord's parameter, which the Hermite reproduces); tangents of one sign are no fold. The
     curve joined through it carries the parabola's points between the pair, ω included, and the
-    map drawn from it has them all, each with the unstable side of its crossing rate."""
+    map drawn from it has them all, each with the unstable side of its crossing rate. With
+    log U* = (log m)² instead, the drawn curve reaches down to the nose's U* = 1 at the fold."""
     from fsistab.map_tracker import _neutral_fold
     from fsistab.transfer_map import FOLD_POINTS, NeutralRoot, _assemble, as_neutral_map
 
@@ -507,6 +508,14 @@ def test_a_fold_in_frequency_is_placed_by_its_pair_and_drawn_through_it():
     tmap.factorisations, tmap.unresolved = 4, ()
     (drawn,) = as_neutral_map(tmap, Solid()).curves
     assert len(drawn.points) == len(points) and drawn.unstable_sides == (1,) * len(points)
+
+    def nosed(p):  # log U* = p²: the lowest U* (1) at the fold, 0.01 above it at the pair of 1.01
+        return replace(root(p), reduced_velocity=math.exp(p * p), dlog_velocity=1.0)
+
+    roots = {w: [nosed(s * math.sqrt(w - 1)) for s in (-1, 1)] if w > 1 else [] for w in grid}
+    (curve,) = _assemble(roots, {w: np.ones((len(roots[w]), 2)) for w in grid}, (0.5, 2.0))
+    lowest = min(u for _, u, _, _ in curve.points())
+    assert math.log(lowest) < 3e-4  # the chord between the pair would draw it at log U* = 0.01
 
 
 def test_crossings_at_any_mass_are_those_of_a_dense_scan_of_the_curve():
