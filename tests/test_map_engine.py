@@ -215,13 +215,15 @@ def test_the_flutter_curve_fold_in_frequency_is_left_once_its_pair_places_it():
     bisected. Once 1.01734 is sampled, its pair is matched to 1.00718 and its tangents place the
     fold at 1.02267, between the last sample with the pair (1.02242) and the first without it
     (1.02305): the interval is left as a fold, the curve joined through it, with nothing sampled in
-    it (the map bisected it four more rounds before)."""
+    it (the map bisected it four more rounds before). Were samples free there (a certified model),
+    the next would go three quarters of the way to the fold, the pair's chord being longer than
+    the tolerance; and a fold not yet placed would be bisected below ``min_step``."""
     policy = _policy()
     nothing = Certified(ResonanceSource(None), RationalFitSource(SampleStore()))
     w = sorted(PLATE_NOSE)
     tracker, samples = _nose_tracker([w[0], w[1], w[5]], policy)
     assert [len(tracker.roots[x]) for x in tracker.grid] == [2, 2, 0]
-    assert not tracker.fold_placed(w[1], w[5], policy.tolerance, policy.inner)
+    assert tracker.placed_fold(w[1], w[5], policy.tolerance, policy.inner) is None
     survey = policy.survey(tracker, samples.get, nothing, {}, sharp=False)
     assert sorted(x[-1] for x in survey.todo) == pytest.approx([0.99702, 1.01734], abs=1e-5)
 
@@ -234,6 +236,20 @@ def test_the_flutter_curve_fold_in_frequency_is_left_once_its_pair_places_it():
     closest, _ = _nose_tracker([w[3], w[4]], policy)
     assert len(closest.roots[w[3]]) == 2 and not closest.roots[w[4]]
     assert w[3] < fold < w[4]
+
+    covered = SimpleNamespace(spanned=lambda a, b: True, fitted=lambda omega: None)
+    survey = policy.survey(tracker, samples.get, covered, {}, sharp=False)
+    (at, offset, chord) = tracker.placed_fold(w[2], w[5], policy.tolerance, policy.inner)
+    assert (at, chord) == (w[2], pytest.approx(math.log(16.3415 / 12.7378), rel=1e-3))
+    assert (w[2], w[5]) not in survey.unresolved  # free samples: on towards the fold
+    assert (w[5] - w[2], w[2], w[5], pytest.approx(w[2] + 0.75 * offset)) in survey.todo
+
+    tracker, samples = _nose_tracker([w[0], w[1], w[5]], policy)  # not placed yet
+    coarse = _policy(min_step=0.1)  # the interval is below min_step
+    left = coarse.survey(tracker, samples.get, nothing, {}, sharp=False)
+    assert left.unresolved[(w[1], w[5])] == "min_step"  # exact samples: no step resolves a fold
+    onwards = coarse.survey(tracker, samples.get, covered, {}, sharp=False)
+    assert (w[5] - w[1], w[1], w[5], 0.5 * (w[1] + w[5])) in onwards.todo  # free: bisected on
 
 
 def _engine(policy, slope=False, store=None):

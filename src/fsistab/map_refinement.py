@@ -8,7 +8,8 @@ round after round, looks at every interval between neighbouring samples (:meth:`
   rational fit of the samples around it (``stuck``), and with ``fit_first`` such a fit is tried
   before the exact bisections too (``pending``); a fold in ω (a pair born or dying) is no step's,
   and is left as soon as the pair's tangents place it inside the interval with the pair matched
-  beyond it (:meth:`fsistab.map_tracker.RootTracker.fold_placed`);
+  beyond it (:meth:`fsistab.map_tracker.RootTracker.placed_fold`), or, where a certified model
+  makes samples free, once the pair is within the tolerance (:meth:`RefinementPolicy.settle_fold`);
 - a curve that may cross the whole mass range inside the interval (:func:`fsistab.map_tracker._swept`):
   bisect down to ``SWEEP_STEP``, unless the change is a pole of the neutral mass or a pair born
   outside the range (its fold placed inside the interval by the tracks' rates, or a young pair at
@@ -134,13 +135,14 @@ class RefinementPolicy:
     def decide(self, w0, w1, tracker, samples, certified, sharp, found: Survey) -> None:
         """Add to ``found`` what the interval ``[w0, w1]`` needs (module docstring)."""
         if not tracker.resolved(w0, w1, self.tolerance, self.inner):
-            # a fold in ω is no step's to resolve; curves too fast for the step are refined on with
-            # a rational fit
+            # a fold in ω is no step's to resolve: it is left once its pair places it, and where
+            # samples are free bisected towards it until then; curves too fast for the step are
+            # refined on with a rational fit
             fold = tracker.fold(w0, w1)
-            if fold and tracker.fold_placed(w0, w1, self.tolerance, self.inner):
-                found.unresolved[(w0, w1)] = "fold"  # the curve is joined through it, between its pair
+            if fold and (placed := tracker.placed_fold(w0, w1, self.tolerance, self.inner)):
+                self.settle_fold(w0, w1, placed, certified, found)
                 return
-            covered = not fold and certified.spanned(w0, w1)
+            covered = certified.spanned(w0, w1)
             if not covered and not fold and self.exact and w1 - w0 < self.min_step * w1:
                 found.stuck.append((w0, w1))  # a rational fit of the samples around may go on
                 return
@@ -169,6 +171,21 @@ class RefinementPolicy:
             found.unresolved[(w0, w1)] = reason
         else:
             found.todo.append((w1 - w0, w0, w1, 0.5 * (w0 + w1)))
+
+    def settle_fold(self, w0, w1, placed: tuple[float, float, float], certified, found: Survey) -> None:
+        """A fold in ω placed by its pair (:meth:`fsistab.map_tracker.RootTracker.placed_fold`:
+        the pair's frequency, the fold's offset, the pair's chord): left as a ``fold``, the curve
+        joined through it between the pair, unless a certified model covers the interval and the
+        chord is longer than the tolerance. Then a free sample three quarters of the way to the
+        fold brings a pair closer to it (the chord goes as the square root of the distance): a
+        midpoint past the fold would hold no pair."""
+        at, offset, chord = placed
+        closer = at + 0.75 * offset
+        free = certified.spanned(w0, w1) and abs(closer - at) >= FIT_MIN_STEP * at
+        if free and chord > self.tolerance:
+            found.todo.append((w1 - w0, w0, w1, closer))
+        else:
+            found.unresolved[(w0, w1)] = "fold"
 
     def below(self, tracker: RootTracker) -> Bisection | None:
         """Half the lowest frequency if a curve leaves the grid there inside the mass range."""

@@ -96,14 +96,18 @@ class RootTracker:
         at_fold = _born_outside(left, right, self.wide, fold)
         return at_fold or (young and _born_outside(left, right, self.wide))
 
-    def fold_placed(self, w0: float, w1: float, tolerance: float, inner: tuple[float, float]) -> bool:
-        """Whether ``[w0, w1]`` holds the fold in ω of a neutral curve, placed by its pair: every
-        root is matched within ``tolerance`` but two at one end (none of ``inner`` at the other);
-        both of the pair are matched to the sample beyond that end, so the pair is close enough to
-        the fold for its tangents (which go as ``1/√(ω − ω_b)``) to be resolved; and their exact
-        tangents place the fold inside the interval (:func:`_neutral_fold`, within ``FOLD_INSIDE``
-        of its width). The curve is then joined through the fold between the pair, along the same
-        kind of interpolant (:class:`fsistab.transfer_map.TransferCurve`)."""
+    def placed_fold(
+        self, w0: float, w1: float, tolerance: float, inner: tuple[float, float]
+    ) -> tuple[float, float, float] | None:
+        """The fold in ω of a neutral curve inside ``[w0, w1]``, placed by its pair, as ``(the
+        pair's frequency, the fold's offset from it, the chord between the pair in (log m,
+        log U*))``; None unless every root is matched within ``tolerance`` but two at one end (none
+        of ``inner`` at the other), both of the pair are matched to the sample beyond that end (so
+        the pair is close enough to the fold for its tangents, which go as ``1/√(ω − ω_b)``, to be
+        resolved), and their exact tangents place the fold inside the interval
+        (:func:`_neutral_fold`, within ``FOLD_INSIDE`` of its width). The curve is joined through
+        the fold between the pair, along the same kind of interpolant
+        (:class:`fsistab.transfer_map.TransferCurve`)."""
         grid, (left, right) = self.grid, (self.roots[w0], self.roots[w1])
         matches = _match(left, right, log_step(w0, w1), tolerance)
         free_left = [i for i in range(len(left)) if i not in {i for i, _, _ in matches}]
@@ -111,17 +115,19 @@ class RootTracker:
         inside = lambda roots, free: any(inner[0] <= roots[k].mass_ratio <= inner[1] for k in free)  # noqa: E731
         k0, k1 = grid.index(w0), grid.index(w1)
         if len(free_left) == 2 and not inside(right, free_right) and k0 > 0:
-            pair, sign = [left[i] for i in free_left], 1.0
+            at, pair, sign = w0, [left[i] for i in free_left], 1.0
             beyond = _match(self.roots[grid[k0 - 1]], left, log_step(grid[k0 - 1], w0), tolerance)
             ends = {j for _, j, _ in beyond} >= set(free_left)
         elif len(free_right) == 2 and not inside(left, free_left) and k1 + 1 < len(grid):
-            pair, sign = [right[j] for j in free_right], -1.0
+            at, pair, sign = w1, [right[j] for j in free_right], -1.0
             beyond = _match(right, self.roots[grid[k1 + 1]], log_step(w1, grid[k1 + 1]), tolerance)
             ends = {i for i, _, _ in beyond} >= set(free_right)
         else:
-            return False
+            return None
         offset = _neutral_fold(*pair)
-        return ends and offset is not None and 0 < sign * offset <= FOLD_INSIDE * (w1 - w0)
+        if not ends or offset is None or not 0 < sign * offset <= FOLD_INSIDE * (w1 - w0):
+            return None
+        return at, offset, float(np.linalg.norm(pair[1].plane - pair[0].plane))
 
     def leaves(self, omega: float, inner: tuple[float, float]) -> bool:
         """:func:`_leaves` at the frequency ``omega``."""
