@@ -236,11 +236,11 @@ def _born_outside(left: np.ndarray, right: np.ndarray, band: tuple[float, float]
     return not _swept(shorter, kept, band)
 
 
-def _fold_frequency(width: float, rate_a: float, rate_b: float) -> tuple[np.ndarray, float] | None:
+def _fold_frequency(width: float, rate_a: float, rate_b: float) -> float | None:
     """A branch through a fold in ω, seen from one sampled frequency at two points ``width`` apart
     in a parameter ``x`` along it that moves at ``rate_a``, ``rate_b`` (``dx/dω``) there: the
-    cubic Hermite of ``ω(x)`` on ``t ∈ [0, 1]`` (``_T``; zero at both ends, slopes ``dω/dx``) and
-    its extreme, the fold's offset from the sample (< 0: the fold lies below it). None if the two
+    extreme of the cubic Hermite of ``ω(x)`` on ``t ∈ [0, 1]`` (``_T``; zero at both ends, slopes
+    ``dω/dx``), the fold's offset from the sample (< 0: the fold lies below it). None if the two
     are not one fold resolved by its ends: rates of one sign (no extreme between), a cubic term
     above ``FOLD_CUBIC`` of the quadratic one, or a rate that could not be formed.
 
@@ -253,7 +253,7 @@ def _fold_frequency(width: float, rate_a: float, rate_b: float) -> tuple[np.ndar
     if abs(slope_a + slope_b) > FOLD_CUBIC * abs(slope_b - slope_a):
         return None
     omega = _BASIS[1] * slope_a + _BASIS[3] * slope_b
-    return omega, float(omega.min() if slope_a < 0 else omega.max())
+    return float(omega.min() if slope_a < 0 else omega.max())
 
 
 def _pair_fold(pair: np.ndarray, rates: np.ndarray) -> tuple[float, float, float] | None:
@@ -267,12 +267,12 @@ def _pair_fold(pair: np.ndarray, rates: np.ndarray) -> tuple[float, float, float
     (va, ma), (vb, mb) = pair[order]
     (dva, dea), (dvb, deb) = rates[order]
     width = vb - va
-    fold = _fold_frequency(width, dva, dvb)
-    if fold is None or not np.all(np.isfinite(rates)):
+    offset = _fold_frequency(width, dva, dvb)
+    if offset is None or not np.all(np.isfinite(rates)):
         return None
     h00, h10, h01, h11 = _BASIS
     eps = h00 / ma + h10 * dea * width / dva + h01 / mb + h11 * deb * width / dvb
-    return fold[1], float(eps.min()), float(eps.max())
+    return offset, float(eps.min()), float(eps.max())
 
 
 def _neutral_fold(a: NeutralRoot, b: NeutralRoot) -> float | None:
@@ -285,8 +285,7 @@ def _neutral_fold(a: NeutralRoot, b: NeutralRoot) -> float | None:
     width = float(np.linalg.norm(chord))
     if width == 0:
         return None
-    fold = _fold_frequency(width, float(chord @ a.tangent) / width, float(chord @ b.tangent) / width)
-    return None if fold is None else fold[1]
+    return _fold_frequency(width, float(chord @ a.tangent) / width, float(chord @ b.tangent) / width)
 
 
 def _fold_outside(pair: np.ndarray, rates: np.ndarray, step: float, born: bool, band) -> bool:

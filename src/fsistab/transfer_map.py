@@ -152,7 +152,14 @@ def _geometric(omega0: float, step: float, tau: float) -> float:
 def _through_fold(omega0: float, rate0: float, rate1: float, tau: float) -> float:
     """``ω`` at ``τ ∈ [0, 1]`` of a segment through a fold in ω from and back to ``omega0``: the
     cubic Hermite with ``dω/dτ`` equal to ``rate0``, ``rate1`` at its ends (its extreme is the fold)."""
-    return float(omega0 + (tau**3 - 2 * tau**2 + tau) * rate0 + (tau**3 - tau**2) * rate1)
+    return float(npoly.polyval(tau, _hermite(omega0, rate0, omega0, rate1, 1.0)))
+
+
+def _rate_at(coef: np.ndarray, q0: float, q1: float, tau: float) -> float:
+    """The crossing rate at ``τ`` of a segment whose ``(log m, log U*)`` Hermite is ``coef``:
+    ``rate/(d log m/dτ)``, ``q0`` and ``q1`` at its ends, interpolated linearly, times the
+    interpolant's ``d log m/dτ`` (:meth:`TransferCurve.crossings_at`)."""
+    return float((q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0])))
 
 
 def _hermite(x0: np.ndarray, t0: np.ndarray, x1: np.ndarray, t1: np.ndarray, h: float) -> np.ndarray:
@@ -229,8 +236,7 @@ class TransferCurve:
             points.append((r0.mass_ratio, r0.reduced_velocity, r0.frequency, r0.crossing_rate))
             for tau in np.linspace(0.0, 1.0, FOLD_POINTS + 2)[1:-1] if k in folds else ():
                 log_m, log_u = npoly.polyval(tau, coef)
-                rate = (q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0]))
-                points.append((math.exp(log_m), math.exp(log_u), omega(tau), float(rate)))
+                points.append((math.exp(log_m), math.exp(log_u), omega(tau), _rate_at(coef, q0, q1, tau)))
         last = self.roots[-1]
         return [*points, (last.mass_ratio, last.reduced_velocity, last.frequency, last.crossing_rate)]
 
@@ -256,8 +262,7 @@ class TransferCurve:
                 if abs(tau.imag) < 1e-9 and -1e-12 <= tau.real <= 1 + 1e-12:
                     tau = float(np.clip(tau.real, 0, 1))
                     log_u = npoly.polyval(tau, coef[:, 1])
-                    rate = (q0 + tau * (q1 - q0)) * npoly.polyval(tau, npoly.polyder(coef[:, 0]))
-                    found.append((math.exp(log_u), omega(tau), rate))
+                    found.append((math.exp(log_u), omega(tau), _rate_at(coef, q0, q1, tau)))
         unique = []
         for u, w, rate in found:  # a root at a shared sample is found from both sides
             if all(abs(u - v) > 1e-10 * u for v, _, _ in unique):
