@@ -393,3 +393,91 @@ def test_a_released_start_takes_the_body_s_mode_when_a_fluid_mode_is_nearer(plat
     stepper = TimeStepper(system, 0.05)
     with pytest.raises(InputError, match="no pitch component .* give a --shift nearer the body's mode"):
         perturbed_state(stepper, pair.vector, 0.1, "pitch")
+
+
+@pytest.fixture(scope="module")
+def cylinder_60_wide_wake():
+    """The cylinder at Re 60 on a second mesh: ``coarse`` with wake elements of 0.5 instead of 0.35."""
+    return solve_steady(mesh_spec(Cylinder(), "coarse", 60, wake=0.5), Flow(60))
+
+
+def _heaving_stepper(steady) -> TimeStepper:
+    system = CoupledSystem(fluid_operators(steady), solid_for("cylinder", 10.0, 5.0, dofs=("heave",)))
+    return TimeStepper(system, 0.1)
+
+
+def _coupled_state(stepper: TimeStepper, velocity, pressure, solid=(0.02, -0.3)) -> np.ndarray:
+    """A coupled state whose fluid unknowns are the fields ``velocity``, ``pressure`` interpolated
+    on the stepper's mesh, its solid state (h, ḣ) ``solid``."""
+    from ngsolve import GridFunction
+
+    field = GridFunction(stepper.fluid.steady.space)
+    field.components[0].Set(velocity)
+    field.components[1].Set(pressure)
+    return np.concatenate([solid, field.vec.FV().NumPy()[stepper.fluid.index]])
+
+
+def test_a_state_carried_to_another_mesh_keeps_the_fields_that_both_represent(
+    cylinder_60, cylinder_60_wide_wake
+):
+    """docs/model.md §12, Start: a linear velocity and pressure field lies in the P2 and P1 spaces
+    of both meshes, so away from the walls (whose values the solid state sets through the lifting)
+    and the inlet and sides (held at zero) the carried field equals it to round-off; the solid state
+    is kept exactly. Carried to its own mesh, a state comes back unchanged."""
+    from ngsolve import CF, GridFunction, x, y
+
+    from fsistab.simulation import transferred_state
+
+    source, target = _heaving_stepper(cylinder_60.steady), _heaving_stepper(cylinder_60_wide_wake)
+    velocity, pressure = CF((0.1 + 0.01 * x - 0.02 * y, 0.03 * x + 0.005 * y)), 0.2 - 0.01 * x + 0.04 * y
+    q = _coupled_state(source, velocity, pressure)
+    carried = transferred_state(cylinder_60.steady, q, target)
+    assert carried.size == target.system.size and carried.size != q.size
+    assert np.array_equal(carried[:2], q[:2])
+    field = GridFunction(target.fluid.steady.space)
+    field.vec.FV().NumPy()[:] = target.fluid.full_state(target.solid_state(carried), carried[2:])
+    angles = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
+    for radius in (3.0, 8.0, 20.0):
+        for angle in angles:
+            px, py = radius * np.cos(angle), radius * np.sin(angle)
+            point = target.fluid.steady.mesh(px, py)
+            expected = (0.1 + 0.01 * px - 0.02 * py, 0.03 * px + 0.005 * py)
+            assert np.allclose(field.components[0](point), expected, rtol=0, atol=1e-10)
+            assert abs(field.components[1](point) - (0.2 - 0.01 * px + 0.04 * py)) < 1e-10
+    np.testing.assert_allclose(transferred_state(cylinder_60.steady, q, source), q, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="unknowns"):
+        transferred_state(cylinder_60.steady, q[:-1], target)
+
+
+def test_a_march_starts_from_a_checkpoint_of_another_mesh(tmp_path, cache_dir):
+    """``--start`` with a checkpoint marched on another mesh of the same body and flow: its state
+    is carried over (the solid state exactly) and marched; refused, in one line before any work,
+    when the checkpoint's mesh is not described in its cache or does not cover this domain."""
+    import shutil
+
+    from fsistab.workflows import simulate
+
+    solid = solid_for("cylinder", 10.0, 5.0, dofs=("heave",))
+    first = SimulationSettings(0.2, 0.1, 0.01, SHIFT, perturbation_of="heave")
+    source = Case.create("cylinder", 60, preset="coarse")
+    marched = simulate(source, solid, first, cache_dir, tmp_path / "a").dataset
+    checkpoint = marched.attrs["checkpoint"]
+    target = Case.create("cylinder", 60, preset="coarse", mesh_sizes="wake=0.5")
+    series = simulate(
+        target, solid, SimulationSettings(0.2, 0.1, start=checkpoint), cache_dir, tmp_path / "b"
+    ).dataset
+    assert series.attrs["ndof"] < marched.attrs["ndof"] and series.attrs["steps"] == 2
+    for name in ("heave", "heave_rate"):
+        assert series[name].values[0] == marched[name].values[-1] != 0
+    moved = tmp_path / "elsewhere" / "simulations" / "start.nc"
+    moved.parent.mkdir(parents=True)
+    shutil.copy(checkpoint, moved)
+    elsewhere = SimulationSettings(0.2, 0.1, start=str(moved))
+    with pytest.raises(InputError, match="steady state is not in its cache"):
+        simulate(target, solid, elsewhere, tmp_path / "none", tmp_path / "c")
+    small = Case.create("cylinder", 60, preset="coarse", domain=(20.0, 40.0, 20.0), mesh_sizes="wake=0.5")
+    inside = simulate(small, solid, SimulationSettings(0.1, 0.1, start=checkpoint), cache_dir, tmp_path / "d")
+    assert inside.dataset.attrs["steps"] == 1
+    start = SimulationSettings(0.1, 0.1, start=inside.dataset.attrs["checkpoint"])
+    with pytest.raises(InputError, match="does not cover"):
+        simulate(target, solid, start, tmp_path / "none", tmp_path / "e")

@@ -239,7 +239,8 @@ SIMULATE_OPTIONS = {
                      "(default: the body's spectrum shift); a released body (--perturbation-of "
                      "heave or pitch) from the nearest of six not labelled fluid, if any"),
     "start": option(str | None, "--start", "start from the last state of this simulation checkpoint "
-                     "(same mesh, flow and dofs; e.g. a saturated state at another U*) instead"),
+                     "(same body, flow and dofs; e.g. a saturated state at another U*) instead; "
+                     "marched on another mesh (kept in its cache), it is interpolated onto this one"),
     "checkpoint_every": option(int, "--checkpoint-every", "steps between checkpoints (a rerun resumes "
                                 "from the last one)", 100),
     "tolerance": option(float, "--step-tolerance", "each step's chord iteration stops when the largest "

@@ -44,6 +44,8 @@ from fsistab.operators import (
     motion_coefficients,
     quadratic_integrand,
     steady_fields,
+    wall_coefficients,
+    wall_lifting_matrix,
 )
 
 BDF_COEFFICIENTS = {1: (1.0, -1.0, 0.0), 2: (1.5, -2.0, 0.5)}
@@ -385,6 +387,33 @@ def perturbed_state(
     start = stepper.steady_point()
     start[: len(names)] += amplitude * (mode[: len(names)] / peak).real
     return start
+
+
+def transferred_state(source, q: np.ndarray, stepper: TimeStepper) -> np.ndarray:
+    """The coupled state ``q`` of a march on the mesh of the steady state ``source``, carried to
+    ``stepper``'s mesh (docs/model.md §12, Start): the solid state kept; the fluid's velocity and
+    pressure, whole (the wall values from the solid state through ``source``'s lifting), each
+    interpolated onto the target's space (NGSolve's ``Set`` of the source field, found point by
+    point in the source mesh); the target's wall values follow from the same solid state when it
+    is marched. The interpolant is not discretely divergence-free on the target mesh: the first
+    implicit step projects it, as it would a start at any finite amplitude. The source mesh must
+    cover the target's (the same domain, or a larger one)."""
+    from ngsolve import GridFunction
+
+    from fsistab.operators import free_dof_indices
+
+    solid, space = stepper.system.n_solid, source.space
+    index = free_dof_indices(space)
+    if q.size != solid + index.size:
+        raise InputError(f"the start holds {q.size} unknowns, not the {solid + index.size} of its mesh")
+    values = wall_lifting_matrix(source) @ wall_coefficients(stepper.solid_state(q))
+    values[index] = q[solid:]
+    field = GridFunction(space)
+    field.vec.FV().NumPy()[:] = values
+    target = GridFunction(stepper.fluid.steady.space)
+    for component, source_component in zip(target.components, field.components, strict=True):
+        component.Set(source_component)
+    return np.concatenate([q[:solid], target.vec.FV().NumPy()[stepper.fluid.index]])
 
 
 def march(

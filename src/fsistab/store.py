@@ -318,6 +318,17 @@ def read_dataset(path: Path, expect: dict | None = None) -> xr.Dataset:
     return ds
 
 
+def read_attributes(path: Path) -> dict:
+    """The global attributes of the NetCDF file ``path``, its header only and unverified (a cheap
+    look among many files before :func:`read_dataset` verifies the one chosen); empty when the
+    file cannot be read."""
+    try:
+        with xr.open_dataset(path, engine=NETCDF_ENGINE) as ds:
+            return dict(ds.attrs)
+    except Exception:  # h5py/netCDF raise many types for a damaged file
+        return {}
+
+
 def discard_damaged(path: Path, problem: CacheError | str) -> Path:
     """Report a damaged cache entry in one warning line and move it aside (``<name>.damaged``, which
     replaces an older one); returns where it went."""

@@ -1086,7 +1086,7 @@ def _start_fingerprint(path: str) -> str:
     """``--start`` as its path and the SHA-256 of the file's bytes: a checkpoint marched further
     later (the same path, another last state) is another start, so the march from it is another
     march, never the cached one from the old state. An unreadable file keeps its path alone (it is
-    refused when read, :func:`_saved_state`)."""
+    refused when read, :func:`_saved_start`)."""
     import hashlib
 
     try:
@@ -1113,19 +1113,86 @@ def _start_mode(system, settings, case: Case, say):
     return min(pairs, key=lambda p: abs(p.value - shift))
 
 
-def _saved_state(path: str, identity: dict, size: int) -> np.ndarray:
-    """The last state of the simulation checkpoint ``path``: same mesh, flow and degrees of freedom."""
-    from fsistab.errors import InputError
+class SavedStart(NamedTuple):
+    """The last state of a ``--start`` checkpoint, and the mesh it was marched on when it is not
+    this case's (None when it is)."""
+
+    state: np.ndarray
+    mesh: object | None
+
+
+def _saved_start(settings, case: Case, identity: dict) -> SavedStart | None:
+    """The ``--start`` checkpoint's last state, read and checked before any work: of this body,
+    flow and degrees of freedom, on this mesh, or on another whose specification the checkpoint's
+    cache holds (:func:`_source_mesh`)."""
     from fsistab.store import read_dataset
 
-    keys = ("body", "reynolds", "alpha0_deg", "mesh_key", "sponge", "dofs")
-    ds = read_dataset(Path(path), {k: identity[k] for k in keys})
-    if "current_state" not in ds or ds["current_state"].size != size:
-        raise InputError(f"{path} holds no state of {size} unknowns (a simulation checkpoint of this case)")
-    return ds["current_state"].values.astype(float)
+    if settings.start is None:
+        return None
+    path = Path(settings.start)
+    keys = ("body", "reynolds", "alpha0_deg", "dofs")
+    ds = read_dataset(path, {k: identity[k] for k in keys})
+    if "current_state" not in ds or "mesh_key" not in ds.attrs:
+        raise InputError(f"{path} holds no state (not a simulation checkpoint)")
+    state = ds["current_state"].values.astype(float)
+    if ds.attrs["mesh_key"] == identity["mesh_key"]:
+        return SavedStart(state, None)
+    return SavedStart(state, _source_mesh(path, str(ds.attrs["mesh_key"]), case))
 
 
-def _start(table, stepper, system, settings, case, identity, say):
+def _source_mesh(checkpoint: Path, mesh_key: str, case: Case):
+    """The specification of the mesh ``mesh_key`` that the checkpoint was marched on: the one saved
+    with a steady state of this flow on that mesh in the cache that holds the checkpoint (its body
+    this case's, checked by the key). It must cover this case's domain: the start is interpolated
+    at this mesh's points."""
+    from fsistab.errors import CacheError
+    from fsistab.mesh import MeshSizes
+    from fsistab.params import Domain
+    from fsistab.store import read_attributes, read_dataset
+
+    target, flow = _mesh_spec(case), {"reynolds": case.flow.reynolds, "alpha0_deg": case.flow.alpha0_deg}
+    for path in sorted((checkpoint.resolve().parent.parent / "steady").glob("*.nc")):
+        if read_attributes(path).get("mesh_key") != mesh_key:
+            continue
+        try:
+            attrs = read_dataset(path, {"mesh_key": mesh_key, **flow}).attrs
+        except CacheError:
+            continue
+        saved = json.loads(attrs["mesh"])
+        sizes = MeshSizes(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved["sizes"].items()})
+        spec = replace(target, domain=Domain(**saved["domain"]), sizes=sizes, sponge=None)
+        spec = replace(spec, preset=saved["preset"], outlet=saved["outlet"])
+        if spec.key() != mesh_key:
+            continue
+        sides = ("upstream", "downstream", "lateral")
+        if any(getattr(spec.domain, side) < getattr(target.domain, side) for side in sides):
+            own = target.domain
+            raise InputError(f"{checkpoint}: its domain {spec.domain} does not cover this mesh's {own}")
+        return spec
+    raise InputError(
+        f"{checkpoint} was marched on another mesh (key {mesh_key}) whose steady state is not in "
+        "its cache: a start on another mesh needs it"
+    )
+
+
+def _start_state(saved: SavedStart, stepper, case: Case, start: str, say) -> np.ndarray:
+    """The saved start as a state of this mesh: as saved, or interpolated from its own mesh
+    (:func:`fsistab.simulation.transferred_state`)."""
+    from fsistab.simulation import transferred_state
+    from fsistab.steady import solve_steady
+
+    if saved.mesh is None:
+        if saved.state.size != stepper.system.size:
+            size = stepper.system.size
+            raise InputError(f"{start} holds no state of {size} unknowns (a checkpoint of this case)")
+        return saved.state
+    cache = Path(start).resolve().parent.parent
+    source = solve_steady(saved.mesh, case.flow, cache_dir=cache, progress=say)
+    say(f"the start's state interpolated from its mesh ({source.space.ndof} dofs) onto this one")
+    return transferred_state(source, saved.state, stepper)
+
+
+def _start(table, stepper, system, settings, case, saved: SavedStart | None, say):
     """The :class:`fsistab.simulation.MarchState` to march from: the checkpoint's last state, else
     the start (a saved state, the steady state plus the perturbation times the mode nearest the
     shift, or without perturbation the steady state itself), recorded as the table's first row."""
@@ -1138,8 +1205,8 @@ def _start(table, stepper, system, settings, case, identity, say):
         previous = state.get("previous_state")
         return MarchState(float(last["time"]), len(records) - 1, state["current_state"], previous)
     states = {}
-    if settings.start is not None:
-        q0 = _saved_state(settings.start, identity, system.size)
+    if saved is not None:
+        q0 = _start_state(saved, stepper, case, settings.start, say)
     elif settings.perturbation == 0:
         q0 = stepper.steady_point()  # no mode to add: no eigenvalue solve
     else:
@@ -1210,14 +1277,15 @@ def simulate(
     from fsistab.store import ResumableTable, cache_key, write_dataset
 
     say = progress
+    identity = _simulation_identity(case, solid, settings)
+    saved = _saved_start(settings, case, identity)
     steady, fluid = _fluid(case, cache_dir, say)
     system = CoupledSystem(fluid, solid)
-    identity = _simulation_identity(case, solid, settings)
     path = Path(cache_dir) / "simulations" / f"simulate_{case.tag}_{cache_key('simulation', identity)}.nc"
     path.parent.mkdir(parents=True, exist_ok=True)
     table = ResumableTable(path, identity, {"sample": SIMULATION_FIELDS}, SIMULATION_STATE)
     stepper = TimeStepper(system, settings.time_step, settings.tolerance, settings.max_iterations)
-    state = _start(table, stepper, system, settings, case, identity, say)
+    state = _start(table, stepper, system, settings, case, saved, say)
     _resume_linearisation(table, stepper, state, say)
     say(f"BDF2 march to t = {settings.duration:g}, dt = {settings.time_step:g}, {system.size} unknowns")
     reference = stepper.sample(0.0, stepper.steady_point(), fluid.loads0)
