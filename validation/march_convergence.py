@@ -9,12 +9,16 @@ the first one given (give the finest first). ``--signal ratio``: the heave's pea
 march was released in (:func:`linear_mode_ratio`), so that marches on meshes whose flutter modes
 differ in shape compare by what the march adds to the linear mode. Half periods are matched by
 their order, and a series' peak is only compared while the two are within a tenth of a period of
-each other (unless ``--by-order``). A last row gives each series' time step, unknowns, chord
+each other (unless ``--by-order``). ``--offsets``: one time per series added to its times, for a
+march started (``fsistab simulate --start``) from another's state at that time, on another mesh:
+its time begins at zero; with ``--since`` the same time, the series are compared from there. A
+last row gives each series' time step, unknowns, chord
 iterations per step (over the series read) and wall time per step (of the march's last run,
 ``seconds_per_step``).
 
 Usage: python validation/march_convergence.py FINEST.nc OTHER.nc [...] [--signal pitch|heave|ratio]
        [--level 0] [--labels "dt 0.025" "dt 0.05" ...] [--until T] [--by-order]
+       [--offsets 0 712.5 ...] [--since 712.5]
 """
 
 import argparse
@@ -43,11 +47,15 @@ def linear_mode_ratio(ds) -> float:
     return abs(complex(h / theta, (rate * h - h_rate) / (theta * frequency)))
 
 
-def peaks(path: str, signal: str, level: float, until: float) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The half-period peaks of ``signal`` up to ``until`` (degrees for the pitch; for ``ratio``, the
-    heave's over the pitch's, over the linear mode's ratio) and the march's cost attributes."""
+def peaks(
+    path: str, signal: str, level: float, until: float, offset: float = 0.0, since: float = -math.inf
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The half-period peaks of ``signal`` over ``since``–``until`` of the series' time plus
+    ``offset`` (degrees for the pitch; for ``ratio``, the heave's over the pitch's, over the linear
+    mode's ratio) and the march's cost attributes."""
     ds = read_dataset(path)
-    keep = ds.time.values <= until
+    ds = ds.assign_coords(time=ds.time.values + offset)
+    keep = (ds.time.values <= until) & (ds.time.values >= since - 1e-9)
     mode_ratio = linear_mode_ratio(ds) if signal == "ratio" else None
     if signal == "ratio":
         at, pitch = half_period_peaks(ds.time.values[keep], ds["pitch"].values[keep], level)
@@ -109,6 +117,8 @@ def main() -> None:
     parser.add_argument("--level", type=float, default=0.0, help="the level the half periods cross")
     parser.add_argument("--labels", nargs="+", default=None, help="one label per series")
     parser.add_argument("--until", type=float, default=math.inf, help="read the series up to this time")
+    parser.add_argument("--offsets", nargs="+", type=float, default=None, help="one time per series")
+    parser.add_argument("--since", type=float, default=-math.inf, help="read the series from this time")
     parser.add_argument(
         "--by-order",
         action="store_true",
@@ -120,7 +130,13 @@ def main() -> None:
     labels = args.labels or [f"series {k + 1}" for k in range(len(args.series))]
     if len(labels) != len(args.series):
         parser.error(f"give one label per series ({len(args.series)}), got {len(labels)}")
-    series = [peaks(path, args.signal, args.level, args.until) for path in args.series]
+    offsets = args.offsets or [0.0] * len(args.series)
+    if len(offsets) != len(args.series):
+        parser.error(f"give one offset per series ({len(args.series)}), got {len(offsets)}")
+    series = [
+        peaks(path, args.signal, args.level, args.until, offset, args.since)
+        for path, offset in zip(args.series, offsets, strict=True)
+    ]
     print("\n".join(table(series, labels, args.by_order)))
 
 
