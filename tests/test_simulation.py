@@ -396,7 +396,7 @@ def test_a_released_start_takes_the_body_s_mode_when_a_fluid_mode_is_nearer(plat
 
 
 @pytest.fixture(scope="module")
-def cylinder_60_wide_wake():
+def cylinder_60_coarser_wake():
     """The cylinder at Re 60 on a second mesh: ``coarse`` with wake elements of 0.5 instead of 0.35."""
     return solve_steady(mesh_spec(Cylinder(), "coarse", 60, wake=0.5), Flow(60))
 
@@ -418,7 +418,7 @@ def _coupled_state(stepper: TimeStepper, velocity, pressure, solid=(0.02, -0.3))
 
 
 def test_a_state_carried_to_another_mesh_keeps_the_fields_that_both_represent(
-    cylinder_60, cylinder_60_wide_wake
+    cylinder_60, cylinder_60_coarser_wake
 ):
     """docs/model.md §12, Start: a linear velocity and pressure field lies in the P2 and P1 spaces
     of both meshes, so away from the walls (whose values the solid state sets through the lifting)
@@ -428,7 +428,7 @@ def test_a_state_carried_to_another_mesh_keeps_the_fields_that_both_represent(
 
     from fsistab.simulation import transferred_state
 
-    source, target = _heaving_stepper(cylinder_60.steady), _heaving_stepper(cylinder_60_wide_wake)
+    source, target = _heaving_stepper(cylinder_60.steady), _heaving_stepper(cylinder_60_coarser_wake)
     velocity, pressure = CF((0.1 + 0.01 * x - 0.02 * y, 0.03 * x + 0.005 * y)), 0.2 - 0.01 * x + 0.04 * y
     q = _coupled_state(source, velocity, pressure)
     carried = transferred_state(cylinder_60.steady, q, target)

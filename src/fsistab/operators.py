@@ -164,6 +164,17 @@ def free_dof_indices(space) -> np.ndarray:
     return np.nonzero(np.array(list(space.FreeDofs()), dtype=bool))[0]
 
 
+def full_dof_vector(
+    lifting: np.ndarray, index: np.ndarray, q_solid: np.ndarray, q_fluid: np.ndarray
+) -> np.ndarray:
+    """The fluid state on every dof: ``q_fluid`` on the free dofs ``index``, the wall velocity
+    ``u_Γ(q_s)`` through the ``lifting`` (:func:`wall_lifting_matrix`) on the wall's, zero on the
+    inlet's and the sides' (docs/model.md §7)."""
+    values = lifting @ wall_coefficients(q_solid)  # zero off the wall
+    values[index] = q_fluid
+    return values
+
+
 def wall_lifting_matrix(steady: SteadyState) -> np.ndarray:
     """Dof vectors of ``ℓ_x, ℓ_y, ℓ_rot`` as columns (ndof × 3)."""
     liftings = wall_liftings(steady.space, steady.mesh)
@@ -728,9 +739,7 @@ class FluidResidual:
         self._residual = steady.state.vec.CreateVector()
 
     def full_state(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> np.ndarray:
-        values = self.lifting @ wall_coefficients(q_solid)  # zero off the wall
-        values[self.index] = q_fluid
-        return values
+        return full_dof_vector(self.lifting, self.index, q_solid, q_fluid)
 
     def __call__(self, q_solid: np.ndarray, q_fluid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(R_f on the free dofs, loads (F_x, F_y, M) = -ℓᵀ R)`` for solid state ``(h, θ, ḣ, θ')``."""

@@ -40,11 +40,12 @@ from fsistab.linalg import FactorCounter, ShiftedSolver
 from fsistab.operators import (
     FluidResidual,
     _to_scipy,
+    free_dof_indices,
+    full_dof_vector,
     mass_integrand,
     motion_coefficients,
     quadratic_integrand,
     steady_fields,
-    wall_coefficients,
     wall_lifting_matrix,
 )
 
@@ -400,16 +401,14 @@ def transferred_state(source, q: np.ndarray, stepper: TimeStepper) -> np.ndarray
     cover the target's (the same domain, or a larger one)."""
     from ngsolve import GridFunction
 
-    from fsistab.operators import free_dof_indices
-
     solid, space = stepper.system.n_solid, source.space
     index = free_dof_indices(space)
     if q.size != solid + index.size:
         raise InputError(f"the start holds {q.size} unknowns, not the {solid + index.size} of its mesh")
-    values = wall_lifting_matrix(source) @ wall_coefficients(stepper.solid_state(q))
-    values[index] = q[solid:]
     field = GridFunction(space)
-    field.vec.FV().NumPy()[:] = values
+    field.vec.FV().NumPy()[:] = full_dof_vector(
+        wall_lifting_matrix(source), index, stepper.solid_state(q), q[solid:]
+    )
     target = GridFunction(stepper.fluid.steady.space)
     for component, source_component in zip(target.components, field.components, strict=True):
         component.Set(source_component)
