@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from scipy.optimize import least_squares
 
 from fsistab.params import Case, LcoSettings, Solid, body_velocity_scale
 from fsistab.progress import Progress
@@ -188,6 +189,91 @@ def half_period_peaks(times, values, level: float = 0.0) -> tuple[np.ndarray, np
         at.append(times[k] + shift * (times[k + 1] - times[k - 1]) / 2)
         peaks.append(y1 - 0.25 * (y0 - y2) * shift)
     return np.array(at), np.array(peaks)
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A settling envelope fitted to a march's half-period peaks (:func:`envelope_limit`):
+    ``A(t) = limit + e^{rate·τ}(c cos(frequency·τ) + s sin(frequency·τ))``, ``τ = t − end``, over
+    the ``count`` peaks of ``start``–``end``; ``limit_error`` is the limit's standard error from the
+    fit's residual ``rms``, ``swing = √(c² + s²)`` the modulation's size at ``end``."""
+
+    limit: float
+    limit_error: float
+    rate: float
+    frequency: float
+    coefficients: tuple[float, float]
+    rms: float
+    count: int
+    start: float
+    end: float
+
+    @property
+    def swing(self) -> float:
+        return math.hypot(*self.coefficients)
+
+    def __call__(self, times) -> np.ndarray:
+        """The fitted envelope at ``times`` (beyond ``end``: its extrapolation)."""
+        tau = np.asarray(times, dtype=float) - self.end
+        return self.limit + _modulation(tau, self.rate, self.frequency) @ np.asarray(self.coefficients)
+
+
+def _modulation(tau: np.ndarray, rate: float, frequency: float) -> np.ndarray:
+    decay = np.exp(rate * tau)
+    return np.column_stack([decay * np.cos(frequency * tau), decay * np.sin(frequency * tau)])
+
+
+def envelope_limit(times, peaks) -> Envelope:
+    """The level a slowly settling oscillation tends to, from its half-period peaks
+    (:func:`half_period_peaks`): near a stable limit cycle the amplitude's departure from it decays
+    as the cycle's slowest Floquet pair, ``A(t) → limit + Re(b e^{(rate + i·frequency)t})``, a
+    modulation of the envelope much slower than the oscillation itself. The model is linear in
+    ``(limit, c, s)`` and these are solved for at each ``(rate, frequency)`` (variable projection),
+    the two searched by least squares from several starts (modulation periods from twice the
+    peaks' span down to six peak spacings). Meaningful when ``rate < 0`` and the peaks span at
+    least about one modulation; the peaks given should start after the release's own transient,
+    and a fit is tested by predicting later peaks (docs/how-to/limit-cycles.md; docs/simulation.md,
+    check d). ValueError with fewer than eight peaks."""
+    times, peaks = np.asarray(times, dtype=float), np.asarray(peaks, dtype=float)
+    if len(peaks) < 8:
+        raise ValueError(f"an envelope fit needs at least eight half-period peaks, got {len(peaks)}")
+    tau, span = times - times[-1], times[-1] - times[0]
+
+    def solve(params):
+        columns = np.column_stack([np.ones_like(tau), _modulation(tau, *params)])
+        coefficients, *_ = np.linalg.lstsq(columns, peaks, rcond=None)
+        return columns, coefficients
+
+    def residual(params):
+        columns, coefficients = solve(params)
+        return columns @ coefficients - peaks
+
+    spacing = span / (len(peaks) - 1)
+    starts = [
+        (rate, frequency)
+        for frequency in np.geomspace(math.pi / span, math.pi / (3 * spacing), 6)
+        for rate in (-4 / span, -1 / span, 0.0)
+    ]
+    best = min((least_squares(residual, start) for start in starts), key=lambda fit: fit.cost)
+    columns, (limit, c, s) = solve(best.x)
+    rate, frequency = best.x
+    # the full model's Jacobian in (limit, c, s, rate, frequency), for the limit's standard error
+    full = np.column_stack(
+        [columns, tau * (columns[:, 1:] @ [c, s]), tau * (s * columns[:, 1] - c * columns[:, 2])]
+    )
+    variance = 2 * best.cost / max(len(peaks) - 5, 1)
+    covariance = np.linalg.pinv(full.T @ full) * variance
+    return Envelope(
+        float(limit),
+        float(math.sqrt(max(covariance[0, 0], 0.0))),
+        float(rate),
+        float(abs(frequency)),
+        (float(c), float(s) * (1 if frequency >= 0 else -1)),
+        float(math.sqrt(2 * best.cost / len(peaks))),
+        len(peaks),
+        float(times[0]),
+        float(times[-1]),
+    )
 
 
 def onset_fit(velocities, amplitudes, saturated, threshold: float, points: int = 3) -> tuple[float, float]:
