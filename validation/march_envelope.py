@@ -125,10 +125,13 @@ def main() -> None:
     if len(labels) != len(args.series) or len(offsets) != len(args.series):
         parser.error(f"give one label and one offset per series ({len(args.series)})")
     all_series = [peaks(path, offset) for path, offset in zip(args.series, offsets, strict=True)]
-    print("\n".join(fit_rows(all_series[0], args.since)))
-    if args.predict_from:
-        print()
-        print("\n".join(prediction_rows(all_series[0], args.since[0], args.predict_from)))
+    try:
+        print("\n".join(fit_rows(all_series[0], args.since)))
+        if args.predict_from:
+            print()
+            print("\n".join(prediction_rows(all_series[0], args.since[0], args.predict_from)))
+    except ValueError as error:  # a window with too few half periods
+        parser.error(f"{error}: start the fit earlier, or march longer")
     if args.figure:
         draw(all_series, labels, args.since[0], args.figure)
 
