@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fsistab import lco
+from fsistab import lco, payloads, reports
 from fsistab.errors import InputError
 from fsistab.params import Case, LcoSettings, SimulationSettings, solid_for
 
@@ -478,6 +478,43 @@ def test_the_diagram_marks_only_onsets_and_keeps_its_marches_when_the_search_fai
     assert "threshold search failed" in ds.attrs["onset"] and "no convergence" in ds.attrs["onset"]
     assert ds.sizes["threshold"] == 0 and list(ds.heave_state.values) == ["saturated"] * 3
     assert Path(ds.attrs["data"]).is_file()
+
+
+def test_the_diagram_keeps_each_start_mode_and_warns_of_a_decaying_one_past_the_threshold(
+    tmp_path, monkeypatch
+):
+    """A coupled-mode pair past the threshold (5.0): at U* = 5.5 the shift picked the decaying
+    partner (λ < 0), at 6.0 the growing mode. The diagram keeps both start modes, the report and
+    the JSON say which march started from the decaying one; below the threshold (4.5) a decaying
+    start mode is expected and not flagged."""
+    rates = {4.5: -0.002, 5.5: -0.0132, 6.0: 0.0008}
+
+    def released(velocity, start):
+        return _fake_series(velocity).assign_attrs(
+            start_growth_rate=rates[velocity], start_frequency=0.17, perturbation_of="heave"
+        )
+
+    _fake_marches(monkeypatch, released)
+    _thresholds_found(monkeypatch, [5.0], ["flutter"], ["onset"])
+    case = Case.create("cylinder", 100, preset="coarse")
+    solid = solid_for("cylinder", 10.0, 4.5, dofs=("heave",))
+    settings = LcoSettings((4.5, 6.0), 4, SimulationSettings(200.0, 0.1, 0.1, perturbation_of="heave"))
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out")
+    assert ds.start_growth_rate.values[[0, 2, 3]] == pytest.approx([-0.002, -0.0132, 0.0008])
+    warning = ds.attrs["start_mode_warning"]
+    assert "U* = 5.5 (λ = -0.0132" in warning and "4.5" not in warning and "6 (" not in warning
+    payload = payloads.payload("lco", ds)
+    assert payload["points"][2]["start_eigenvalue"] == {"growth_rate": -0.0132, "frequency": 0.17}
+    lines = [line for line in reports.lco(ds, payload) if isinstance(line, str)]  # the table apart
+    assert any(line.startswith("warning: past the linear threshold") for line in lines)
+    _fake_marches(
+        monkeypatch,
+        lambda velocity, start: released(velocity, start).assign_attrs(
+            start_growth_rate=abs(rates[velocity])
+        ),
+    )
+    ds = lco.limit_cycles(case, solid, settings, 10.0, tmp_path, tmp_path / "out2")
+    assert ds.attrs["start_mode_warning"] == "" and payloads.payload("lco", ds)["start_mode_warning"] is None
 
 
 def test_records_beyond_the_duration_are_not_read_nor_chained_from(tmp_path, monkeypatch):

@@ -314,6 +314,29 @@ def classify_onset(ds: xr.Dataset, threshold: float) -> str:
     return "undetermined"
 
 
+def start_mode_warning(ds: xr.Dataset) -> str:
+    """Why a sweep may not show the cycle past its first linear threshold: the marches there that
+    started from a decaying mode ('' if none). With coupled-mode flutter the two solid modes form a
+    pair of nearly equal frequency, one growing and one decaying past the threshold; a shift
+    between them picks either, and a release of the decaying one settles back before the growing
+    one takes over, if it does within the march (docs/how-to/limit-cycles.md)."""
+    if "start_growth_rate" not in ds or not ds.threshold_velocity.size:
+        return ""
+    u, rate = ds.reduced_velocity.values, ds.start_growth_rate.values
+    past = (u > float(ds.threshold_velocity.values[0])) & (rate < 0)  # NaN (a given start): never
+    if not past.any():
+        return ""
+    listed = ", ".join(
+        f"{v:g} (λ = {r:+.3g}, ω = {w:.4g})"
+        for v, r, w in zip(u[past], rate[past], ds.start_frequency.values[past], strict=True)
+    )
+    return (
+        f"past the linear threshold U*_c = {float(ds.threshold_velocity.values[0]):.5g} the marches "
+        f"at U* = {listed} started from a decaying mode: the shift may have picked the damped "
+        "partner of the flutter mode; move --shift to the growing one's side"
+    )
+
+
 def signals(ds: xr.Dataset) -> list[str]:
     """The signals of a diagram, the leading one first: the pitch when it moves, the heave when it
     moves, else (a fixed body) the lift coefficient (the diagram, the report and the onset read
@@ -413,10 +436,13 @@ def point_dataset(series: xr.Dataset, velocity: float, settings: LcoSettings) ->
     t_all = series.time.values
     kept = series.isel(time=t_all <= simulation.duration + 0.5 * simulation.time_step)
     t = kept.time.values
-    mode = (series.attrs.get("start_growth_rate", math.nan), series.attrs.get("start_frequency", math.nan))
+    start = (series.attrs.get("start_growth_rate", math.nan), series.attrs.get("start_frequency", math.nan))
+    mode = start
     if series.attrs.get("perturbation_of", "largest") != "largest":
         mode = (math.nan, math.nan)  # a body released at a finite amplitude: judged by its envelope
-    data = {"reduced_velocity": velocity}
+    # the mode the march started from, kept whatever the start (NaN from a given state): a sweep
+    # shows which branch its shift picked at each U* (start_mode_warning)
+    data = {"reduced_velocity": velocity, "start_growth_rate": start[0], "start_frequency": start[1]}
     for name, signal in (("heave", "heave"), ("pitch", "pitch"), ("lift", "lift_coefficient")):
         s = saturation(t, kept[signal].values, settings.periods, settings.saturation_tolerance)
         if s.saturated and not left_linear_transient(s, *mode, settings.saturation_tolerance):
@@ -554,13 +580,19 @@ def _stack(velocities, results, prefix: str = "") -> dict:
         if name == "reduced_velocity":
             continue
         text = template[name].dtype.kind in "US"
-        column = [("failed" if text else np.nan) if isinstance(r, str) else r[name].item() for r in results]
+        column = [_scalar(r, name, "failed" if text else np.nan) for r in results]
         data[f"{prefix}{name}"] = ("reduced_velocity", np.array(column, dtype=str if text else float))
     data[f"{prefix}error"] = (
         "reduced_velocity",
         np.array([r if isinstance(r, str) else "" for r in results]),
     )
     return data
+
+
+def _scalar(result, name: str, missing):
+    """One point's scalar ``name``: ``missing`` for a failed point, or for a point file written
+    before that field was."""
+    return missing if isinstance(result, str) or name not in result else result[name].item()
 
 
 def threshold_sweep(settings: LcoSettings, mass_ratio: float):
@@ -703,6 +735,6 @@ def limit_cycles(
     # the decreasing sweep's top is the increasing sweep's last march: counted once
     ds.attrs.update(_attributes(case, solid, settings, mass_ratio, increasing + decreasing[:-1], client))
     ds.attrs.update(thresholds=int(thresholds), seconds=time.perf_counter() - t0)
-    ds.attrs.update(_onset(ds, critical, problem))
+    ds.attrs.update(_onset(ds, critical, problem), start_mode_warning=start_mode_warning(ds))
     path = write_dataset(ds, diagram_path(out, case, solid, settings, thresholds))
     return ds.assign_attrs(data=str(path))

@@ -423,6 +423,9 @@ def _lco_payload(ds):
     points = []
     for i, u in enumerate(ds.reduced_velocity.values):
         point = {"reduced_velocity": float(u), "error": str(ds["error"].values[i]) or None}
+        if "start_growth_rate" in ds:  # diagrams written before this field have none
+            rate, omega = _finite_or_none([ds.start_growth_rate.values[i], ds.start_frequency.values[i]])
+            point["start_eigenvalue"] = None if rate is None else {"growth_rate": rate, "frequency": omega}
         for name in ("heave", "pitch", "lift"):
             if f"{name}_amplitude" in ds:
                 point[name] = {
@@ -451,6 +454,7 @@ def _lco_payload(ds):
         "points": points,
         "thresholds": [float(u) for u in ds.threshold_velocity.values],
         "onset": a["onset"],
+        "start_mode_warning": a.get("start_mode_warning") or None,
         "onset_fit": {
             "slope": _finite_or_none([a["onset_slope"]])[0],
             "velocity": _finite_or_none([a["onset_velocity"]])[0],

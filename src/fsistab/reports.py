@@ -453,6 +453,8 @@ def lco(ds: xr.Dataset, p: dict) -> list:
     lines = [table(title, ("U*", *(f"{n} amplitude" for n in names), "envelope"), rows)]
     thresholds = ", ".join(f"{u:.5g}" for u in p["thresholds"]) or "none in the range"
     lines.append(f"linear thresholds U*_c: {thresholds}; onset: {p['onset']}")
+    if p["start_mode_warning"]:
+        lines.append(f"warning: {p['start_mode_warning']}")
     fit = p["onset_fit"]
     if fit["velocity"] is not None:
         lines.append(

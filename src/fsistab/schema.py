@@ -97,6 +97,10 @@ def _limit_cycle_fields() -> dict[str, Field]:
                 f"largest excursion of the {what} from its mid-level over the second half", unit
             ),
         }
+    fields |= {
+        "start_growth_rate": Field("growth rate lambda of the eigenmode the march started from (U/L)"),
+        "start_frequency": Field("angular frequency omega of the eigenmode the march started from (U/L)"),
+    }
     fields["start_state"] = _text(
         "state of the leading signal of the march this one started from (the one above; 'not chained' "
         "for the sweep's top)"
