@@ -56,32 +56,31 @@ class Sweep:
 
 
 SWEEPS = {
-    # m* = 4 M_red/π with the benchmark's reduced mass M_red = m/(ρD²) = 2 (§10)
     "cylinder": Sweep(
-        150.0,
-        2.546479,
-        ("heave",),
-        (3.0, 8.0),
-        6,
-        80.0,
-        0.1,
-        0.15 + 0.66j,
-        "heave",
-        0.1,
-        "cylinder_Re150_m2.5",
+        reynolds=150.0,
+        mass_ratio=2.546479,  # m* = 4 M_red/π with the benchmark's M_red = m/(ρD²) = 2 (§10)
+        dofs=("heave",),
+        velocity_range=(3.0, 8.0),
+        points=6,
+        duration=80.0,
+        time_step=0.1,
+        shift=0.15 + 0.66j,
+        released="heave",
+        perturbation=0.1,
+        tag="cylinder_Re150_m2.5",
     ),
     "plate": Sweep(
-        2900.0,
-        1000.0,
-        ("heave", "pitch"),
-        (4.4, 5.0),
-        4,
-        250.0,
-        0.05,
-        0.01 + 0.18j,
-        "pitch",
-        0.0873,
-        "plate_Re2900_m1000",
+        reynolds=2900.0,
+        mass_ratio=1000.0,
+        dofs=("heave", "pitch"),
+        velocity_range=(4.4, 5.0),
+        points=4,
+        duration=250.0,
+        time_step=0.05,
+        shift=0.01 + 0.18j,  # the growing mode of the coupled-mode pair past U*_F
+        released="pitch",
+        perturbation=0.0873,  # 5°
+        tag="plate_Re2900_m1000",
     ),
 }
 
