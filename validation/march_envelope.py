@@ -12,9 +12,11 @@ or its checkpoint while it runs), this prints, for the pitch (degrees) and the h
   error on the peaks measured after ``T``: the extrapolation tested against the march itself.
 
 ``--figure`` draws the peaks of every series given (other meshes' marches, placed in time by
-``--offsets`` as in ``validation/march_convergence.py``) with the first series' fitted envelope.
+``--offsets`` as in ``validation/march_convergence.py``, or marches at other U*) with the first
+series' envelope fitted from the first ``--since``; without ``--since``, the peaks alone (an
+envelope that wanders rather than settles has no limit to fit).
 
-Usage: python validation/march_envelope.py SERIES.nc [OTHER.nc ...] --since 300 400 500
+Usage: python validation/march_envelope.py SERIES.nc [OTHER.nc ...] [--since 300 400 500]
        [--predict-from 600 700] [--labels ...] [--offsets 0 712.5 ...] [--figure F.png]
 """
 
@@ -79,8 +81,8 @@ def prediction_rows(series: dict, since: float, ends: list[float]) -> list[str]:
     return lines
 
 
-def draw(all_series: list[dict], labels: list[str], since: float, path: str) -> None:
-    """The peaks of every series and the first one's envelope fitted from ``since``."""
+def draw(all_series: list[dict], labels: list[str], since: float | None, path: str) -> None:
+    """The peaks of every series and, given ``since``, the first one's envelope fitted from it."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -90,15 +92,10 @@ def draw(all_series: list[dict], labels: list[str], since: float, path: str) -> 
     for ax, (name, (ylabel, _)) in zip(axes, SIGNALS.items(), strict=True):
         for k, (series, label) in enumerate(zip(all_series, labels, strict=True)):
             at, peak = series[name]
-            style = {"marker": ".", "lw": 0.8} if k == 0 else {"marker": "x", "ls": "none", "ms": 5}
+            style = {"marker": ".", "lw": 0.8} if k == 0 else {"marker": "x", "lw": 0.4, "ms": 4}
             ax.plot(at, peak, label=label, **style)
-        at, peak = all_series[0][name]
-        keep = at >= since
-        e = envelope_limit(at[keep], peak[keep])
-        t = np.linspace(e.start, e.end, 400)
-        ax.plot(t, e(t), "k--", lw=0.8, label=f"envelope fitted from t = {since:g}")
-        ax.axhline(e.limit, color="grey", lw=0.6, ls=":")
-        ax.annotate(f"A∞ = {e.limit:.4g}", (e.start, e.limit), ha="left", va="bottom", fontsize=8)
+        if since is not None:
+            draw_envelope(ax, *all_series[0][name], since)
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
@@ -107,12 +104,22 @@ def draw(all_series: list[dict], labels: list[str], since: float, path: str) -> 
     fig.savefig(path, dpi=150)
 
 
+def draw_envelope(ax, at: np.ndarray, peak: np.ndarray, since: float) -> None:
+    """The envelope fitted to the peaks from ``since`` and its limit A∞."""
+    keep = at >= since
+    e = envelope_limit(at[keep], peak[keep])
+    t = np.linspace(e.start, e.end, 400)
+    ax.plot(t, e(t), "k--", lw=0.8, label=f"envelope fitted from t = {since:g}")
+    ax.axhline(e.limit, color="grey", lw=0.6, ls=":")
+    ax.annotate(f"A∞ = {e.limit:.4g}", (e.start, e.limit), ha="left", va="bottom", fontsize=8)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("series", nargs="+", help="simulate_*.nc time series; the first is fitted")
-    parser.add_argument("--since", nargs="+", type=float, required=True, help="fit windows' start times")
+    parser.add_argument("--since", nargs="+", type=float, default=[], help="fit windows' start times")
     parser.add_argument(
         "--predict-from", nargs="+", type=float, default=[], help="fit up to T, predict after"
     )
@@ -124,16 +131,19 @@ def main() -> None:
     offsets = args.offsets or [0.0] * len(args.series)
     if len(labels) != len(args.series) or len(offsets) != len(args.series):
         parser.error(f"give one label and one offset per series ({len(args.series)})")
+    if not args.since and (args.predict_from or not args.figure):
+        parser.error("give --since (fit windows; needed by --predict-from), --figure (the peaks), or both")
     all_series = [peaks(path, offset) for path, offset in zip(args.series, offsets, strict=True)]
     try:
-        print("\n".join(fit_rows(all_series[0], args.since)))
+        if args.since:
+            print("\n".join(fit_rows(all_series[0], args.since)))
         if args.predict_from:
             print()
             print("\n".join(prediction_rows(all_series[0], args.since[0], args.predict_from)))
     except ValueError as error:  # a window with too few half periods
         parser.error(f"{error}: start the fit earlier, or march longer")
     if args.figure:
-        draw(all_series, labels, args.since[0], args.figure)
+        draw(all_series, labels, args.since[0] if args.since else None, args.figure)
 
 
 if __name__ == "__main__":
