@@ -30,7 +30,7 @@ Command-line equivalents::
 Mesh: ``--mesh`` preset (default coarse).
 
 Usage: python examples/plot_limit_cycles.py [--body cylinder|plate] [--mesh coarse] [--out DIR]
-[--points N] [--workers 2]
+[--range A B] [--points N] [--duration T] [--workers 2]
 """
 
 import argparse
